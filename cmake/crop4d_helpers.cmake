@@ -1,0 +1,23 @@
+# crop4d_add_test(NAME SOURCES a_test.cc ... LIBS lib ...)
+# One GoogleTest executable per module; each test case becomes a ctest test.
+function(crop4d_add_test name)
+  if(NOT CROP4D_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main GTest::gmock)
+  target_compile_definitions(${name} PRIVATE
+    CROP4D_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
+    CROP4D_SHARED_DATA_DIR="${CROP4D_SHARED_DATA_DIR}"
+    CROP4D_BINARY_DIR="${CMAKE_BINARY_DIR}")
+  gtest_discover_tests(${name} WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR} DISCOVERY_TIMEOUT 60)
+endfunction()
+
+# crop4d_add_library(NAME SOURCES ... PUBLIC_LIBS ... PRIVATE_LIBS ...)
+function(crop4d_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${CMAKE_SOURCE_DIR}/src)
+  target_link_libraries(${name} PUBLIC ${ARG_PUBLIC_LIBS} PRIVATE ${ARG_PRIVATE_LIBS})
+endfunction()

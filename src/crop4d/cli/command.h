@@ -1,0 +1,25 @@
+#pragma once
+
+// One crop4d subcommand. Each lives in its own <name>_command.cc and is listed once in the
+// table in main.cc. `setup` adds the command's options to its CLI11 sub-app and returns the
+// function that runs it once the command line has been parsed; that function returns the
+// process exit code (0 ok, 2 bad input, 1 other failure) or throws (InputError → 2).
+
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace crop4d::cli {
+
+using RunFunction = std::function<int()>;
+
+struct Command {
+  const char* name;
+  const char* summary;
+  RunFunction (*setup)(CLI::App& app);
+};
+
+RunFunction SetupValidate(CLI::App& app);
+RunFunction SetupSimulate(CLI::App& app);
+
+}  // namespace crop4d::cli

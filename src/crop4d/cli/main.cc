@@ -1,0 +1,66 @@
+// crop4d: the command-line interface. Subcommands are one table; each has its own file.
+
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "crop4d/cli/command.h"
+#include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
+#include "crop4d/core/progress.h"
+#include "crop4d/core/version.h"
+
+namespace {
+
+using crop4d::cli::Command;
+
+constexpr Command kCommands[] = {
+    {"validate", "Check a field folder: every session, sensor, file and line",
+     crop4d::cli::SetupValidate},
+    {"simulate", "Make a synthetic field: rendered images, IMU, GPS and ground truth",
+     crop4d::cli::SetupSimulate},
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"crop4d — 4D crop monitoring: registered 3D models of a field over a season, and "
+               "the crop measurements that follow.",
+               "crop4d"};
+  app.set_version_flag("--version", std::string("crop4d ") + crop4d::kVersion);
+  app.require_subcommand(1);
+  int verbose = 0;
+  bool quiet = false;
+  app.add_flag("-v,--verbose", verbose, "More messages (-vv for trace)");
+  app.add_flag("-q,--quiet", quiet, "Only warnings and errors; no progress bars");
+
+  crop4d::cli::RunFunction run;
+  for (const Command& command : kCommands) {
+    CLI::App* sub = app.add_subcommand(command.name, command.summary);
+    // Global flags are accepted after the subcommand too: `crop4d validate F -v`.
+    sub->add_flag("-v,--verbose", verbose, "More messages (-vv for trace)");
+    sub->add_flag("-q,--quiet", quiet, "Only warnings and errors; no progress bars");
+    crop4d::cli::RunFunction command_run = command.setup(*sub);
+    sub->callback([&run, command_run] { run = command_run; });
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+
+  crop4d::InitLogging(crop4d::VerbosityFromFlags(verbose, quiet));
+  crop4d::Progress::SetGloballySilent(quiet);
+  try {
+    return run();
+  } catch (const crop4d::InputError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}

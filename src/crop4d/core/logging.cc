@@ -1,0 +1,58 @@
+#include "crop4d/core/logging.h"
+
+#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+
+namespace crop4d {
+
+namespace {
+spdlog::level::level_enum ToLevel(Verbosity v) {
+  switch (v) {
+    case Verbosity::kQuiet:
+      return spdlog::level::warn;
+    case Verbosity::kNormal:
+      return spdlog::level::info;
+    case Verbosity::kVerbose:
+      return spdlog::level::debug;
+    case Verbosity::kTrace:
+      return spdlog::level::trace;
+  }
+  return spdlog::level::info;
+}
+}  // namespace
+
+void InitLogging(Verbosity verbosity) {
+  auto logger = spdlog::get("crop4d");
+  if (!logger) {
+    auto sink = std::make_shared<spdlog::sinks::stderr_color_sink_mt>();
+    sink->set_pattern("%^[%l]%$ %v");
+    logger = std::make_shared<spdlog::logger>("crop4d", sink);
+    spdlog::register_logger(logger);
+    spdlog::set_default_logger(logger);
+  }
+  logger->sinks().front()->set_level(ToLevel(verbosity));
+  logger->set_level(spdlog::level::trace);
+  logger->flush_on(spdlog::level::warn);
+}
+
+bool AddLogFile(const std::string& path) {
+  try {
+    auto sink = std::make_shared<spdlog::sinks::basic_file_sink_mt>(path, /*truncate=*/false);
+    sink->set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
+    sink->set_level(spdlog::level::debug);
+    spdlog::default_logger()->sinks().push_back(sink);
+    return true;
+  } catch (const spdlog::spdlog_ex& e) {
+    spdlog::warn("cannot open log file {}: {}", path, e.what());
+    return false;
+  }
+}
+
+Verbosity VerbosityFromFlags(int verbose_count, bool quiet) {
+  if (quiet) return Verbosity::kQuiet;
+  if (verbose_count >= 2) return Verbosity::kTrace;
+  if (verbose_count == 1) return Verbosity::kVerbose;
+  return Verbosity::kNormal;
+}
+
+}  // namespace crop4d

@@ -1,0 +1,35 @@
+#pragma once
+
+// Atomic writes (DESIGN.md §5): write into "<path>.tmp.<pid>.<n>" in the same folder, flush,
+// then rename over <path>. A reader never sees a half-written file, and a killed process
+// leaves at most a stray temporary file, never a truncated result.
+
+#include <fstream>
+#include <string>
+
+namespace crop4d::io {
+
+class AtomicFile {
+ public:
+  // Opens the temporary file (binary mode); creates missing parent folders. Throws
+  // InputError naming `path` when it cannot be created.
+  explicit AtomicFile(std::string path);
+  // Removes the temporary file if Commit() was not called.
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  std::ofstream& stream() { return stream_; }
+  // Flushes, closes and renames into place. Throws InputError on any I/O failure.
+  void Commit();
+
+ private:
+  std::string path_, tmp_path_;
+  std::ofstream stream_;
+  bool committed_ = false;
+};
+
+// Writes `content` to `path` atomically.
+void WriteFileAtomic(const std::string& path, const std::string& content);
+
+}  // namespace crop4d::io

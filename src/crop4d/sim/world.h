@@ -1,0 +1,110 @@
+#pragma once
+
+// The static world of a synthetic field: terrain, rows and plants, and how each plant grows
+// over the season. Everything is a deterministic function of WorldOptions (seed included), so
+// the renderer, the sensor models and the ground-truth writers all see the same field.
+//
+// Frame: the field's ENU world frame (DESIGN.md §3). Rows run along +y (north); row r's centre
+// line is x = r * row_spacing_m, from y = 0 to y = row_length_m. The ground is z =
+// TerrainHeight(x, y), close to 0.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "crop4d/core/timestamp.h"
+
+namespace crop4d::sim {
+
+struct WorldOptions {
+  // Layout.
+  int num_rows = 4;                  // parallel crop rows
+  double row_length_m = 20.0;        // length of every row
+  double row_spacing_m = 0.91;       // distance between row centre lines
+  double plant_spacing_m = 0.20;     // mean distance between plants along a row
+  double plant_spacing_jitter = 0.3; // std-dev of the spacing, as a fraction of the mean
+  double gap_probability = 0.05;     // chance that a planting position stays empty
+  double double_probability = 0.04; // chance that a position holds two plants
+  double headland_m = 6.0;           // bare soil around the rows (turning area)
+  // Terrain.
+  double undulation_amplitude_m = 0.12;  // gentle large-scale relief
+  double undulation_wavelength_m = 25.0;
+  double bed_height_m = 0.06;        // raised beds under the rows (furrows in between)
+  double tyre_track_depth_m = 0.02;  // tyre tracks midway between rows
+  // Growth (peanut-like defaults): logistic in days after sowing.
+  Timestamp sowing_date = 0;             // date the crop was sown
+  double emergence_days = 7.0;           // no plant before this
+  double emergence_height_m = 0.05;      // height at emergence
+  double final_height_m = 0.45;          // asymptotic height
+  double height_midpoint_days = 45.0;    // days after sowing at half of the final height
+  double height_rate_per_day = 0.09;     // logistic steepness
+  double final_canopy_radius_m = 0.50;   // canopy radius at the end (rows close late)
+  double radius_midpoint_days = 55.0;
+  double radius_rate_per_day = 0.08;
+  double plant_variation = 0.12;         // per-plant relative std-dev of size and timing
+  std::uint64_t seed = 1;
+
+  // Throws InputError naming the bad value.
+  void Check() const;
+};
+
+struct Plant {
+  int id = 0;
+  int row = 0;
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // stem position on the ground
+  double height_scale = 1.0;   // multiplies the nominal height
+  double radius_scale = 1.0;   // multiplies the nominal canopy radius
+  double delay_days = 0.0;     // shifts the growth curve
+  double yaw_rad = 0.0;        // orientation of the plant
+  std::uint64_t seed = 0;      // for its procedural geometry
+};
+
+// A plant on one date.
+struct PlantState {
+  double height_m = 0.0;         // top of the canopy above the ground at the stem
+  double canopy_radius_m = 0.0;  // horizontal radius of the canopy
+  bool emerged = false;
+};
+
+// Conditions of one session (light, weather) that change how the field looks.
+struct SessionConditions {
+  Timestamp date = 0;
+  double sun_elevation_rad = 0.9;
+  double sun_azimuth_rad = 2.5;   // clockwise from north
+  double brightness = 1.0;        // overall exposure factor
+  bool rain_before = false;       // rain since the previous session
+  int soil_epoch = 0;             // increments at every rain: re-randomises the fine soil texture
+  std::uint64_t wind_seed = 0;    // small per-session leaf perturbation
+};
+
+class World {
+ public:
+  explicit World(const WorldOptions& options);
+
+  const WorldOptions& options() const { return options_; }
+  const std::vector<Plant>& plants() const { return plants_; }
+
+  // Ground height and unit normal at (x, y); smooth (C¹) everywhere.
+  double TerrainHeight(double x, double y) const;
+  Eigen::Vector3d TerrainNormal(double x, double y) const;
+
+  // Row centre line end points (z on the terrain).
+  Eigen::Vector3d RowStart(int row) const;
+  Eigen::Vector3d RowEnd(int row) const;
+  // The area that is rendered and driven: rows plus headland.
+  Eigen::AlignedBox2d Bounds() const;
+
+  PlantState StateAt(const Plant& plant, Timestamp date) const;
+
+  // True canopy height at a site on a date: the mean height of the emerged plants whose stems
+  // lie within `radius_m` of `center` (0 when there are none).
+  double TrueCanopyHeight(const Eigen::Vector2d& center, double radius_m, Timestamp date) const;
+
+ private:
+  WorldOptions options_;
+  std::vector<Plant> plants_;
+};
+
+}  // namespace crop4d::sim

@@ -30,6 +30,10 @@ struct PinholeRadTan {
   bool Undistort(const Eigen::Vector2d& xy_distorted, Eigen::Vector2d* xy) const;
   // 2x2 Jacobian d(Distort)/d(xy).
   Eigen::Matrix2d DistortJacobian(const Eigen::Vector2d& xy) const;
+  // Whether xy lies where the distortion is a valid, locally invertible lens model: positive
+  // radial factor and det(DistortJacobian) > 0. Undistort rejects roots that fail this (the
+  // spurious solutions past the fold of a strong barrel lens).
+  bool IsRegularRoot(const Eigen::Vector2d& xy) const;
 
   // Camera-frame point to distorted pixel. Returns false when Z <= 0.
   bool Project(const Eigen::Vector3d& point_in_camera, Eigen::Vector2d* pixel) const;
@@ -37,7 +41,9 @@ struct PinholeRadTan {
   // failed to converge.
   bool Unproject(const Eigen::Vector2d& pixel, Eigen::Vector3d* ray) const;
 
-  // Whether a pixel lies inside the image, with `margin` pixels kept free at the border.
+  // Whether a pixel lies inside the image, with `margin` pixels kept free at the border. OpenCV
+  // pixel convention: integer coordinates are pixel centres, so the image spans
+  // [−0.5, width − 0.5] × [−0.5, height − 0.5].
   bool IsInImage(const Eigen::Vector2d& pixel, double margin = 0.0) const;
 };
 

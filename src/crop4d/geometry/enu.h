@@ -4,9 +4,8 @@
 // (DESIGN.md §3), with GeographicLib's LocalCartesian (exact, not a flat-earth
 // approximation).
 
-#include <memory>
-
 #include <Eigen/Core>
+#include <memory>
 
 namespace crop4d::geometry {
 

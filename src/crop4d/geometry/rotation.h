@@ -17,7 +17,7 @@ Eigen::Matrix3d Hat(const Eigen::Vector3d& v);
 // Inverse of Hat for a skew-symmetric matrix.
 Eigen::Vector3d Vee(const Eigen::Matrix3d& m);
 
-// Rodrigues' formula; exact for small angles (Taylor expansion below 1e-8 rad).
+// Rodrigues' formula; accurate for small angles (Taylor series of the coefficients below 0.1 rad).
 Eigen::Matrix3d ExpSO3(const Eigen::Vector3d& phi);
 Eigen::Quaterniond ExpQuat(const Eigen::Vector3d& phi);
 // Rotation vector with |φ| ≤ π; stable near 0 and near π.

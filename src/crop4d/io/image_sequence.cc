@@ -1,0 +1,56 @@
+#include "crop4d/io/image_sequence.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <filesystem>
+
+#include "crop4d/core/error.h"
+#include "crop4d/io/image_probe.h"
+
+namespace crop4d::io {
+
+ImageSequence::ImageSequence(const Session& session, const std::string& camera, Diagnostics* diag) {
+  const CameraSensor* sensor = session.FindCamera(camera);
+  if (sensor == nullptr) {
+    throw InputError(session.folder(), 0, "session has no camera '" + camera + "'");
+  }
+  camera_ = *sensor;
+  folder_ = (std::filesystem::path(session.folder()) / camera / kImageFolder).string();
+  data_csv_ = session.DataCsvPath(camera);
+  entries_ = session.ReadImageList(camera, diag);
+}
+
+std::string ImageSequence::Path(std::size_t i) const {
+  return (std::filesystem::path(folder_) / entries_.at(i).filename).string();
+}
+
+cv::Mat ImageSequence::LoadImage(std::size_t i, int imread_flags, Diagnostics* diag) const {
+  const ImageEntry& e = entries_.at(i);
+  const std::string path = Path(i);
+  std::string problem;
+  std::error_code ec;
+  // Checked first: imread would also log its own warning for a missing file.
+  cv::Mat image =
+      std::filesystem::is_regular_file(path, ec) ? cv::imread(path, imread_flags) : cv::Mat();
+  if (image.empty()) {
+    // Say why: missing, empty, not an image, or a decoding failure.
+    const ImageProbe probe = ProbeImage(path, false);
+    problem = probe.ok ? "cannot be decoded (truncated or corrupt?)" : probe.problem;
+  } else if (image.cols != camera_.camera.width || image.rows != camera_.camera.height) {
+    problem = fmt::format("is {}x{}, but {} has resolution {}x{}", image.cols, image.rows,
+                          camera_.name, camera_.camera.width, camera_.camera.height);
+    image.release();
+  }
+  if (!problem.empty()) {
+    const std::string message = "image '" + e.filename + "' " + problem + "; skipped";
+    if (diag != nullptr) {
+      diag->Warning(data_csv_, e.line, message);
+    } else {
+      spdlog::warn("{}", FormatLocation(data_csv_, e.line, message));
+    }
+  }
+  return image;
+}
+
+}  // namespace crop4d::io

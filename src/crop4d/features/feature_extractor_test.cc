@@ -1,0 +1,115 @@
+#include "crop4d/features/feature_extractor.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "crop4d/features/synthetic_plane_test_util.h"
+
+namespace crop4d::features {
+namespace {
+
+const testing::PlaneScene& Scene() {
+  static const testing::PlaneScene scene = [] {
+    testing::PlaneSceneOptions options;
+    options.num_views = 2;
+    return testing::MakePlaneScene(options);
+  }();
+  return scene;
+}
+
+TEST(FeatureExtractorTest, FindsSortedConsistentFeaturesOnTexture) {
+  const cv::Mat& image = Scene().views[0];
+  const FeatureSet features = FeatureExtractor(FeatureExtractor::Options()).Extract(image);
+  EXPECT_GT(features.size(), 500u);
+  EXPECT_TRUE(features.IsConsistent());
+  EXPECT_EQ(features.image_width, image.cols);
+  EXPECT_EQ(features.image_height, image.rows);
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    const Keypoint& k = features.keypoints[i];
+    EXPECT_GE(k.x, -0.5f);
+    EXPECT_GE(k.y, -0.5f);
+    EXPECT_LE(k.x, image.cols - 0.5f);
+    EXPECT_LE(k.y, image.rows - 0.5f);
+    EXPECT_GT(k.size, 0.0f);
+    if (i > 0) {
+      EXPECT_GE(features.keypoints[i - 1].response, k.response);
+    }
+  }
+  // Colours are the image's, as RGB.
+  int close = 0;
+  for (std::size_t i = 0; i < features.size(); ++i) {
+    const Keypoint& k = features.keypoints[i];
+    const cv::Vec3b bgr =
+        image.at<cv::Vec3b>(static_cast<int>(std::lround(k.y)), static_cast<int>(std::lround(k.x)));
+    const auto& rgb = features.colors[i];
+    if (std::abs(rgb[0] - bgr[2]) < 40 && std::abs(rgb[1] - bgr[1]) < 40 &&
+        std::abs(rgb[2] - bgr[0]) < 40) {
+      ++close;
+    }
+  }
+  EXPECT_GT(close, static_cast<int>(0.9 * features.size()));
+}
+
+TEST(FeatureExtractorTest, IsDeterministicAndHonoursMaxFeatures) {
+  FeatureExtractor::Options options;
+  const FeatureExtractor extractor(options);
+  const cv::Mat& image = Scene().views[1];
+  EXPECT_EQ(extractor.Extract(image), extractor.Extract(image));
+  options.max_num_features = 100;
+  const FeatureSet few = FeatureExtractor(options).Extract(image);
+  EXPECT_EQ(few.size(), 100u);
+  // Grey input gives the same keypoints as colour input.
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  EXPECT_EQ(FeatureExtractor(options).Extract(gray).keypoints, few.keypoints);
+}
+
+TEST(FeatureExtractorTest, DownscaledExtractionReportsFullResolutionPixels) {
+  FeatureExtractor::Options options;
+  options.max_image_size = 320;  // half resolution
+  const cv::Mat& image = Scene().views[0];
+  const FeatureSet half = FeatureExtractor(options).Extract(image);
+  ASSERT_GT(half.size(), 100u);
+  // The same texture point must be found at full resolution: nearly all downscaled keypoints
+  // have a full-resolution keypoint within 2 px.
+  const FeatureSet full = FeatureExtractor(FeatureExtractor::Options()).Extract(image);
+  int near = 0;
+  for (const Keypoint& k : half.keypoints) {
+    for (const Keypoint& f : full.keypoints) {
+      if (std::hypot(k.x - f.x, k.y - f.y) < 2.0) {
+        ++near;
+        break;
+      }
+    }
+  }
+  EXPECT_GT(near, static_cast<int>(0.7 * half.size()));
+  float max_x = 0;
+  for (const Keypoint& k : half.keypoints) max_x = std::max(max_x, k.x);
+  EXPECT_GT(max_x, image.cols * 0.8f);
+}
+
+TEST(FeatureExtractorTest, EmptyAndFlatImagesGiveNoFeatures) {
+  const FeatureExtractor extractor(FeatureExtractor::Options{});
+  EXPECT_TRUE(extractor.Extract(cv::Mat()).empty());
+  const FeatureSet flat = extractor.Extract(cv::Mat(100, 100, CV_8UC3, cv::Scalar(90, 90, 90)));
+  EXPECT_TRUE(flat.empty());
+  EXPECT_TRUE(flat.IsConsistent());
+}
+
+TEST(FeatureExtractorTest, OptionsHashFollowsOptions) {
+  FeatureExtractor::Options a, b;
+  EXPECT_TRUE(a.Check());
+  EXPECT_EQ(a.Hash(), b.Hash());
+  b.contrast_threshold *= 2;
+  EXPECT_NE(a.Hash(), b.Hash());
+  b = a;
+  b.max_num_features = 10;
+  EXPECT_NE(a.Hash(), b.Hash());
+  b.num_octave_layers = 0;
+  EXPECT_FALSE(b.Check());
+}
+
+}  // namespace
+}  // namespace crop4d::features

@@ -21,5 +21,6 @@ struct Command {
 
 RunFunction SetupValidate(CLI::App& app);
 RunFunction SetupSimulate(CLI::App& app);
+RunFunction SetupImport(CLI::App& app);
 
 }  // namespace crop4d::cli

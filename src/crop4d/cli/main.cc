@@ -21,6 +21,8 @@ constexpr Command kCommands[] = {
      crop4d::cli::SetupValidate},
     {"simulate", "Make a synthetic field: rendered images, IMU, GPS and ground truth",
      crop4d::cli::SetupSimulate},
+    {"import", "Make a session from an RTKLIB .pos file and an IMU text file",
+     crop4d::cli::SetupImport},
 };
 
 }  // namespace

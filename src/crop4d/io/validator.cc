@@ -273,7 +273,10 @@ SessionReport ValidateSession(const std::string& folder, const std::string& id,
     has_gps = has_gps || sensor.kind == SensorKind::kGps;
     report.sensors.push_back(ValidateSensor(folder, report, sensor, options, diag));
   }
-  if (!has_camera) diag->Error(folder, 0, "session has no camera (cam0/)");
+  // An IMU + GNSS session (e.g. from `crop4d import`) is legitimate: the method degrades.
+  if (!has_camera) {
+    diag->Warning(folder, 0, "session has no camera (cam0/): no images to reconstruct from");
+  }
   if (!has_imu) diag->Warning(folder, 0, "session has no IMU (imu0/): the method degrades");
   if (!has_gps) diag->Warning(folder, 0, "session has no GPS (gps0/): the method degrades");
 

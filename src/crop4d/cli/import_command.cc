@@ -1,0 +1,242 @@
+// crop4d import: makes a session of our dataset format from an RTKLIB solution file (.pos) and
+// an IMU text file with a column and unit mapping (docs/import.md). Exit code 0 when the
+// session was written, 2 on bad input (nothing is written then).
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "crop4d/cli/command.h"
+#include "crop4d/core/error.h"
+#include "crop4d/io/csv.h"
+#include "crop4d/io/dataset_format.h"
+#include "crop4d/io/importer.h"
+
+namespace crop4d::cli {
+namespace {
+
+struct ImportArgs {
+  io::SessionImporter::Options options;
+  std::string origin;  // "lat,lon[,alt]"
+  std::string gps_kind = "auto";
+  std::string antenna;  // "x,y,z"
+  std::string imu_columns = "t,gx,gy,gz,ax,ay,az";
+  std::string imu_time_unit = "s";
+  std::string accel_unit = "mps2";
+  std::string gyro_unit = "rads";
+  std::string imu_delimiter = "auto";
+  std::string imu_time_offset = "0";  // seconds, decimal text (parsed exactly)
+  std::string imu_time_scale = "pos";
+  std::string imu_rpy_deg;   // "roll,pitch,yaw"
+  std::string imu_position;  // "x,y,z"
+};
+
+// "a,b,c" with exactly `min_count`..3 finite numbers; missing trailing ones are 0.
+Eigen::Vector3d ParseNumbers(const std::string& text, const std::string& option, int min_count,
+                             const char* expected) {
+  std::vector<std::string_view> fields;
+  io::SplitCsvLine(text, ',', &fields);
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  if (static_cast<int>(fields.size()) < min_count || fields.size() > 3) {
+    throw InputError(option, 0, "expected " + std::string(expected) + ", got '" + text + "'");
+  }
+  for (std::size_t k = 0; k < fields.size(); ++k) {
+    if (!io::ParseDouble(fields[k], &v[k]) || !std::isfinite(v[k])) {
+      throw InputError(
+          option, 0,
+          "'" + std::string(fields[k]) + "' is not a number (expected " + expected + ")");
+    }
+  }
+  return v;
+}
+
+int RunImport(const ImportArgs& args) {
+  io::SessionImporter::Options options = args.options;
+  if (!args.origin.empty()) {
+    const Eigen::Vector3d v = ParseNumbers(args.origin, "--origin", 2, "lat,lon[,alt]");
+    options.origin = geometry::GeodeticPoint{v.x(), v.y(), v.z()};
+  }
+  if (args.gps_kind != "auto") {
+    const std::optional<io::GpsKind> kind = io::ParseGpsKind(args.gps_kind);
+    if (!kind) {
+      throw InputError("--gps-kind", 0,
+                       "unknown kind '" + args.gps_kind + "' (expected auto, rtk or standard)");
+    }
+    options.gps_kind = *kind;
+  }
+  if (!args.antenna.empty()) {
+    options.antenna_in_body = ParseNumbers(args.antenna, "--antenna", 3, "x,y,z in metres");
+  }
+  if (!args.imu_rpy_deg.empty()) {
+    options.imu_rpy_deg =
+        ParseNumbers(args.imu_rpy_deg, "--imu-rpy-deg", 3, "roll,pitch,yaw in degrees");
+  }
+  if (!args.imu_position.empty()) {
+    options.imu_position_in_body =
+        ParseNumbers(args.imu_position, "--imu-position", 3, "x,y,z in metres");
+  }
+  options.imu.columns = io::ParseImuColumns(args.imu_columns);
+  options.imu.time_unit = io::ParseImuTimeUnit(args.imu_time_unit);
+  options.imu.accel_unit = io::ParseAccelUnit(args.accel_unit);
+  options.imu.gyro_unit = io::ParseGyroUnit(args.gyro_unit);
+  options.imu.delimiter = io::ParseDelimiter(args.imu_delimiter);
+  if (!io::ParseDecimalScaled(args.imu_time_offset, kNanosPerSecond, &options.imu.time_offset_ns)) {
+    throw InputError("--imu-time-offset", 0,
+                     "'" + args.imu_time_offset + "' is not a number of seconds");
+  }
+  if (args.imu_time_scale == "pos") {
+    options.imu_time_scale = io::ImuTimeScale::kSameAsPos;
+  } else if (args.imu_time_scale == "gpst") {
+    options.imu_time_scale = io::ImuTimeScale::kGpst;
+  } else if (args.imu_time_scale == "utc") {
+    options.imu_time_scale = io::ImuTimeScale::kUtc;
+  } else {
+    throw InputError(
+        "--imu-time-scale", 0,
+        "unknown time scale '" + args.imu_time_scale + "' (expected pos, gpst or utc)");
+  }
+
+  const io::SessionImporter::Summary summary = io::SessionImporter(options).Run();
+  if (spdlog::get_level() <= spdlog::level::info) {
+    std::fputs(io::FormatImportSummary(summary).c_str(), stdout);
+    std::fflush(stdout);
+  }
+  spdlog::info("import: wrote {}{}", summary.session_folder,
+               summary.field_sessions_updated ? " and added it to field.yaml's sessions" : "");
+  return 0;
+}
+
+}  // namespace
+
+RunFunction SetupImport(CLI::App& app) {
+  auto args = std::make_shared<ImportArgs>();
+  io::SessionImporter::Options& o = args->options;
+  app.description(
+      "Make a session of the crop4d dataset format (docs/format.md) from an RTKLIB solution "
+      "file (.pos, → gps0/) and an IMU text file with a column and unit mapping (→ imu0/). "
+      "Creates the field folder (field.yaml with the origin and no rows) or adds the session "
+      "to an existing field. A session without rows is processed as one pass.\n"
+      "Timestamps keep the input's time scale (GPST stays GPST) unless --leap-seconds converts "
+      "GPST to UTC. RTKLIB Q → NMEA fix: 1 fix→4, 2 float→5, 3 sbas→2, 4 dgps→2, 5 single→1, "
+      "6 ppp→2. sigma_h = sqrt((sdn²+sde²)/2), sigma_v = sdu. See docs/import.md.\n"
+      "Exit code: 0 when the session was written, 2 on bad input (nothing written).");
+  app.add_option("--out", o.field_folder, "The field folder to create or add the session to")
+      ->required()
+      ->type_name("FIELD");
+  app.add_option("--session", o.session_id,
+                 "Session folder name under sessions/ (a date, YYYY-MM-DD..., is a good choice)")
+      ->required()
+      ->type_name("ID");
+  app.add_option("--name", o.field_name, "Field name for a new field.yaml (default: folder name)");
+  app.add_option("--notes", o.notes, "Free text for session.yaml's notes");
+  app.add_flag("--overwrite", o.overwrite,
+               "Replace the imported files of an existing session instead of refusing");
+
+  // GNSS.
+  app.add_option("--pos", o.pos_path, "RTKLIB solution file (.pos) for gps0/")
+      ->type_name("FILE")
+      ->group("GNSS (RTKLIB .pos)");
+  app.add_option("--leap-seconds", o.pos.leap_seconds,
+                 "Convert GPS time to UTC: subtract N s (GPST−UTC, 18 since 2017) from the GPST "
+                 ".pos times and from GPST IMU times (default 0: keep GPST)")
+      ->capture_default_str()
+      ->check(CLI::Range(-100, 100))
+      ->type_name("N")
+      ->group("GNSS (RTKLIB .pos)");
+  app.add_flag("--skip-bad-lines", o.pos.skip_bad_lines,
+               "Skip malformed .pos lines with a warning (default: stop with an error naming "
+               "the line)")
+      ->group("GNSS (RTKLIB .pos)");
+  app.add_option("--gps-kind", args->gps_kind,
+                 "Receiver kind written to gps0/sensor.yaml: auto (rtk when any epoch is RTK "
+                 "fixed or float), rtk or standard")
+      ->capture_default_str()
+      ->group("GNSS (RTKLIB .pos)");
+  app.add_option("--antenna", args->antenna,
+                 "GNSS antenna phase centre in the body frame, metres (default 0,0,0)")
+      ->type_name("X,Y,Z")
+      ->group("GNSS (RTKLIB .pos)");
+  app.add_option("--origin", args->origin,
+                 "Origin of a new field's ENU frame, degrees and ellipsoidal metres (default: "
+                 "the first GNSS epoch with a fix)")
+      ->type_name("LAT,LON,ALT")
+      ->group("GNSS (RTKLIB .pos)");
+
+  // IMU.
+  const char* imu_group = "IMU (text file with a column and unit mapping)";
+  app.add_option("--imu", o.imu_path, "IMU text file for imu0/")
+      ->type_name("FILE")
+      ->group(imu_group);
+  app.add_option("--imu-columns", args->imu_columns,
+                 "What each column holds: t, ax, ay, az, gx, gy, gz; _ or skip ignores one; a "
+                 "last ... ignores any further columns")
+      ->capture_default_str()
+      ->type_name("LIST")
+      ->group(imu_group);
+  app.add_option("--imu-time-unit", args->imu_time_unit,
+                 "Unit of the time column, counted from the Unix epoch: s, ms, us or ns")
+      ->capture_default_str()
+      ->group(imu_group);
+  app.add_option("--accel-unit", args->accel_unit, "Accelerometer unit: g or mps2 (m/s^2)")
+      ->capture_default_str()
+      ->group(imu_group);
+  app.add_option("--gyro-unit", args->gyro_unit, "Gyro unit: rads (rad/s) or degs (deg/s)")
+      ->capture_default_str()
+      ->group(imu_group);
+  app.add_option("--imu-header-lines", o.imu.header_lines,
+                 "Lines to skip at the start of the IMU file ('#' and '%' lines are skipped "
+                 "anyway)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber)
+      ->group(imu_group);
+  app.add_option("--imu-delimiter", args->imu_delimiter,
+                 "Field separator: auto, comma, semicolon, tab or space")
+      ->capture_default_str()
+      ->group(imu_group);
+  app.add_option("--imu-time-offset", args->imu_time_offset,
+                 "Seconds added to every IMU timestamp (a known latency or clock offset)")
+      ->capture_default_str()
+      ->type_name("S")
+      ->group(imu_group);
+  app.add_option("--imu-time-scale", args->imu_time_scale,
+                 "Time scale of the IMU timestamps, for --leap-seconds: pos (that of the .pos "
+                 "file), gpst or utc")
+      ->capture_default_str()
+      ->group(imu_group);
+  app.add_option("--imu-rpy-deg", args->imu_rpy_deg,
+                 "IMU mounting in the body frame, degrees: T_BS rotation = Rz(yaw) Ry(pitch) "
+                 "Rx(roll); samples stay in the IMU frame (default 0,0,0)")
+      ->type_name("R,P,Y")
+      ->group(imu_group);
+  app.add_option("--imu-position", args->imu_position,
+                 "IMU position in the body frame, metres (T_BS translation; default 0,0,0)")
+      ->type_name("X,Y,Z")
+      ->group(imu_group);
+  app.add_option("--gyro-noise", o.gyroscope_noise_density,
+                 "Gyro noise density, rad/s/sqrt(Hz) (default: generic consumer MEMS)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber)
+      ->group(imu_group);
+  app.add_option("--gyro-walk", o.gyroscope_random_walk, "Gyro bias random walk, rad/s^2/sqrt(Hz)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber)
+      ->group(imu_group);
+  app.add_option("--accel-noise", o.accelerometer_noise_density,
+                 "Accelerometer noise density, m/s^2/sqrt(Hz)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber)
+      ->group(imu_group);
+  app.add_option("--accel-walk", o.accelerometer_random_walk,
+                 "Accelerometer bias random walk, m/s^3/sqrt(Hz)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber)
+      ->group(imu_group);
+  return [args] { return RunImport(*args); };
+}
+
+}  // namespace crop4d::cli

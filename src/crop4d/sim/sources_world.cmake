@@ -1,2 +1,11 @@
-set(CROP4D_SIM_WORLD_SOURCES world.cc)
-set(CROP4D_SIM_WORLD_TESTS world_test.cc)
+set(CROP4D_SIM_WORLD_SOURCES
+  world.cc
+  textures.cc
+  plant_mesh.cc
+  gl_context.cc
+  renderer.cc)
+set(CROP4D_SIM_WORLD_TESTS
+  world_test.cc
+  textures_test.cc
+  plant_mesh_test.cc
+  renderer_test.cc)

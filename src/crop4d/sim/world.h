@@ -8,11 +8,11 @@
 // line is x = r * row_spacing_m, from y = 0 to y = row_length_m. The ground is z =
 // TerrainHeight(x, y), close to 0.
 
-#include <cstdint>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <utility>
+#include <vector>
 
 #include "crop4d/core/timestamp.h"
 
@@ -20,30 +20,31 @@ namespace crop4d::sim {
 
 struct WorldOptions {
   // Layout.
-  int num_rows = 4;                  // parallel crop rows
-  double row_length_m = 20.0;        // length of every row
-  double row_spacing_m = 0.91;       // distance between row centre lines
-  double plant_spacing_m = 0.20;     // mean distance between plants along a row
-  double plant_spacing_jitter = 0.3; // std-dev of the spacing, as a fraction of the mean
-  double gap_probability = 0.05;     // chance that a planting position stays empty
-  double double_probability = 0.04; // chance that a position holds two plants
-  double headland_m = 6.0;           // bare soil around the rows (turning area)
+  int num_rows = 4;                   // parallel crop rows
+  double row_length_m = 20.0;         // length of every row
+  double row_spacing_m = 0.91;        // distance between row centre lines
+  double plant_spacing_m = 0.20;      // mean distance between plants along a row
+  double plant_spacing_jitter = 0.3;  // std-dev of the spacing, as a fraction of the mean
+  double gap_probability = 0.05;      // chance that a planting position stays empty
+  double double_probability = 0.04;   // chance that a position holds two plants
+  double headland_m = 6.0;            // bare soil around the rows (turning area)
   // Terrain.
   double undulation_amplitude_m = 0.12;  // gentle large-scale relief
   double undulation_wavelength_m = 25.0;
   double bed_height_m = 0.06;        // raised beds under the rows (furrows in between)
   double tyre_track_depth_m = 0.02;  // tyre tracks midway between rows
   // Growth (peanut-like defaults): logistic in days after sowing.
-  Timestamp sowing_date = 0;             // date the crop was sown
-  double emergence_days = 7.0;           // no plant before this
-  double emergence_height_m = 0.05;      // height at emergence
-  double final_height_m = 0.45;          // asymptotic height
-  double height_midpoint_days = 45.0;    // days after sowing at half of the final height
-  double height_rate_per_day = 0.09;     // logistic steepness
-  double final_canopy_radius_m = 0.50;   // canopy radius at the end (rows close late)
+  Timestamp sowing_date = 0;                // date the crop was sown
+  double emergence_days = 7.0;              // no plant before this
+  double emergence_height_m = 0.05;         // height at emergence
+  double final_height_m = 0.45;             // asymptotic height
+  double height_midpoint_days = 45.0;       // days after sowing at half of the final height
+  double height_rate_per_day = 0.09;        // logistic steepness
+  double emergence_canopy_radius_m = 0.03;  // canopy radius at emergence
+  double final_canopy_radius_m = 0.50;      // canopy radius at the end (rows close late)
   double radius_midpoint_days = 55.0;
   double radius_rate_per_day = 0.08;
-  double plant_variation = 0.12;         // per-plant relative std-dev of size and timing
+  double plant_variation = 0.12;  // per-plant relative std-dev of size and timing
   std::uint64_t seed = 1;
 
   // Throws InputError naming the bad value.
@@ -54,11 +55,11 @@ struct Plant {
   int id = 0;
   int row = 0;
   Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // stem position on the ground
-  double height_scale = 1.0;   // multiplies the nominal height
-  double radius_scale = 1.0;   // multiplies the nominal canopy radius
-  double delay_days = 0.0;     // shifts the growth curve
-  double yaw_rad = 0.0;        // orientation of the plant
-  std::uint64_t seed = 0;      // for its procedural geometry
+  double height_scale = 1.0;                     // multiplies the nominal height
+  double radius_scale = 1.0;                     // multiplies the nominal canopy radius
+  double delay_days = 0.0;                       // shifts the growth curve
+  double yaw_rad = 0.0;                          // orientation of the plant
+  std::uint64_t seed = 0;                        // for its procedural geometry
 };
 
 // A plant on one date.
@@ -72,11 +73,11 @@ struct PlantState {
 struct SessionConditions {
   Timestamp date = 0;
   double sun_elevation_rad = 0.9;
-  double sun_azimuth_rad = 2.5;   // clockwise from north
-  double brightness = 1.0;        // overall exposure factor
-  bool rain_before = false;       // rain since the previous session
-  int soil_epoch = 0;             // increments at every rain: re-randomises the fine soil texture
-  std::uint64_t wind_seed = 0;    // small per-session leaf perturbation
+  double sun_azimuth_rad = 2.5;  // clockwise from north
+  double brightness = 1.0;       // overall exposure factor
+  bool rain_before = false;      // rain since the previous session
+  int soil_epoch = 0;            // increments at every rain: re-randomises the fine soil texture
+  std::uint64_t wind_seed = 0;   // small per-session leaf perturbation
 };
 
 class World {
@@ -98,13 +99,34 @@ class World {
 
   PlantState StateAt(const Plant& plant, Timestamp date) const;
 
+  // Days since `options().sowing_date` (fractional).
+  double DaysAfterSowing(Timestamp date) const;
+  // Height and canopy radius of a nominal plant (scales 1, no delay) `days` after sowing.
+  PlantState NominalStateAt(double days) const;
+
+  // Plants of one row are contiguous in plants() and sorted by y: [first, second).
+  std::pair<int, int> RowPlantRange(int row) const;
+  // Centre line x of a row.
+  double RowX(int row) const { return row * options_.row_spacing_m; }
+
   // True canopy height at a site on a date: the mean height of the emerged plants whose stems
   // lie within `radius_m` of `center` (0 when there are none).
   double TrueCanopyHeight(const Eigen::Vector2d& center, double radius_m, Timestamp date) const;
 
  private:
+  // Height and its gradient (dh/dx, dh/dy).
+  double TerrainHeightAndGradient(double x, double y, Eigen::Vector2d* gradient) const;
+
   WorldOptions options_;
   std::vector<Plant> plants_;
+  std::vector<int> row_begin_;  // index of the first plant of each row, plus the end
+  // Undulation: directions, wavelengths and phases of the relief waves (from the seed).
+  struct Wave {
+    Eigen::Vector2d k = Eigen::Vector2d::Zero();  // wave vector (rad/m)
+    double amplitude = 0.0;
+    double phase = 0.0;
+  };
+  std::vector<Wave> waves_;
 };
 
 }  // namespace crop4d::sim

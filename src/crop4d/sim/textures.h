@@ -1,0 +1,46 @@
+#pragma once
+
+// Procedural textures of the synthetic field, generated on the CPU and deterministic (a pure
+// function of their options): the fine soil (clods, pebbles, grit, crop residue), its
+// large-scale variation (moisture, organic matter), and the foliage of the distant tree line.
+// All are periodic (they tile seamlessly); the renderer hides the soil's period by
+// hex-tiling it with random offsets (see renderer.cc).
+
+#include <cstdint>
+#include <opencv2/core/mat.hpp>
+
+namespace crop4d::sim {
+
+struct SoilTextureOptions {
+  int size_px = 4096;             // texels per side; a power of two
+  double extent_m = 4.0;          // side length of the texture on the ground
+  std::uint64_t seed = 1;         // the field's seed
+  int epoch = 0;                  // soil epoch: every rain re-randomises the surface
+  double clod_density = 1.3;      // clod area per ground area (overlapping clods)
+  double pebbles_per_m2 = 260.0;  // stones of 1.5–7 mm radius
+  double grit_per_m2 = 2500.0;    // sand grains and crumbs of 0.4–1.2 mm radius
+  double straws_per_m2 = 28.0;    // crop residue: straw and stalk fragments
+  double litter_per_m2 = 60.0;    // small pieces of dead leaves
+  // Clods flatten with every rain: relief = 1 / (1 + clod_smoothing_per_epoch × epoch),
+  // at least min_relief.
+  double clod_smoothing_per_epoch = 0.2;
+  double min_relief = 0.45;
+  bool Check() const;
+};
+
+// RGBA8 (CV_8UC4, R first) soil albedo with the small-scale relief shading baked in.
+cv::Mat GenerateSoilTexture(const SoilTextureOptions& options);
+
+// RGBA8 texture of large-scale soil variation, `size_px`² and tiling: R,G,B multiply the soil
+// colour (≈ 1 on average), A is a moisture / dark-patch weight in [0, 1].
+cv::Mat GenerateSoilMacroTexture(std::uint64_t seed, int size_px = 256);
+
+// RGBA8 foliage of the tree line: u along the tree line (tiles), v from the ground (0) to the
+// crown top (1).
+cv::Mat GenerateFoliageTexture(std::uint64_t seed, int width_px = 1024, int height_px = 256);
+
+// Periodic value noise in [-1, 1]: `cells` random lattice values per side, interpolated
+// bicubically to `size_px`² texels (size_px a multiple of cells). CV_32F.
+cv::Mat PeriodicValueNoise(int size_px, int cells, std::uint64_t seed);
+
+}  // namespace crop4d::sim

@@ -1,0 +1,89 @@
+#include "crop4d/sim/textures.h"
+
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace crop4d::sim {
+namespace {
+
+SoilTextureOptions Small() {
+  SoilTextureOptions options;
+  options.size_px = 512;
+  options.extent_m = 0.5;  // the same texel size as the 4096² / 4 m default
+  return options;
+}
+
+double MeanAbsDiff(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat diff;
+  cv::absdiff(a, b, diff);
+  const cv::Scalar m = cv::mean(diff);
+  return (m[0] + m[1] + m[2]) / 3.0;
+}
+
+TEST(SoilTextureTest, DeterministicAndRerandomisedByRain) {
+  const cv::Mat a = GenerateSoilTexture(Small());
+  const cv::Mat b = GenerateSoilTexture(Small());
+  ASSERT_EQ(a.type(), CV_8UC4);
+  ASSERT_EQ(a.rows, 512);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  SoilTextureOptions rained = Small();
+  rained.epoch = 1;
+  const cv::Mat c = GenerateSoilTexture(rained);
+  EXPECT_GT(MeanAbsDiff(a, c), 15.0);
+  // Rain smooths the clods: less local contrast.
+  auto contrast = [](const cv::Mat& rgba) {
+    cv::Mat gray, lap;
+    cv::cvtColor(rgba, gray, cv::COLOR_RGBA2GRAY);
+    cv::Laplacian(gray, lap, CV_32F);
+    return cv::mean(cv::abs(lap))[0];
+  };
+  SoilTextureOptions much_later = Small();
+  much_later.epoch = 6;
+  EXPECT_LT(contrast(GenerateSoilTexture(much_later)), contrast(a));
+}
+
+TEST(SoilTextureTest, TilesSeamlessly) {
+  const cv::Mat t = GenerateSoilTexture(Small());
+  // Across the wrap-around seam neighbouring texels differ as much as anywhere else.
+  cv::Mat gray;
+  cv::cvtColor(t, gray, cv::COLOR_RGBA2GRAY);
+  gray.convertTo(gray, CV_32F);
+  double seam = 0.0, inside = 0.0;
+  for (int y = 0; y < gray.rows; ++y) {
+    seam += std::abs(gray.at<float>(y, 0) - gray.at<float>(y, gray.cols - 1));
+    for (int x = 0; x + 1 < gray.cols; ++x) {
+      inside += std::abs(gray.at<float>(y, x) - gray.at<float>(y, x + 1)) / (gray.cols - 1.0);
+    }
+  }
+  EXPECT_LT(seam, 1.5 * inside);
+}
+
+TEST(SoilTextureTest, PeriodicNoiseWraps) {
+  const cv::Mat n = PeriodicValueNoise(256, 16, 3);
+  double seam = 0.0, inside = 0.0, max_abs = 0.0;
+  for (int y = 0; y < 256; ++y) {
+    seam += std::abs(n.at<float>(y, 0) - n.at<float>(y, 255));
+    for (int x = 0; x + 1 < 256; ++x) {
+      inside += std::abs(n.at<float>(y, x) - n.at<float>(y, x + 1)) / 255.0;
+      max_abs = std::max(max_abs, static_cast<double>(std::abs(n.at<float>(y, x))));
+    }
+  }
+  EXPECT_LT(seam, 2.0 * inside);
+  EXPECT_LT(max_abs, 1.3);
+}
+
+TEST(SoilTextureTest, MacroAndFoliage) {
+  const cv::Mat macro = GenerateSoilMacroTexture(1, 64);
+  ASSERT_EQ(macro.type(), CV_8UC4);
+  const cv::Scalar mean = cv::mean(macro);
+  EXPECT_NEAR(mean[1], 200.0, 30.0);  // colour multiplier ≈ 1 (×255/200)
+  const cv::Mat foliage = GenerateFoliageTexture(1, 256, 64);
+  const cv::Scalar f = cv::mean(foliage);
+  EXPECT_GT(f[1], f[0]);  // green
+  EXPECT_GT(f[1], f[2]);
+}
+
+}  // namespace
+}  // namespace crop4d::sim

@@ -21,7 +21,7 @@ constexpr Command kCommands[] = {
      crop4d::cli::SetupValidate},
     {"simulate", "Make a synthetic field: rendered images, IMU, GPS and ground truth",
      crop4d::cli::SetupSimulate},
-    {"import", "Make a session from an RTKLIB .pos file and an IMU text file",
+    {"import", "Make a session from an RTKLIB .pos file and an IMU text file (real recordings)",
      crop4d::cli::SetupImport},
 };
 
@@ -45,6 +45,12 @@ int main(int argc, char** argv) {
     sub->add_flag("-v,--verbose", verbose, "More messages (-vv for trace)");
     sub->add_flag("-q,--quiet", quiet, "Only warnings and errors; no progress bars");
     crop4d::cli::RunFunction command_run = command.setup(*sub);
+    // A command's long description goes under its options in `crop4d CMD --help`; the
+    // command list of `crop4d --help` keeps the one-line summary.
+    if (sub->get_description() != command.summary) {
+      sub->footer("\n" + sub->get_description());
+      sub->description(command.summary);
+    }
     sub->callback([&run, command_run] { run = command_run; });
   }
 

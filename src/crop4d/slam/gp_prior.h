@@ -66,32 +66,51 @@ struct GpInterpolationWeights {
 };
 GpInterpolationWeights ComputeGpInterpolationWeights(double dt, double s);
 
+// The GP's local variables of a pair of states on raw blocks: ξ_ij = Log(T_i⁻¹ T_j) and the
+// body velocities ϖ_i, ϖ_j (state_layout.h blocks). Shared by the prior and the interpolation.
+template <typename T>
+struct GpLocalVariables {
+  templated::Vec3<T> t_i;
+  Eigen::Matrix<T, 4, 1> q_i;
+  templated::Mat3<T> R_i;
+  templated::Vec6<T> varpi_i, varpi_j, xi_ij;
+
+  GpLocalVariables(const T* pose_i, const T* vel_i, const T* rate_i, const T* pose_j,
+                   const T* vel_j, const T* rate_j) {
+    using templated::Vec3;
+    using Vec4 = Eigen::Matrix<T, 4, 1>;
+    t_i = Vec3<T>(pose_i[0], pose_i[1], pose_i[2]);
+    q_i = Vec4(pose_i[3], pose_i[4], pose_i[5], pose_i[6]);
+    const Vec3<T> t_j(pose_j[0], pose_j[1], pose_j[2]);
+    const Vec4 q_j(pose_j[3], pose_j[4], pose_j[5], pose_j[6]);
+    R_i = templated::QuatToMatrix(q_i);
+    const templated::Mat3<T> R_j = templated::QuatToMatrix(q_j);
+    varpi_i << R_i.transpose() * Vec3<T>(vel_i[0], vel_i[1], vel_i[2]),
+        Vec3<T>(rate_i[0], rate_i[1], rate_i[2]);
+    varpi_j << R_j.transpose() * Vec3<T>(vel_j[0], vel_j[1], vel_j[2]),
+        Vec3<T>(rate_j[0], rate_j[1], rate_j[2]);
+    const Vec4 q_ij = templated::QuatMul(templated::QuatConj(q_i), q_j);
+    const Vec3<T> t_ij = R_i.transpose() * (t_j - t_i);
+    xi_ij = templated::LogSE3(t_ij, q_ij);
+  }
+};
+
 // Templated GP interpolation on raw blocks (pose[7], vel[3], rate[3] of states i and j);
 // writes the interpolated pose block and, if non-null, the world velocity and body rate.
 template <typename T>
 void GpInterpolateBlocks(const T* pose_i, const T* vel_i, const T* rate_i, const T* pose_j,
                          const T* vel_j, const T* rate_j, const GpInterpolationWeights& w,
                          T* pose_tau, T* vel_tau = nullptr, T* rate_tau = nullptr) {
-  using templated::Mat3;
   using templated::Vec3;
   using templated::Vec6;
   using Vec4 = Eigen::Matrix<T, 4, 1>;
-  const Vec3<T> t_i(pose_i[0], pose_i[1], pose_i[2]);
-  const Vec4 q_i(pose_i[3], pose_i[4], pose_i[5], pose_i[6]);
-  const Vec3<T> t_j(pose_j[0], pose_j[1], pose_j[2]);
-  const Vec4 q_j(pose_j[3], pose_j[4], pose_j[5], pose_j[6]);
-  const Mat3<T> R_i = templated::QuatToMatrix(q_i);
-  const Mat3<T> R_j = templated::QuatToMatrix(q_j);
-  Vec6<T> varpi_i, varpi_j;
-  varpi_i << R_i.transpose() * Vec3<T>(vel_i[0], vel_i[1], vel_i[2]),
-      Vec3<T>(rate_i[0], rate_i[1], rate_i[2]);
-  varpi_j << R_j.transpose() * Vec3<T>(vel_j[0], vel_j[1], vel_j[2]),
-      Vec3<T>(rate_j[0], rate_j[1], rate_j[2]);
-  // ξ_ij = Log(T_i⁻¹ T_j).
-  const Vec4 q_ij = templated::QuatMul(templated::QuatConj(q_i), q_j);
-  const Vec3<T> t_ij = R_i.transpose() * (t_j - t_i);
-  const Vec6<T> xi_ij = templated::LogSE3(t_ij, q_ij);
-  const Vec6<T> xi_dot_j = templated::RightJacobianInverseSE3(xi_ij) * varpi_j;
+  const GpLocalVariables<T> local(pose_i, vel_i, rate_i, pose_j, vel_j, rate_j);
+  const Vec3<T>& t_i = local.t_i;
+  const Vec4& q_i = local.q_i;
+  const templated::Mat3<T>& R_i = local.R_i;
+  const Vec6<T>& varpi_i = local.varpi_i;
+  const Vec6<T>& xi_ij = local.xi_ij;
+  const Vec6<T> xi_dot_j = templated::RightJacobianInverseSE3(xi_ij) * local.varpi_j;
   // γ_i(τ) = Λ [0; ϖ_i] + Ψ [ξ_ij; ξ̇_j].
   const Vec6<T> xi_tau =
       T(w.lambda(0, 1)) * varpi_i + T(w.psi(0, 0)) * xi_ij + T(w.psi(0, 1)) * xi_dot_j;
@@ -153,27 +172,11 @@ class GpPriorFactor {
   template <typename T>
   bool operator()(const T* pose_i, const T* vel_i, const T* rate_i, const T* pose_j, const T* vel_j,
                   const T* rate_j, T* residuals) const {
-    using templated::Mat3;
-    using templated::Vec3;
-    using templated::Vec6;
-    using Vec4 = Eigen::Matrix<T, 4, 1>;
-    const Vec3<T> t_i(pose_i[0], pose_i[1], pose_i[2]);
-    const Vec4 q_i(pose_i[3], pose_i[4], pose_i[5], pose_i[6]);
-    const Vec3<T> t_j(pose_j[0], pose_j[1], pose_j[2]);
-    const Vec4 q_j(pose_j[3], pose_j[4], pose_j[5], pose_j[6]);
-    const Mat3<T> R_i = templated::QuatToMatrix(q_i);
-    const Mat3<T> R_j = templated::QuatToMatrix(q_j);
-    Vec6<T> varpi_i, varpi_j;
-    varpi_i << R_i.transpose() * Vec3<T>(vel_i[0], vel_i[1], vel_i[2]),
-        Vec3<T>(rate_i[0], rate_i[1], rate_i[2]);
-    varpi_j << R_j.transpose() * Vec3<T>(vel_j[0], vel_j[1], vel_j[2]),
-        Vec3<T>(rate_j[0], rate_j[1], rate_j[2]);
-    const Vec4 q_ij = templated::QuatMul(templated::QuatConj(q_i), q_j);
-    const Vec3<T> t_ij = R_i.transpose() * (t_j - t_i);
-    const Vec6<T> xi_ij = templated::LogSE3(t_ij, q_ij);
+    const GpLocalVariables<T> local(pose_i, vel_i, rate_i, pose_j, vel_j, rate_j);
     Eigen::Matrix<T, 12, 1> e;
-    e.template head<6>() = xi_ij - T(dt_) * varpi_i;
-    e.template tail<6>() = templated::RightJacobianInverseSE3(xi_ij) * varpi_j - varpi_i;
+    e.template head<6>() = local.xi_ij - T(dt_) * local.varpi_i;
+    e.template tail<6>() =
+        templated::RightJacobianInverseSE3(local.xi_ij) * local.varpi_j - local.varpi_i;
     (Eigen::Map<Eigen::Matrix<T, 12, 1>>(residuals)) = sqrt_information_.cast<T>() * e;
     return true;
   }

@@ -6,6 +6,7 @@ BUILD_DIR := build/$(PRESET)
 CROP4D := $(BUILD_DIR)/crop4d
 DEMO_DIR ?= demo
 JOBS ?= $(shell nproc)
+FUZZ_SECONDS ?= 60
 
 .PHONY: all deps configure build test demo bench fuzz asan format clean
 
@@ -36,8 +37,8 @@ asan:
 	$(MAKE) test PRESET=asan
 
 fuzz: deps
-	cmake --preset fuzz && cmake --build --preset fuzz -j $(JOBS)
-	bash scripts/run-fuzzers.sh build/fuzz 60
+	cmake --preset fuzz && cmake --build --preset fuzz -j $(JOBS) --target crop4d_csv_fuzzer crop4d_yaml_fuzzer
+	bash scripts/run-fuzzers.sh build/fuzz $(FUZZ_SECONDS)
 
 format:
 	find src bench -name '*.cc' -o -name '*.h' | xargs clang-format -i

@@ -29,6 +29,9 @@ struct RenderOptions {
   // Soil texture: texels per side (a power of two) and the ground it covers.
   int soil_texture_size = 4096;
   double soil_texture_extent_m = 4.0;
+  // Trilinear filtering of the soil texture; off: bilinear in the nearest mip level (faster
+  // on llvmpipe, visually the same on the noisy soil).
+  bool soil_trilinear = false;
   // Plants: drawn up to this distance; levels of detail by distance, for a 500 px focal
   // length (the distances scale with the camera's fx).
   double plant_draw_distance_m = 40.0;

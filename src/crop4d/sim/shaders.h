@@ -181,6 +181,12 @@ uniform mat4 u_light_view_proj;
 void main() { gl_Position = u_light_view_proj * vec4(a_position, 1.0); }
 )";
 
+// Masks pixels at the near plane (window depth 0): nothing drawn later passes the depth test.
+inline constexpr const char* kMaskVertex = R"(#version 330 core
+layout(location = 0) in vec2 a_position;
+void main() { gl_Position = vec4(a_position, -1.0, 1.0); }
+)";
+
 inline constexpr const char* kShadowFragment = R"(#version 330 core
 void main() {}
 )";

@@ -5,9 +5,8 @@
 // function that runs it once the command line has been parsed; that function returns the
 // process exit code (0 ok, 2 bad input, 1 other failure) or throws (InputError → 2).
 
-#include <functional>
-
 #include <CLI/CLI.hpp>
+#include <functional>
 
 namespace crop4d::cli {
 

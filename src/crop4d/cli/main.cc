@@ -1,10 +1,9 @@
 // crop4d: the command-line interface. Subcommands are one table; each has its own file.
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <string>
-
-#include <CLI/CLI.hpp>
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
@@ -28,9 +27,10 @@ constexpr Command kCommands[] = {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"crop4d — 4D crop monitoring: registered 3D models of a field over a season, and "
-               "the crop measurements that follow.",
-               "crop4d"};
+  CLI::App app{
+      "crop4d — 4D crop monitoring: registered 3D models of a field over a season, and "
+      "the crop measurements that follow.",
+      "crop4d"};
   app.set_version_flag("--version", std::string("crop4d ") + crop4d::kVersion);
   app.require_subcommand(1);
   int verbose = 0;

@@ -35,12 +35,12 @@ std::string FormatLocation(const std::string& file, std::int64_t line, const std
 
 }  // namespace crop4d
 
-#define CROP4D_CHECK(cond)                                           \
-  do {                                                               \
+#define CROP4D_CHECK(cond)                                             \
+  do {                                                                 \
     if (!(cond)) ::crop4d::CheckFailed(#cond, __FILE__, __LINE__, ""); \
   } while (0)
 
-#define CROP4D_CHECK_MSG(cond, msg)                                     \
-  do {                                                                  \
+#define CROP4D_CHECK_MSG(cond, msg)                                       \
+  do {                                                                    \
     if (!(cond)) ::crop4d::CheckFailed(#cond, __FILE__, __LINE__, (msg)); \
   } while (0)

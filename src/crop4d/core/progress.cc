@@ -1,11 +1,11 @@
 #include "crop4d/core/progress.h"
 
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <cstdio>
 
 #include "crop4d/core/timestamp.h"
-#include <spdlog/spdlog.h>
 
 namespace crop4d {
 

@@ -21,9 +21,9 @@ double DurationSeconds(Timestamp from, Timestamp to) { return TimestampToSeconds
 
 Timestamp FromDate(int year, int month, int day) {
   using namespace std::chrono;
-  const sys_days days = year_month_day{std::chrono::year{year},
-                                       std::chrono::month{static_cast<unsigned>(month)},
-                                       std::chrono::day{static_cast<unsigned>(day)}};
+  const sys_days days =
+      year_month_day{std::chrono::year{year}, std::chrono::month{static_cast<unsigned>(month)},
+                     std::chrono::day{static_cast<unsigned>(day)}};
   return static_cast<Timestamp>(days.time_since_epoch().count()) * 86400 * kNanosPerSecond;
 }
 

@@ -30,7 +30,7 @@ FrontEnd::Options TestOptions(const std::string& cache_path) {
   FrontEnd::Options options;
   options.cache_path = cache_path;
   options.show_progress = false;
-  options.matching_block_size = 4;             // several blocks, to exercise the index windows
+  options.matching_block_size = 4;            // several blocks, to exercise the index windows
   options.extraction.max_num_features = 600;  // keeps the tests fast
   return options;
 }

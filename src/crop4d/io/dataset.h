@@ -5,11 +5,10 @@
 // ASL/EuRoC layout (<sensor>/sensor.yaml + <sensor>/data.csv [+ <sensor>/data/ for images]).
 // Reading is in dataset_reader.h, writing in dataset_writer.h.
 
+#include <Eigen/Core>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/camera.h"
@@ -36,19 +35,19 @@ struct Site {
 
 struct FieldInfo {
   std::string name;
-  geometry::GeodeticPoint origin;      // the ENU origin of the world frame
-  std::vector<RowDeclaration> rows;    // optional
-  std::vector<Site> sites;             // optional
-  std::vector<std::string> sessions;   // optional order; default: folders of sessions/ sorted
+  geometry::GeodeticPoint origin;     // the ENU origin of the world frame
+  std::vector<RowDeclaration> rows;   // optional
+  std::vector<Site> sites;            // optional
+  std::vector<std::string> sessions;  // optional order; default: folders of sessions/ sorted
 };
 
 // ---- session.yaml -----------------------------------------------------------------------
 
 struct SessionInfo {
-  std::string id;                // folder name under sessions/
-  Timestamp date = 0;            // midnight UTC of the session date
-  std::string notes;             // free text (weather, ...)
-  bool rain_before = false;      // rain since the previous session (changes the soil)
+  std::string id;            // folder name under sessions/
+  Timestamp date = 0;        // midnight UTC of the session date
+  std::string notes;         // free text (weather, ...)
+  bool rain_before = false;  // rain since the previous session (changes the soil)
 };
 
 // ---- sensor.yaml ------------------------------------------------------------------------
@@ -91,8 +90,8 @@ struct GpsSensor {
 
 struct ImageEntry {
   Timestamp t = 0;
-  std::string filename;  // relative to <camera>/data/
-  std::int64_t line = 0; // line in data.csv, for messages
+  std::string filename;   // relative to <camera>/data/
+  std::int64_t line = 0;  // line in data.csv, for messages
 };
 
 struct ImuSample {

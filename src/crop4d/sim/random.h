@@ -24,7 +24,8 @@ inline std::uint64_t SplitMix64(std::uint64_t x) {
 template <typename... T>
 std::uint64_t HashCombine(std::uint64_t first, T... rest) {
   std::uint64_t h = SplitMix64(first);
-  for (const std::uint64_t v : std::initializer_list<std::uint64_t>{static_cast<std::uint64_t>(rest)...}) {
+  for (const std::uint64_t v :
+       std::initializer_list<std::uint64_t>{static_cast<std::uint64_t>(rest)...}) {
     h = SplitMix64(h ^ (v + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2)));
   }
   return h;

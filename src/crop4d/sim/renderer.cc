@@ -1112,10 +1112,10 @@ void Renderer::Impl::RenderFrame(const geometry::Rigid3& world_from_camera, cv::
   // Resolve the multisampled image (colour averaged, depth of one sample), read back.
   glBindFramebuffer(GL_READ_FRAMEBUFFER, msaa_fbo);
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, resolve_fbo);
-  glBlitFramebuffer(0, 0, W, H, 0, 0, W, H,
-                    depth != nullptr ? GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT
-                                     : GL_COLOR_BUFFER_BIT,
-                    GL_NEAREST);
+  glBlitFramebuffer(
+      0, 0, W, H, 0, 0, W, H,
+      depth != nullptr ? GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT : GL_COLOR_BUFFER_BIT,
+      GL_NEAREST);
   glBindFramebuffer(GL_FRAMEBUFFER, resolve_fbo);
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   cv::Mat bgra(H, W, CV_8UC4);

@@ -57,7 +57,8 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; a usage error is bad input: exit code 2.
+    return app.exit(e) == 0 ? 0 : 2;
   }
 
   crop4d::InitLogging(crop4d::VerbosityFromFlags(verbose, quiet));

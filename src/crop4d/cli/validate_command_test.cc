@@ -1,5 +1,5 @@
-// End-to-end tests of `crop4d validate`: run the real binary on fields in temp folders and
-// check the exit code and what it prints.
+// End-to-end tests of the crop4d binary (`crop4d validate`, the command table and exit codes):
+// run the real binary on fields in temp folders and check the exit code and what it prints.
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -187,6 +187,28 @@ TEST_F(ValidateCommandTest, HelpListsTheOptions) {
                              "--rate-tolerance", "--max-messages", "Exit code"}) {
     EXPECT_NE(r.out.find(option), std::string::npos) << option << "\n" << r.out;
   }
+}
+
+// The command table and the exit codes of main.cc.
+TEST(MainTest, VersionHelpAndUsageErrors) {
+  TempDir dir;
+  RunResult version = RunCrop4d(dir, "--version");
+  EXPECT_EQ(version.exit_code, 0);
+  EXPECT_EQ(version.out.rfind("crop4d ", 0), 0u) << version.out;
+
+  RunResult help = RunCrop4d(dir, "--help");
+  EXPECT_EQ(help.exit_code, 0);
+  for (const char* command : {"validate", "simulate", "import"}) {
+    EXPECT_NE(help.out.find(command), std::string::npos) << command;
+    EXPECT_EQ(RunCrop4d(dir, std::string(command) + " --help").exit_code, 0) << command;
+  }
+
+  // Usage errors are bad input: exit code 2 with CLI11's message.
+  const RunResult no_command = RunCrop4d(dir, "");
+  EXPECT_EQ(no_command.exit_code, 2);
+  EXPECT_NE(no_command.err.find("subcommand is required"), std::string::npos) << no_command.err;
+  EXPECT_EQ(RunCrop4d(dir, "no-such-command").exit_code, 2);
+  EXPECT_EQ(RunCrop4d(dir, "validate --no-such-flag x").exit_code, 2);
 }
 
 }  // namespace

@@ -9,7 +9,10 @@ std::string FormatLocation(const std::string& file, std::int64_t line, const std
   std::string out;
   if (!file.empty()) {
     out += file;
-    if (line > 0) out += ":" + std::to_string(line);
+    if (line > 0) {
+      out += ':';
+      out += std::to_string(line);
+    }
     out += ": ";
   }
   out += message;

@@ -21,6 +21,7 @@
 #include "crop4d/geometry/enu.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_writer.h"
+#include "crop4d/io/tum.h"
 #include "crop4d/sim/random.h"
 #include "crop4d/sim/renderer.h"
 #include "crop4d/sim/sensor_models.h"
@@ -46,17 +47,9 @@ constexpr double kDegToRad = M_PI / 180.0;
 
 std::string Join(const std::string& a, const std::string& b) { return (fs::path(a) / b).string(); }
 
-// "1464177600.123456789" from a timestamp.
-std::string TumTime(Timestamp t) {
-  const Timestamp s = t / kNanosPerSecond, ns = t % kNanosPerSecond;
-  return fmt::format("{}.{:09d}", s, ns);
-}
-
 void AppendTumLine(fmt::memory_buffer* out, Timestamp t, const geometry::Rigid3& pose) {
-  const Eigen::Vector3d& p = pose.translation();
-  const Eigen::Quaterniond& q = pose.rotation();
-  fmt::format_to(std::back_inserter(*out), "{} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n",
-                 TumTime(t), p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w());
+  const std::string line = io::FormatTumLine(t, pose);
+  out->append(line.data(), line.data() + line.size());
 }
 
 void WriteBuffer(const std::string& path, const fmt::memory_buffer& buffer) {

@@ -14,6 +14,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/geometry/enu.h"
+#include "crop4d/io/tum.h"
 #include "crop4d/sim/sensor_models.h"
 
 namespace crop4d::sim {
@@ -282,22 +283,10 @@ TEST_F(SimulatorWriteTest, SameSeedGivesByteIdenticalFiles) {
   EXPECT_NE(other.SimulateSession(0).imu[10].accel, same.SimulateSession(0).imu[10].accel);
 }
 
-// Reads a TUM file: timestamp (ns, from the text) -> pose.
+// Reads a TUM file: timestamp -> pose.
 std::map<Timestamp, geometry::Rigid3> ReadTum(const fs::path& path) {
   std::map<Timestamp, geometry::Rigid3> poses;
-  std::istringstream in(ReadFile(path));
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::string t;
-    double x, y, z, qx, qy, qz, qw;
-    fields >> t >> x >> y >> z >> qx >> qy >> qz >> qw;
-    const size_t dot = t.find('.');
-    const Timestamp ns =
-        std::stoll(t.substr(0, dot)) * kNanosPerSecond + std::stoll(t.substr(dot + 1));
-    poses[ns] = geometry::Rigid3(Eigen::Quaterniond(qw, qx, qy, qz), Eigen::Vector3d(x, y, z));
-  }
+  for (const io::StampedPose& p : io::ReadTum(path.string())) poses[p.t] = p.pose;
   return poses;
 }
 

@@ -21,4 +21,10 @@ fi
 
 "$crop4d" validate "$field"
 
-echo "demo: done in $(( $(date +%s) - start )) s; field in $field"
+# Row SLAM of every pass of every session (passes already done are skipped), then the
+# trajectory errors against the simulator's ground truth.
+workspace="$demo_dir/workspace"
+"$crop4d" slam "$field" --workspace "$workspace"
+"$crop4d" eval --workspace "$workspace" --truth "$field"
+
+echo "demo: done in $(( $(date +%s) - start )) s; field in $field, workspace in $workspace"

@@ -21,5 +21,7 @@ struct Command {
 RunFunction SetupValidate(CLI::App& app);
 RunFunction SetupSimulate(CLI::App& app);
 RunFunction SetupImport(CLI::App& app);
+RunFunction SetupSlam(CLI::App& app);
+RunFunction SetupEval(CLI::App& app);
 
 }  // namespace crop4d::cli

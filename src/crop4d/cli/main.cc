@@ -22,6 +22,10 @@ constexpr Command kCommands[] = {
      crop4d::cli::SetupSimulate},
     {"import", "Make a session from an RTKLIB .pos file and an IMU text file (real recordings)",
      crop4d::cli::SetupImport},
+    {"slam", "Multi-sensor SLAM of every row pass: poses, sparse cloud, summary",
+     crop4d::cli::SetupSlam},
+    {"eval", "Compare a workspace's trajectories with a synthetic field's ground truth",
+     crop4d::cli::SetupEval},
 };
 
 }  // namespace

@@ -79,6 +79,12 @@ class FeatureExtractor {
     // Images larger than this (largest side, pixels) are downscaled for extraction and the
     // keypoints scaled back to full-resolution pixels (0 = never downscale).
     int max_image_size = 0;
+    // Spread the max_num_features budget over a spatial_grid_cells × spatial_grid_cells grid:
+    // each cell keeps its strongest keypoints up to an equal share of the budget, and the
+    // budget left by cells with fewer keypoints goes to the strongest remaining ones anywhere
+    // (0 = no grid: the strongest keypoints of the whole image). A grid keeps features on
+    // low-contrast areas (soil) that the strongest-first rule would leave to the plants.
+    int spatial_grid_cells = 0;
 
     bool Check() const;
     // A hash of every field that changes the extracted features, stored in the feature cache

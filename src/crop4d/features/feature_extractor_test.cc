@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -90,6 +91,55 @@ TEST(FeatureExtractorTest, DownscaledExtractionReportsFullResolutionPixels) {
   EXPECT_GT(max_x, image.cols * 0.8f);
 }
 
+TEST(FeatureExtractorTest, GridSpreadsTheBudgetOverTheImage) {
+  // Texture on the left half only is strong, on the right half weak: the strongest-first rule
+  // takes nearly all features on the left; the grid gives the right half its share.
+  cv::Mat image = Scene().views[0].clone();
+  cv::Mat right = image(cv::Rect(image.cols / 2, 0, image.cols - image.cols / 2, image.rows));
+  right.convertTo(right, -1, 0.25, 96);
+  FeatureExtractor::Options options;
+  options.max_num_features = 400;
+  const auto right_share = [&](const FeatureSet& f) {
+    int n = 0;
+    for (const Keypoint& k : f.keypoints) n += k.x >= image.cols / 2 ? 1 : 0;
+    return static_cast<double>(n) / f.size();
+  };
+  const FeatureSet strongest = FeatureExtractor(options).Extract(image);
+  options.spatial_grid_cells = 4;
+  const FeatureExtractor grid_extractor(options);
+  const FeatureSet grid = grid_extractor.Extract(image);
+  ASSERT_EQ(strongest.size(), 400u);
+  ASSERT_EQ(grid.size(), 400u);
+  EXPECT_TRUE(grid.IsConsistent());
+  EXPECT_LT(right_share(strongest), 0.3);
+  EXPECT_GT(right_share(grid), 0.4);
+  // Sorted strongest first, deterministic, and the descriptors are those of the full
+  // extraction for the same keypoints.
+  for (std::size_t i = 1; i < grid.size(); ++i) {
+    EXPECT_GE(grid.keypoints[i - 1].response, grid.keypoints[i].response);
+  }
+  EXPECT_EQ(grid_extractor.Extract(image), grid);
+  FeatureExtractor::Options all_options;
+  all_options.max_num_features = 0;
+  const FeatureSet all = FeatureExtractor(all_options).Extract(image);
+  int same = 0;
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    for (std::size_t j = 0; j < all.size(); ++j) {
+      if (all.keypoints[j] == grid.keypoints[i]) {
+        same +=
+            std::equal(grid.Descriptor(i), grid.Descriptor(i) + kDescriptorSize, all.Descriptor(j))
+                ? 1
+                : 0;
+        break;
+      }
+    }
+  }
+  EXPECT_GT(same, static_cast<int>(0.95 * grid.size()));
+  // Fewer keypoints than the budget: all of them.
+  options.max_num_features = 100000;
+  EXPECT_EQ(FeatureExtractor(options).Extract(image).size(), all.size());
+}
+
 TEST(FeatureExtractorTest, EmptyAndFlatImagesGiveNoFeatures) {
   const FeatureExtractor extractor(FeatureExtractor::Options{});
   EXPECT_TRUE(extractor.Extract(cv::Mat()).empty());
@@ -106,6 +156,9 @@ TEST(FeatureExtractorTest, OptionsHashFollowsOptions) {
   EXPECT_NE(a.Hash(), b.Hash());
   b = a;
   b.max_num_features = 10;
+  EXPECT_NE(a.Hash(), b.Hash());
+  b = a;
+  b.spatial_grid_cells = 4;
   EXPECT_NE(a.Hash(), b.Hash());
   b.num_octave_layers = 0;
   EXPECT_FALSE(b.Check());

@@ -36,9 +36,9 @@ class FrontEnd {
     TrackBuilder::Options tracks;
     // Each image is matched with this many following images (the paper's "nearby pairs").
     int num_neighbors = 4;
-    // Images whose FLANN indices are held in memory together while matching; bounds the
-    // memory (about 5 MB per image of 8192 features) at the cost of rebuilding
-    // num_neighbors indices per block.
+    // Images whose descriptor indices are held in memory together while matching; bounds the
+    // memory (FLANN: about 5 MB per image of 8192 features; exhaustive: 256 bytes per feature)
+    // at the cost of rebuilding num_neighbors indices per block.
     int matching_block_size = 32;
     // Feature cache file (feature_cache.h); empty: no cache.
     std::string cache_path;

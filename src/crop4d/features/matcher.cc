@@ -50,17 +50,121 @@ std::vector<FeatureMatch> MutualMatches(const std::vector<FeatureMatch>& matches
 // ---- DescriptorIndex ----------------------------------------------------------------------
 
 struct DescriptorIndex::Impl {
-  cv::Mat data;  // float copy of the descriptors; FLANN keeps a view into it
+  DescriptorMatchOptions::Method method = DescriptorMatchOptions::Method::kFlann;
+  int size = 0;
+  // kFlann: float copy of the descriptors (FLANN keeps a view into it) and the forest.
+  cv::Mat data;
   std::unique_ptr<cv::flann::Index> index;
   int num_checks = 0;
+  // kExhaustive: the descriptors widened to 16 bits (row-major size × kDescriptorSize) and
+  // their squared norms.
+  std::vector<std::int16_t> values;
+  std::vector<std::int32_t> squared_norms;
 };
+
+namespace {
+
+// Dot products of the na rows of `a` with the nb rows of `b` (16-bit descriptors):
+// out[i · nb + j] = a_i · b_j. Exact in 32-bit integers (128 · 255² < 2³¹), so every clone
+// gives the same result; GCC vectorises the inner loop (pmaddwd) and the AVX2 clone is chosen
+// at load time where the CPU has it.
+__attribute__((target_clones("avx2", "default"))) void DotProducts(const std::int16_t* a, int na,
+                                                                   const std::int16_t* b, int nb,
+                                                                   std::int32_t* out) {
+  for (int i = 0; i < na; ++i) {
+    const std::int16_t* ai = a + static_cast<std::size_t>(i) * kDescriptorSize;
+    for (int j = 0; j < nb; ++j) {
+      const std::int16_t* bj = b + static_cast<std::size_t>(j) * kDescriptorSize;
+      std::int32_t sum = 0;
+      for (int k = 0; k < kDescriptorSize; ++k) sum += static_cast<std::int32_t>(ai[k]) * bj[k];
+      out[static_cast<std::size_t>(i) * nb + j] = sum;
+    }
+  }
+}
+
+// Two nearest neighbours by squared distance, ties to the lower index (scan in index order).
+struct SquaredTwoNearest {
+  std::int32_t index1 = -1, index2 = -1;
+  std::int32_t d1 = std::numeric_limits<std::int32_t>::max();
+  std::int32_t d2 = std::numeric_limits<std::int32_t>::max();
+
+  void Add(std::int32_t index, std::int32_t d) {
+    if (d < d1) {
+      index2 = index1;
+      d2 = d1;
+      index1 = index;
+      d1 = d;
+    } else if (d < d2) {
+      index2 = index;
+      d2 = d;
+    }
+  }
+  TwoNearest ToTwoNearest() const {
+    TwoNearest n;
+    if (index1 >= 0) {
+      n.index1 = index1;
+      n.distance1 = std::sqrt(static_cast<float>(d1));
+    }
+    if (index2 >= 0) {
+      n.index2 = index2;
+      n.distance2 = std::sqrt(static_cast<float>(d2));
+    }
+    return n;
+  }
+};
+
+// Exact two nearest neighbours of every row of `a` among the rows of `b` (a_to_b) and, when
+// b_to_a is given, of every row of `b` among the rows of `a`, from one pass over all pairs.
+void ExhaustiveTwoNearest(const DescriptorIndex::Impl& a, const DescriptorIndex::Impl& b,
+                          std::vector<TwoNearest>* a_to_b, std::vector<TwoNearest>* b_to_a) {
+  constexpr int kBlock = 32;  // rows of a per block: the block's dot products stay in cache
+  std::vector<SquaredTwoNearest> rows(a.size), columns(b_to_a != nullptr ? b.size : 0);
+  std::vector<std::int32_t> dots(static_cast<std::size_t>(kBlock) * b.size);
+  for (int begin = 0; begin < a.size; begin += kBlock) {
+    const int count = std::min(kBlock, a.size - begin);
+    DotProducts(a.values.data() + static_cast<std::size_t>(begin) * kDescriptorSize, count,
+                b.values.data(), b.size, dots.data());
+    for (int r = 0; r < count; ++r) {
+      const int i = begin + r;
+      const std::int32_t norm_i = a.squared_norms[i];
+      const std::int32_t* dot = dots.data() + static_cast<std::size_t>(r) * b.size;
+      SquaredTwoNearest& row = rows[i];
+      for (int j = 0; j < b.size; ++j) {
+        const std::int32_t d = norm_i + b.squared_norms[j] - 2 * dot[j];
+        row.Add(j, d);
+        if (b_to_a != nullptr) columns[j].Add(i, d);
+      }
+    }
+  }
+  a_to_b->resize(a.size);
+  for (int i = 0; i < a.size; ++i) (*a_to_b)[i] = rows[i].ToTwoNearest();
+  if (b_to_a != nullptr) {
+    b_to_a->resize(b.size);
+    for (int j = 0; j < b.size; ++j) (*b_to_a)[j] = columns[j].ToTwoNearest();
+  }
+}
+
+}  // namespace
 
 DescriptorIndex::DescriptorIndex(const FeatureSet& features, const DescriptorMatchOptions& options)
     : impl_(std::make_unique<Impl>()) {
   CROP4D_CHECK_MSG(options.Check(), "invalid DescriptorMatchOptions");
   CROP4D_CHECK(features.IsConsistent());
+  impl_->method = options.method;
   impl_->num_checks = options.num_checks;
+  impl_->size = static_cast<int>(features.size());
   if (features.empty()) return;
+  if (options.method == DescriptorMatchOptions::Method::kExhaustive) {
+    impl_->values.assign(features.descriptors.begin(), features.descriptors.end());
+    impl_->squared_norms.resize(features.size());
+    for (std::size_t i = 0; i < features.size(); ++i) {
+      const std::uint8_t* d = features.Descriptor(i);
+      std::int32_t sum = 0;
+      for (int k = 0; k < kDescriptorSize; ++k) sum += static_cast<std::int32_t>(d[k]) * d[k];
+      impl_->squared_norms[i] = sum;
+    }
+    return;
+  }
   const cv::Mat bytes(static_cast<int>(features.size()), kDescriptorSize, CV_8U,
                       const_cast<std::uint8_t*>(features.descriptors.data()));
   bytes.convertTo(impl_->data, CV_32F);
@@ -76,12 +180,19 @@ DescriptorIndex::DescriptorIndex(const FeatureSet& features, const DescriptorMat
 
 DescriptorIndex::~DescriptorIndex() = default;
 
-std::size_t DescriptorIndex::size() const { return static_cast<std::size_t>(impl_->data.rows); }
+std::size_t DescriptorIndex::size() const { return static_cast<std::size_t>(impl_->size); }
 
 std::vector<TwoNearest> DescriptorIndex::SearchTwoNearest(const FeatureSet& queries) const {
   CROP4D_CHECK(queries.IsConsistent());
   std::vector<TwoNearest> result(queries.size());
-  if (queries.empty() || impl_->index == nullptr) return result;
+  if (queries.empty() || impl_->size == 0) return result;
+  if (impl_->method == DescriptorMatchOptions::Method::kExhaustive) {
+    DescriptorMatchOptions options;
+    options.method = DescriptorMatchOptions::Method::kExhaustive;
+    const DescriptorIndex query_index(queries, options);
+    ExhaustiveTwoNearest(*query_index.impl_, *impl_, &result, nullptr);
+    return result;
+  }
   cv::Mat query_data;
   const cv::Mat bytes(static_cast<int>(queries.size()), kDescriptorSize, CV_8U,
                       const_cast<std::uint8_t*>(queries.descriptors.data()));
@@ -111,6 +222,16 @@ std::vector<TwoNearest> DescriptorIndex::SearchTwoNearest(const FeatureSet& quer
 std::vector<FeatureMatch> MatchDescriptors(const FeatureSet& a, const DescriptorIndex& index_a,
                                            const FeatureSet& b, const DescriptorIndex& index_b,
                                            const DescriptorMatchOptions& options) {
+  if (options.method == DescriptorMatchOptions::Method::kExhaustive &&
+      index_a.impl_->method == options.method && index_b.impl_->method == options.method) {
+    CROP4D_CHECK(index_a.size() == a.size() && index_b.size() == b.size());
+    std::vector<TwoNearest> ab_nearest, ba_nearest;
+    ExhaustiveTwoNearest(*index_a.impl_, *index_b.impl_, &ab_nearest,
+                         options.cross_check ? &ba_nearest : nullptr);
+    std::vector<FeatureMatch> ab = ApplyRatioTest(ab_nearest, options.max_ratio);
+    if (!options.cross_check) return ab;
+    return MutualMatches(ab, ApplyRatioTest(ba_nearest, options.max_ratio));
+  }
   std::vector<FeatureMatch> ab = ApplyRatioTest(index_b.SearchTwoNearest(a), options.max_ratio);
   if (!options.cross_check) return ab;
   std::vector<FeatureMatch> ba = ApplyRatioTest(index_a.SearchTwoNearest(b), options.max_ratio);

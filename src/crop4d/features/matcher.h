@@ -2,7 +2,8 @@
 
 // Pairwise matching of SIFT features (DESIGN.md §2.2, front end):
 //   1. approximate nearest neighbours with FLANN randomized KD-trees (Muja & Lowe, "Fast
-//      Approximate Nearest Neighbors with Automatic Algorithm Configuration", VISAPP 2009);
+//      Approximate Nearest Neighbors with Automatic Algorithm Configuration", VISAPP 2009), or
+//      exact ones by an exhaustive search (cheaper for the ≈1000–2000 features of row SLAM);
 //   2. Lowe's ratio test: keep a match when the nearest descriptor is clearly closer than the
 //      second nearest, d1 < r·d2 (Lowe, IJCV 2004, §7.1; r = 0.8 rejects 90% of false matches
 //      and 5% of correct ones there);
@@ -42,13 +43,24 @@ struct TwoNearest {
 };
 
 struct DescriptorMatchOptions {
+  enum class Method {
+    // Approximate nearest neighbours: FLANN randomized KD-trees (num_trees, num_checks).
+    kFlann,
+    // Exact nearest neighbours: the distance of every descriptor pair, in integers on the 8-bit
+    // descriptors (SIMD where the CPU has it; the result does not depend on it). Both
+    // directions of a pair come from one pass over the pairs, so the cost is Na·Nb dot
+    // products per image pair; at 2048 features it is several times cheaper than FLANN's
+    // two searches with 4 trees / 64 checks, and it finds the true neighbours.
+    kExhaustive,
+  };
+  Method method = Method::kFlann;
   // Lowe's ratio: accept when distance1 < max_ratio · distance2 (Lowe 2004 uses 0.8).
   double max_ratio = 0.8;
   // Keep only matches that are also the best match the other way (mutual nearest neighbours).
   bool cross_check = true;
-  // Randomized KD-trees in the FLANN forest.
+  // Randomized KD-trees in the FLANN forest (kFlann).
   int num_trees = 4;
-  // Leaves visited per query; more is more exact and slower.
+  // Leaves visited per query (kFlann); more is more exact and slower.
   int num_checks = 64;
   // Seed of the KD-trees' random split choices, so that runs are reproducible.
   std::uint32_t seed = 42;
@@ -65,8 +77,9 @@ std::vector<FeatureMatch> ApplyRatioTest(const std::vector<TwoNearest>& nearest,
 std::vector<FeatureMatch> MutualMatches(const std::vector<FeatureMatch>& matches_ab,
                                         const std::vector<FeatureMatch>& matches_ba);
 
-// A FLANN KD-tree forest over the descriptors of one image, built once and queried by many.
-// Building is deterministic for a given seed. Queries are thread-safe.
+// The descriptors of one image prepared for nearest-neighbour queries, built once and queried
+// by many: a FLANN KD-tree forest (kFlann; deterministic for a given seed) or a 16-bit copy of
+// the descriptors with their squared norms (kExhaustive). Queries are thread-safe.
 class DescriptorIndex {
  public:
   DescriptorIndex(const FeatureSet& features, const DescriptorMatchOptions& options);
@@ -78,8 +91,12 @@ class DescriptorIndex {
   // The two nearest indexed descriptors of every descriptor of `queries`.
   std::vector<TwoNearest> SearchTwoNearest(const FeatureSet& queries) const;
 
+  struct Impl;  // matcher.cc
+
  private:
-  struct Impl;
+  friend std::vector<FeatureMatch> MatchDescriptors(const FeatureSet&, const DescriptorIndex&,
+                                                    const FeatureSet&, const DescriptorIndex&,
+                                                    const DescriptorMatchOptions&);
   std::unique_ptr<Impl> impl_;
 };
 

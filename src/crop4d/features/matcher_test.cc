@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <random>
 
 #include "crop4d/features/synthetic_plane_test_util.h"
@@ -58,6 +59,74 @@ TEST(RatioTestTest, MatchDescriptorsOnHandMadeDescriptors) {
   // Mutual check: b2 and b3's nearest in a is a1, but that is ambiguous the other way.
   options.cross_check = true;
   EXPECT_EQ(MatchDescriptors(a, b, options), matches);
+}
+
+TEST(RatioTestTest, ExhaustiveMatchingOnHandMadeDescriptors) {
+  const FeatureSet a = HandMadeSet({{{0, 200}}, {{5, 100}, {6, 100}}, {{9, 150}, {10, 20}}});
+  const FeatureSet b =
+      HandMadeSet({{{9, 150}, {10, 30}}, {{0, 195}, {1, 10}}, {{5, 200}}, {{6, 200}}});
+  DescriptorMatchOptions flann, exhaustive;
+  exhaustive.method = DescriptorMatchOptions::Method::kExhaustive;
+  for (bool cross_check : {false, true}) {
+    flann.cross_check = exhaustive.cross_check = cross_check;
+    const std::vector<FeatureMatch> matches = MatchDescriptors(a, b, exhaustive);
+    ASSERT_EQ(matches.size(), 2u);
+    EXPECT_EQ(matches, MatchDescriptors(a, b, flann));
+    EXPECT_NEAR(matches[0].distance, std::sqrt(5.0f * 5 + 10 * 10), 1e-4);
+  }
+}
+
+// Random descriptors: the exhaustive search finds the true two nearest neighbours both ways
+// (checked against a plain loop), and FLANN with many checks agrees on nearly all matches.
+TEST(RatioTestTest, ExhaustiveSearchIsExact) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int> value(0, 255);
+  const auto random_set = [&](int n) {
+    FeatureSet set;
+    for (int i = 0; i < n; ++i) {
+      set.keypoints.push_back({static_cast<float>(i), 0, 2, 0, 1, 0});
+      set.colors.push_back({0, 0, 0});
+      for (int k = 0; k < kDescriptorSize; ++k) {
+        set.descriptors.push_back(static_cast<std::uint8_t>(value(rng)));
+      }
+    }
+    return set;
+  };
+  FeatureSet a = random_set(150), b = random_set(200);
+  // Make some clear matches: b's first 60 descriptors are noisy copies of a's.
+  for (int i = 0; i < 60; ++i) {
+    for (int k = 0; k < kDescriptorSize; ++k) {
+      b.descriptors[i * kDescriptorSize + k] = static_cast<std::uint8_t>(
+          std::clamp(a.descriptors[(2 * i) * kDescriptorSize + k] + value(rng) % 11 - 5, 0, 255));
+    }
+  }
+  DescriptorMatchOptions options;
+  options.method = DescriptorMatchOptions::Method::kExhaustive;
+  const DescriptorIndex index_b(b, options);
+  const std::vector<TwoNearest> nearest = index_b.SearchTwoNearest(a);
+  ASSERT_EQ(nearest.size(), a.size());
+  for (std::size_t q = 0; q < a.size(); ++q) {
+    std::vector<std::pair<double, int>> all;
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      double d2 = 0;
+      for (int k = 0; k < kDescriptorSize; ++k) {
+        const double d = a.Descriptor(q)[k] - b.Descriptor(j)[k];
+        d2 += d * d;
+      }
+      all.emplace_back(d2, static_cast<int>(j));
+    }
+    std::sort(all.begin(), all.end());
+    EXPECT_EQ(nearest[q].index1, all[0].second);
+    EXPECT_EQ(nearest[q].index2, all[1].second);
+    EXPECT_NEAR(nearest[q].distance1, std::sqrt(all[0].first), 1e-3);
+    EXPECT_NEAR(nearest[q].distance2, std::sqrt(all[1].first), 1e-3);
+  }
+  const std::vector<FeatureMatch> exact = MatchDescriptors(a, b, options);
+  EXPECT_EQ(exact.size(), 60u);
+  for (const FeatureMatch& m : exact) EXPECT_EQ(m.feature1, 2 * m.feature2);
+  DescriptorMatchOptions flann;
+  flann.num_checks = 512;
+  EXPECT_EQ(MatchDescriptors(a, b, flann), exact);
 }
 
 TEST(RatioTestTest, MutualMatchesNeedAgreementBothWays) {

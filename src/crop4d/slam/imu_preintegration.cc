@@ -75,9 +75,10 @@ void ImuPreintegration::Integrate(const std::vector<ImuSample>& samples, Timesta
   // Breakpoints: t_i, every sample time strictly inside (t_i, t_j), t_j.
   std::vector<Timestamp> breaks;
   breaks.push_back(t_i);
-  for (const ImuSample& s : samples) {
-    if (s.timestamp > t_i && s.timestamp < t_j) breaks.push_back(s.timestamp);
-  }
+  // Samples are sorted: binary search for the first one after t_i.
+  auto it = std::upper_bound(samples.begin(), samples.end(), t_i,
+                             [](Timestamp t, const ImuSample& s) { return t < s.timestamp; });
+  for (; it != samples.end() && it->timestamp < t_j; ++it) breaks.push_back(it->timestamp);
   breaks.push_back(t_j);
   Eigen::Vector3d gyro_a, accel_a, gyro_b, accel_b;
   InterpolateSample(samples, breaks.front(), &gyro_a, &accel_a);

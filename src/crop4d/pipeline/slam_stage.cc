@@ -1,0 +1,724 @@
+#include "crop4d/pipeline/slam_stage.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "crop4d/core/error.h"
+#include "crop4d/core/progress.h"
+#include "crop4d/core/version.h"
+#include "crop4d/features/hash.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
+#include "crop4d/slam/session_streams.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The options that change a pass's result, as JSON (in summary.json and the fingerprint).
+json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
+  const features::FrontEnd::Options& fe = o.front_end;
+  const slam::RowOptimiser::Options& op = o.optimiser;
+  json outages = json::array();
+  for (const GpsOutage& g : o.gps_outages) outages.push_back({g.start_s, g.duration_s});
+  return {
+      {"sensors", slam::ToString(sensors)},
+      {"camera", o.camera},
+      {"imu", o.imu},
+      {"gps_outages", outages},
+      {"state_rate_hz", o.state_rate_hz},
+      {"session_state_rate_hz", o.session_state_rate_hz},
+      {"session_bias_sigma", {o.session_bias_sigma_gyro, o.session_bias_sigma_accel}},
+      {"front_end",
+       {{"extraction_hash", fe.extraction.Hash()},
+        {"max_features", fe.extraction.max_num_features},
+        {"max_image_size", fe.extraction.max_image_size},
+        {"spatial_grid_cells", fe.extraction.spatial_grid_cells},
+        {"matching",
+         fe.matching.descriptors.method == features::DescriptorMatchOptions::Method::kExhaustive
+             ? "exhaustive"
+             : "flann"},
+        {"flann_trees", fe.matching.descriptors.num_trees},
+        {"flann_checks", fe.matching.descriptors.num_checks},
+        {"cross_check", fe.matching.descriptors.cross_check},
+        {"num_neighbors", fe.num_neighbors},
+        {"ratio", fe.matching.descriptors.max_ratio},
+        {"min_track_length", fe.tracks.min_track_length}}},
+      {"optimiser",
+       {{"reprojection_sigma_px", op.reprojection_sigma_px},
+        {"reprojection_loss_scale", op.reprojection_loss_scale},
+        {"max_reprojection_error_px", op.max_reprojection_error_px},
+        {"min_observations", op.min_observations},
+        {"gps_loss_scale", op.gps_loss_scale},
+        {"gp_qc_translation", op.gp.qc_translation},
+        {"gp_qc_rotation", op.gp.qc_rotation},
+        {"max_iterations", op.max_iterations}}},
+      {"cloud",
+       {{"min_parallax_deg", o.cloud.min_parallax_deg},
+        {"max_reprojection_error_px", o.cloud.max_reprojection_error_px}}},
+  };
+}
+
+// Bumped whenever the stage's method changes its results, so that outputs of an older method
+// are not taken as up to date.
+constexpr int kSlamStageRevision = 1;
+
+std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
+                        const std::string& data_stamp) {
+  features::Fnv1aHasher hasher;
+  hasher.AddString(kVersion);
+  hasher.Add(kSlamStageRevision);
+  hasher.AddString(options.dump());
+  hasher.Add(pass.t_begin);
+  hasher.Add(pass.t_end);
+  hasher.Add(static_cast<std::uint64_t>(num_states));
+  hasher.AddString(data_stamp);
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hasher.hash()));
+  return text;
+}
+
+// Size and modification time of the session's data files: a changed recording invalidates the
+// outputs of its passes.
+std::string DataStamp(const io::Session& session) {
+  std::ostringstream out;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(session.folder(), ec)) {
+    const fs::path csv = entry.path() / "data.csv";
+    if (!fs::exists(csv, ec)) continue;
+    out << entry.path().filename().string() << ':' << fs::file_size(csv, ec) << ':'
+        << fs::last_write_time(csv, ec).time_since_epoch().count() << ';';
+  }
+  return out.str();
+}
+
+bool UpToDate(const std::string& folder, const std::string& fingerprint, bool needs_cloud) {
+  const fs::path summary_path = fs::path(folder) / "summary.json";
+  if (!fs::exists(summary_path) || !fs::exists(fs::path(folder) / "poses.tum")) return false;
+  if (needs_cloud && !fs::exists(fs::path(folder) / "landmarks.ply")) return false;
+  try {
+    std::ifstream in(summary_path);
+    const json summary = json::parse(in);
+    return summary.value("fingerprint", "") == fingerprint;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+slam::SensorSet ChooseSensorSet(const SlamStageOptions& options,
+                                const slam::SessionStreams& streams) {
+  const bool has_camera = streams.camera.has_value() && !streams.camera->images.empty();
+  const bool has_rtk = streams.FindGps(io::GpsKind::kRtk) != nullptr;
+  const bool has_standard = streams.FindGps(io::GpsKind::kStandard) != nullptr;
+  if (!streams.imu || streams.imu->samples.empty()) {
+    throw InputError(streams.session_id, 0, "row SLAM needs an IMU; this session has no samples");
+  }
+  if (!options.sensors) {
+    if (has_camera) {
+      return has_rtk        ? slam::SensorSet::kCamImuRtk
+             : has_standard ? slam::SensorSet::kCamImuGps
+                            : slam::SensorSet::kCamImu;
+    }
+    if (has_rtk) return slam::SensorSet::kImuRtk;
+    throw InputError(streams.session_id, 0,
+                     "no camera and no RTK receiver: no sensor set of row SLAM applies");
+  }
+  const slam::SensorSetInfo info = slam::Describe(*options.sensors);
+  if (info.camera && !has_camera) {
+    throw InputError(streams.session_id, 0,
+                     std::string("--sensors ") + slam::ToString(*options.sensors) +
+                         " needs a camera with images; this session has none (try imu+rtk)");
+  }
+  if (info.gps && streams.FindGps(info.gps_kind) == nullptr) {
+    throw InputError(streams.session_id, 0,
+                     std::string("--sensors ") + slam::ToString(*options.sensors) + " needs a " +
+                         (info.gps_kind == io::GpsKind::kRtk ? "RTK" : "standard") +
+                         " GPS receiver with fixes; this session has none");
+  }
+  return *options.sensors;
+}
+
+std::vector<slam::GpsFixWorld> ApplyOutages(const std::vector<slam::GpsFixWorld>& fixes,
+                                            const std::vector<GpsOutage>& outages) {
+  if (outages.empty() || fixes.empty()) return fixes;
+  std::vector<slam::GpsFixWorld> kept;
+  const Timestamp t0 = fixes.front().t;
+  for (const slam::GpsFixWorld& fix : fixes) {
+    const double s = DurationSeconds(t0, fix.t);
+    bool dropped = false;
+    for (const GpsOutage& g : outages) dropped |= s >= g.start_s && s < g.start_s + g.duration_s;
+    if (!dropped) kept.push_back(fix);
+  }
+  return kept;
+}
+
+bool PassSelected(const SlamStageOptions& options, const slam::RowPass& pass) {
+  if (options.pass.empty()) return true;
+  if (options.pass == pass.id) return true;
+  try {
+    std::size_t used = 0;
+    const int row = std::stoi(options.pass, &used);
+    return used == options.pass.size() && row == pass.row;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+void WritePassList(const std::string& path, const std::vector<slam::RowPass>& passes) {
+  std::ostringstream out;
+  out << "pass,row,direction,t_begin [ns],t_end [ns],start_x [m],start_y [m],end_x [m],end_y "
+         "[m],length [m]\n";
+  for (const slam::RowPass& p : passes) {
+    out << p.id << ',' << p.row << ',' << p.direction << ',' << p.t_begin << ',' << p.t_end << ','
+        << p.start_world.x() << ',' << p.start_world.y() << ',' << p.end_world.x() << ','
+        << p.end_world.y() << ',' << p.length_m << '\n';
+  }
+  io::WriteFileAtomic(path, out.str());
+}
+
+// Everything one session's passes share.
+struct SessionContext {
+  const io::Session* session = nullptr;
+  slam::SessionStreams streams;
+  slam::SensorSet sensors = slam::SensorSet::kCamImuRtk;
+  // GPS used by the factors (null without) and the best track (initialisation, anchors).
+  std::vector<slam::GpsFixWorld> factor_fixes;
+  slam::GpsStream best_gps;
+  bool has_best_gps = false;
+  // The receiver the initialisation follows (the factors' one, or the best for cam+imu).
+  slam::GpsStream init_gps;
+  // Whether the forward axis was estimated (not the fallback).
+  bool forward_axis_estimated = false;
+  // The session-wide IMU + GPS solution (empty when not run).
+  std::vector<slam::RowState> session_states;
+  Eigen::Vector3d factor_antenna = Eigen::Vector3d::Zero();
+  std::unique_ptr<slam::StateInitialiser> initialiser;
+  std::string data_stamp;
+};
+
+struct PassOutcome {
+  int num_states = 0, num_images = 0, num_landmarks = 0, num_cloud_points = 0;
+};
+
+// The session solution at t (linear between its states; clamped at the ends).
+slam::RowState SessionStateAt(const std::vector<slam::RowState>& states, Timestamp t) {
+  auto it = std::lower_bound(states.begin(), states.end(), t,
+                             [](const slam::RowState& s, Timestamp x) { return s.t < x; });
+  if (it == states.begin() || it == states.end()) {
+    // Outside the session solve's span: its end state, at the asked time.
+    slam::RowState s = it == states.begin() ? states.front() : states.back();
+    s.t = t;
+    return s;
+  }
+  const slam::RowState& b = *it;
+  const slam::RowState& a = *(it - 1);
+  const double alpha = DurationSeconds(a.t, t) / DurationSeconds(a.t, b.t);
+  slam::RowState s;
+  s.t = t;
+  s.nav.world_from_body =
+      geometry::InterpolateSeparately(a.nav.world_from_body, b.nav.world_from_body, alpha);
+  s.nav.vel_world = (1 - alpha) * a.nav.vel_world + alpha * b.nav.vel_world;
+  s.nav.rate_body = (1 - alpha) * a.nav.rate_body + alpha * b.nav.rate_body;
+  s.bias = (1 - alpha) * a.bias + alpha * b.bias;
+  return s;
+}
+
+// One IMU + GPS solve over the whole session (SlamStageOptions::session_state_rate_hz).
+void SolveSession(const SlamStageOptions& options, SessionContext* ctx) {
+  const auto start = Clock::now();
+  const std::vector<slam::ImuSample>& imu = ctx->streams.imu->samples;
+  const Timestamp begin = std::max(imu.front().timestamp, ctx->factor_fixes.front().t);
+  const Timestamp end = std::min(imu.back().timestamp, ctx->factor_fixes.back().t);
+  const Timestamp step = SecondsToTimestamp(1.0 / options.session_state_rate_hz);
+  std::vector<Timestamp> times;
+  for (Timestamp t = begin; t <= end; t += step) times.push_back(t);
+  if (times.size() < 2) return;
+  slam::RowOptimiser::Input input;
+  input.initial_states = ctx->initialiser->Initialise(times, ctx->factor_antenna);
+  input.imu_samples = &imu;
+  const io::ImuSensor& sensor = ctx->streams.imu->sensor;
+  input.imu_noise.gyro_noise_density = sensor.gyroscope_noise_density;
+  input.imu_noise.accel_noise_density = sensor.accelerometer_noise_density;
+  input.imu_noise.gyro_random_walk = sensor.gyroscope_random_walk;
+  input.imu_noise.accel_random_walk = sensor.accelerometer_random_walk;
+  input.imu_rate_hz = sensor.rate_hz;
+  input.gps_fixes = ctx->factor_fixes;
+  input.p_body_antenna = ctx->factor_antenna;
+  const slam::RowOptimiser::Result result = slam::RowOptimiser(options.optimiser).Solve(input);
+  ctx->session_states = result.states;
+  // The forward axis from the attitudes in turns, where the heading is well observed.
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int count = 0;
+  for (const slam::RowState& s : result.states) {
+    const Eigen::Vector3d v = s.nav.world_from_body.rotation().inverse() * s.nav.vel_world;
+    if (std::abs(s.nav.rate_body.z()) < 0.15 || v.norm() < 0.5) continue;
+    sum += v.normalized();
+    ++count;
+  }
+  // Only a precise receiver makes the attitudes in turns better than the alignment windows of
+  // StateInitialiser (with a metre-level receiver the heading in a turn is off by degrees).
+  std::vector<double> sigmas;
+  for (const slam::GpsFixWorld& fix : ctx->factor_fixes) sigmas.push_back(fix.sigma_h);
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  const bool precise = sigmas[sigmas.size() / 2] <= 0.1;
+  if (count >= 10 && precise) {
+    const Eigen::Vector3d axis = sum.normalized();
+    ctx->initialiser->set_forward_axis(axis);
+    ctx->forward_axis_estimated = true;
+    spdlog::info(
+        "session {}: IMU + GPS solve over {} states in {:.1f} s; forward axis ({:.3f}, "
+        "{:.3f}, {:.3f}) from {} states in turns",
+        ctx->session->id(), times.size(), SecondsSince(start), axis.x(), axis.y(), axis.z(), count);
+  } else {
+    spdlog::info("session {}: IMU + GPS solve over {} states in {:.1f} s", ctx->session->id(),
+                 times.size(), SecondsSince(start));
+  }
+}
+
+PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const slam::RowPass& pass,
+                    const std::string& folder, const std::string& fingerprint,
+                    const json& options_json, const std::vector<Timestamp>& times) {
+  const auto start_total = Clock::now();
+  const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
+  json summary;
+  summary["session"] = ctx.session->id();
+  summary["pass"] = pass.id;
+  summary["row"] = pass.row;
+  summary["direction"] = pass.direction;
+  summary["t_begin_ns"] = pass.t_begin;
+  summary["t_end_ns"] = pass.t_end;
+  summary["sensors"] = slam::ToString(ctx.sensors);
+  summary["pose_frame"] = info.camera ? "camera" : "body";
+  summary["fingerprint"] = fingerprint;
+  summary["options"] = options_json;
+
+  // Front end.
+  features::FrontEnd::Result front;
+  std::vector<slam::LandmarkTrack> tracks;
+  const slam::CameraStream* camera = info.camera ? &*ctx.streams.camera : nullptr;
+  double front_end_seconds = 0;
+  if (camera != nullptr) {
+    auto start = Clock::now();
+    features::FrontEnd::Options fe = options.front_end;
+    fe.cache_path = (fs::path(folder) / "features.bin").string();
+    fe.show_progress = options.show_progress;
+    const features::FrontEnd front_end(fe, &camera->sensor.camera);
+    std::vector<std::string> keys;
+    std::vector<std::string> paths;
+    for (const io::ImageEntry& e : camera->images) {
+      if (e.t < times.front() || e.t > times.back()) continue;
+      keys.push_back(std::to_string(e.t));
+      paths.push_back(ctx.session->ImagePath(camera->sensor.name, e.filename));
+    }
+    front =
+        front_end.Run(keys, [&](std::size_t i) { return cv::imread(paths[i], cv::IMREAD_COLOR); });
+    if (front.summary.num_images_unreadable > 0) {
+      spdlog::warn(
+          "{}/{}: {} images could not be read (no features; the IMU and GPS carry the "
+          "states there)",
+          ctx.session->id(), pass.id, front.summary.num_images_unreadable);
+    }
+    for (const features::Track& track : front.tracks) {
+      slam::LandmarkTrack t;
+      Eigen::Vector3i color_sum = Eigen::Vector3i::Zero();
+      for (const features::Observation& obs : track.observations) {
+        const features::FeatureSet& f = front.features[obs.image];
+        const features::Keypoint& kp = f.keypoints[obs.feature];
+        t.observations.push_back({obs.image, Eigen::Vector2d(kp.x, kp.y)});
+        if (!f.colors.empty()) {
+          for (int c = 0; c < 3; ++c) color_sum(c) += f.colors[obs.feature][c];
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        t.color[c] = static_cast<std::uint8_t>(color_sum(c) / static_cast<int>(track.size()));
+      }
+      tracks.push_back(std::move(t));
+    }
+    front_end_seconds = SecondsSince(start);
+    summary["front_end"] = {{"images", front.summary.num_images},
+                            {"images_from_cache", front.summary.num_images_from_cache},
+                            {"images_unreadable", front.summary.num_images_unreadable},
+                            {"features", front.summary.num_features},
+                            {"pairs", front.summary.num_pairs},
+                            {"verified_pairs", front.summary.num_verified_pairs},
+                            {"inlier_matches", front.summary.num_inlier_matches},
+                            {"tracks", front.summary.tracks.num_tracks},
+                            {"landmarks", front.summary.num_landmarks},
+                            {"seconds", front_end_seconds}};
+  }
+
+  // Initial states.
+  auto start = Clock::now();
+  slam::StateInitialiser::Summary init_summary;
+  std::vector<slam::RowState> initial;
+  if (info.gps && !ctx.session_states.empty()) {
+    // The session solution interpolated at the state times.
+    for (Timestamp t : times) initial.push_back(SessionStateAt(ctx.session_states, t));
+    init_summary.forward_axis_body = ctx.initialiser->forward_axis();
+  } else if (info.gps) {
+    initial = ctx.initialiser->Initialise(times, ctx.factor_antenna, &init_summary);
+  } else {
+    // cam+imu: the best GPS only anchors the first state (the gauge); nothing after it.
+    const std::vector<slam::RowState> anchor = ctx.initialiser->Initialise(
+        {times.front()}, ctx.best_gps.sensor.antenna_in_body, &init_summary);
+    initial = ctx.initialiser->InitialiseFromAnchor(anchor.front(), times);
+  }
+  const double init_seconds = SecondsSince(start);
+  {
+    // The initial guess, for diagnosis (same frame as poses.tum).
+    std::vector<io::StampedPose> initial_poses;
+    for (const slam::RowState& state : initial) {
+      initial_poses.push_back(
+          {state.t, camera != nullptr ? state.nav.world_from_body * camera->sensor.body_from_sensor
+                                      : state.nav.world_from_body});
+    }
+    io::WriteTum((fs::path(folder) / "initial_poses.tum").string(), initial_poses,
+                 "initial guess of " + ctx.session->id() + "/" + pass.id + " from GPS and IMU");
+  }
+
+  // Back end.
+  slam::RowOptimiser::Options op = options.optimiser;
+  const slam::RowOptimiser optimiser(op);
+  slam::RowOptimiser::Input input;
+  input.initial_states = initial;
+  if (camera != nullptr) {
+    input.camera = &camera->sensor.camera;
+    input.body_from_camera = camera->sensor.body_from_sensor;
+    input.tracks = tracks;
+  }
+  const slam::ImuStream& imu = *ctx.streams.imu;
+  input.imu_samples = &imu.samples;
+  input.imu_noise.gyro_noise_density = imu.sensor.gyroscope_noise_density;
+  input.imu_noise.accel_noise_density = imu.sensor.accelerometer_noise_density;
+  input.imu_noise.gyro_random_walk = imu.sensor.gyroscope_random_walk;
+  input.imu_noise.accel_random_walk = imu.sensor.accelerometer_random_walk;
+  input.imu_rate_hz = imu.sensor.rate_hz;
+  if (!ctx.session_states.empty()) {
+    input.bias_prior_mean = initial.front().bias;
+    slam::Vector6d sigma;
+    sigma << Eigen::Vector3d::Constant(options.session_bias_sigma_gyro),
+        Eigen::Vector3d::Constant(options.session_bias_sigma_accel);
+    input.bias_prior_sigma = sigma;
+  }
+  if (pass.row >= 0 && ctx.forward_axis_estimated) {
+    // A row pass is driven by a vehicle: the non-holonomic constraint holds.
+    input.forward_axis_body = ctx.initialiser->forward_axis();
+  }
+  if (info.gps) {
+    // Warn about GPS outages inside the pass (the IMU and the camera bridge them).
+    Timestamp previous = times.front();
+    double longest = 0;
+    for (const slam::GpsFixWorld& fix : ctx.factor_fixes) {
+      if (fix.t < times.front()) continue;
+      if (fix.t > times.back()) break;
+      longest = std::max(longest, DurationSeconds(previous, fix.t));
+      previous = fix.t;
+    }
+    longest = std::max(longest, DurationSeconds(previous, times.back()));
+    if (longest > 2.0) {
+      spdlog::warn("{}/{}: no GPS fix for {:.1f} s inside the pass; the IMU{} bridges the gap",
+                   ctx.session->id(), pass.id, longest, camera != nullptr ? " and the camera" : "");
+    }
+    summary["longest_gps_gap_s"] = longest;
+    input.gps_fixes = ctx.factor_fixes;
+    input.p_body_antenna = ctx.factor_antenna;
+  }
+  const slam::RowOptimiser::Result result = optimiser.Solve(input);
+  const slam::RowOptimiser::Summary& s = result.summary;
+
+  // Outputs: poses, cloud, summary.
+  start = Clock::now();
+  std::vector<io::StampedPose> poses;
+  std::vector<geometry::Rigid3> cameras;
+  for (const slam::RowState& state : result.states) {
+    const geometry::Rigid3 pose = camera != nullptr
+                                      ? state.nav.world_from_body * camera->sensor.body_from_sensor
+                                      : state.nav.world_from_body;
+    poses.push_back({state.t, pose});
+    cameras.push_back(pose);
+  }
+  io::WriteTum((fs::path(folder) / "poses.tum").string(), poses,
+               std::string(camera != nullptr ? "world_from_camera" : "world_from_body") +
+                   " of session " + ctx.session->id() + ", pass " + pass.id + " (" +
+                   slam::ToString(ctx.sensors) + "), field ENU frame");
+
+  PassOutcome outcome;
+  outcome.num_states = static_cast<int>(result.states.size());
+  outcome.num_images = camera != nullptr ? front.summary.num_images : 0;
+  outcome.num_landmarks = s.num_landmarks_final;
+  if (camera != nullptr) {
+    // Every track of two or more images, triangulated from the final poses.
+    features::TrackBuilder::Options tb;
+    tb.min_track_length = 2;
+    std::vector<int> num_features;
+    for (const features::FeatureSet& f : front.features)
+      num_features.push_back(static_cast<int>(f.size()));
+    const std::vector<features::Track> all_tracks =
+        features::TrackBuilder(tb).Build(num_features, front.pairs);
+    std::vector<slam::TriangulationResult> tri(all_tracks.size());
+    tbb::parallel_for(std::size_t{0}, all_tracks.size(), [&](std::size_t i) {
+      std::vector<geometry::Rigid3> views;
+      std::vector<Eigen::Vector2d> pixels;
+      for (const features::Observation& obs : all_tracks[i].observations) {
+        views.push_back(cameras[obs.image]);
+        const features::Keypoint& kp = front.features[obs.image].keypoints[obs.feature];
+        pixels.emplace_back(kp.x, kp.y);
+      }
+      tri[i] = slam::TriangulatePoint(camera->sensor.camera, views, pixels, options.cloud);
+    });
+    io::PlyPointCloud cloud;
+    io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
+    io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
+    for (std::size_t i = 0; i < all_tracks.size(); ++i) {
+      if (!tri[i].ok()) continue;
+      cloud.points.push_back(tri[i].point_world);
+      Eigen::Vector3i sum = Eigen::Vector3i::Zero();
+      for (const features::Observation& obs : all_tracks[i].observations) {
+        const features::FeatureSet& f = front.features[obs.image];
+        if (!f.colors.empty()) {
+          for (int c = 0; c < 3; ++c) sum(c) += f.colors[obs.feature][c];
+        }
+      }
+      const int n = static_cast<int>(all_tracks[i].size());
+      cloud.colors.push_back({static_cast<std::uint8_t>(sum(0) / n),
+                              static_cast<std::uint8_t>(sum(1) / n),
+                              static_cast<std::uint8_t>(sum(2) / n)});
+      length.values.push_back(n);
+      error.values.push_back(tri[i].mean_reprojection_error_px);
+    }
+    cloud.scalars = {length, error};
+    io::PlyWriteOptions ply_options;
+    ply_options.comment = "crop4d sparse cloud of " + ctx.session->id() + "/" + pass.id +
+                          ", field ENU frame (metres)";
+    io::WritePly((fs::path(folder) / "landmarks.ply").string(), cloud, ply_options);
+    outcome.num_cloud_points = static_cast<int>(cloud.size());
+    summary["cloud"] = {{"tracks", all_tracks.size()}, {"points", cloud.size()}};
+  }
+  const double output_seconds = SecondsSince(start);
+
+  summary["states"] = s.num_states;
+  summary["images"] = outcome.num_images;
+  summary["initialisation"] = {
+      {"forward_axis_body",
+       {init_summary.forward_axis_body.x(), init_summary.forward_axis_body.y(),
+        init_summary.forward_axis_body.z()}},
+      {"states_heading_from_gyro", init_summary.num_states_heading_from_gyro},
+      {"states_without_gps", init_summary.num_states_without_gps}};
+  summary["back_end"] = {{"imu_factors", s.num_imu_factors},
+                         {"imu_gaps", s.num_imu_gaps},
+                         {"gps_factors", s.num_gps_factors},
+                         {"tracks", s.num_tracks},
+                         {"landmarks_triangulated", s.num_landmarks_triangulated},
+                         {"landmarks", s.num_landmarks_final},
+                         {"observations", s.num_observations},
+                         {"rejected_observations", s.num_rejected_observations},
+                         {"reprojection_rms_px", s.reprojection_rms_px},
+                         {"initial_cost", s.initial_cost},
+                         {"final_cost", s.final_cost},
+                         {"iterations", s.iterations},
+                         {"converged", s.converged}};
+  summary["seconds"] = {{"front_end", front_end_seconds},
+                        {"initialisation", init_seconds},
+                        {"inertial_solve", s.inertial_seconds},
+                        {"triangulation", s.triangulation_seconds},
+                        {"full_solve", s.full_solve_seconds},
+                        {"final_solve", s.final_solve_seconds},
+                        {"outputs", output_seconds},
+                        {"total", SecondsSince(start_total)}};
+  io::WriteFileAtomic((fs::path(folder) / "summary.json").string(), summary.dump(2) + "\n");
+  return outcome;
+}
+
+}  // namespace
+
+bool SlamStageOptions::Check() const {
+  for (const GpsOutage& g : gps_outages) {
+    if (!(g.duration_s > 0) || !std::isfinite(g.start_s)) return false;
+  }
+  return state_rate_hz > 0 && session_state_rate_hz >= 0 && session_bias_sigma_gyro > 0 &&
+         session_bias_sigma_accel > 0 && front_end.Check() && passes.Check() &&
+         initialisation.Check() && optimiser.Check() && cloud.Check();
+}
+
+std::string PassFolder(const std::string& workspace, const std::string& session,
+                       const std::string& pass_id) {
+  return (fs::path(workspace) / "sessions" / session / "rows" / pass_id).string();
+}
+
+std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std::string& workspace,
+                                     const SlamStageOptions& options) {
+  if (!options.Check()) throw std::invalid_argument("RunSlamStage: invalid options");
+  const io::Field field(field_folder);
+  std::vector<std::string> sessions = field.session_ids();
+  if (!options.session.empty()) {
+    if (std::find(sessions.begin(), sessions.end(), options.session) == sessions.end()) {
+      throw InputError(field_folder, 0, "no session '" + options.session + "' in this field");
+    }
+    sessions = {options.session};
+  }
+  std::vector<PassReport> reports;
+  for (const std::string& id : sessions) {
+    const io::Session session = field.OpenSession(id);
+    SessionContext ctx;
+    ctx.session = &session;
+    ctx.streams = slam::LoadSessionStreams(field, session, options.camera, options.imu);
+    ctx.sensors = ChooseSensorSet(options, ctx.streams);
+    ctx.data_stamp = DataStamp(session);
+    const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
+    if (const slam::GpsStream* best = ctx.streams.BestGps()) {
+      ctx.best_gps = *best;
+      ctx.best_gps.fixes = ApplyOutages(best->fixes, options.gps_outages);
+      ctx.has_best_gps = true;
+    }
+    if (info.gps) {
+      const slam::GpsStream* gps = ctx.streams.FindGps(info.gps_kind);
+      ctx.factor_fixes = ApplyOutages(gps->fixes, options.gps_outages);
+      ctx.factor_antenna = gps->sensor.antenna_in_body;
+    }
+    // Initialisation from the receiver the factors use; cam+imu anchors each pass with the best
+    // receiver.
+    ctx.init_gps = ctx.best_gps;
+    if (info.gps) {
+      ctx.init_gps = *ctx.streams.FindGps(info.gps_kind);
+      ctx.init_gps.fixes = ctx.factor_fixes;
+    }
+    if (!ctx.has_best_gps) {
+      throw InputError(session.folder(), 0,
+                       "row SLAM needs GPS fixes (to find the row passes and anchor each pass in "
+                       "the field frame); this session has none");
+    }
+    slam::StateInitialiser::Options init_options = options.initialisation;
+    if (info.gps && info.gps_kind == io::GpsKind::kStandard) {
+      // A metre-level receiver needs a long fit for a usable course.
+      init_options.gps_half_window_s = std::max(init_options.gps_half_window_s, 3.0);
+    }
+    {
+      // The forward axis from the best track (RTK when there is one).
+      slam::StateInitialiser best(options.initialisation, *ctx.streams.imu, &ctx.best_gps);
+      slam::StateInitialiser::Summary s;
+      const Eigen::Vector3d axis =
+          best.EstimateForwardAxis(ctx.best_gps.sensor.antenna_in_body, &s);
+      if (s.forward_axis_fallback) {
+        spdlog::warn(
+            "session {}: the motion has no turns to align the IMU with the GPS track; "
+            "assuming the body x axis points forward",
+            id);
+      } else {
+        spdlog::info(
+            "session {}: forward axis in the body frame ({:.3f}, {:.3f}, {:.3f}) from "
+            "{} windows",
+            id, axis.x(), axis.y(), axis.z(), s.num_alignment_windows);
+      }
+      ctx.initialiser =
+          std::make_unique<slam::StateInitialiser>(init_options, *ctx.streams.imu, &ctx.init_gps);
+      ctx.initialiser->set_forward_axis(axis);
+      ctx.forward_axis_estimated = !s.forward_axis_fallback;
+    }
+    if (info.gps && options.session_state_rate_hz > 0) SolveSession(options, &ctx);
+
+    // Row passes from the best track.
+    std::vector<slam::TrackPoint> track;
+    for (const slam::GpsFixWorld& fix : ctx.best_gps.fixes) {
+      track.push_back({fix.t, fix.position_world});
+    }
+    // The segmenter follows the vehicle's reference point: the antenna's offset from it along
+    // the forward axis and to the left.
+    slam::RowPassSegmenter::Options pass_options = options.passes;
+    {
+      const Eigen::Vector3d forward = ctx.initialiser->forward_axis();
+      const Eigen::Vector3d left = Eigen::Vector3d::UnitZ().cross(forward).normalized();
+      const Eigen::Vector3d& antenna = ctx.best_gps.sensor.antenna_in_body;
+      pass_options.antenna_in_body_xy = Eigen::Vector2d(antenna.dot(forward), antenna.dot(left));
+    }
+    slam::RowPassSegmenter::Summary seg_summary;
+    const std::vector<slam::RowPass> passes =
+        slam::RowPassSegmenter(pass_options).Segment(track, field.info().rows, &seg_summary);
+    if (seg_summary.whole_session) {
+      spdlog::warn("session {}: no row structure in the GPS track; processing it as one pass", id);
+    }
+    WritePassList((fs::path(workspace) / "sessions" / id / "passes.csv").string(), passes);
+    spdlog::info("session {}: {} passes, sensors {}", id, passes.size(),
+                 slam::ToString(ctx.sensors));
+    const json options_json = OptionsJson(options, ctx.sensors);
+
+    for (const slam::RowPass& pass : passes) {
+      if (!PassSelected(options, pass)) continue;
+      PassReport report;
+      report.session = id;
+      report.pass = pass;
+      report.sensors = slam::ToString(ctx.sensors);
+      report.folder = PassFolder(workspace, id, pass.id);
+      const auto start = Clock::now();
+      // State times: the images in the pass, or a regular grid without a camera.
+      std::vector<Timestamp> times;
+      if (info.camera) {
+        for (const io::ImageEntry& e : ctx.streams.camera->images) {
+          if (e.t >= pass.t_begin && e.t <= pass.t_end) times.push_back(e.t);
+        }
+      } else {
+        const std::vector<slam::ImuSample>& imu = ctx.streams.imu->samples;
+        const Timestamp begin = std::max(pass.t_begin, imu.front().timestamp);
+        const Timestamp end = std::min(pass.t_end, imu.back().timestamp);
+        const Timestamp step = SecondsToTimestamp(1.0 / options.state_rate_hz);
+        for (Timestamp t = begin; t <= end; t += step) times.push_back(t);
+      }
+      if (times.size() < 2) {
+        report.failed = true;
+        report.message = "fewer than 2 states in the pass";
+        spdlog::warn("{}/{}: {}", id, pass.id, report.message);
+        reports.push_back(report);
+        continue;
+      }
+      const std::string fingerprint = Fingerprint(options_json, pass, times.size(), ctx.data_stamp);
+      if (!options.force && UpToDate(report.folder, fingerprint, info.camera)) {
+        report.skipped = true;
+        report.num_states = static_cast<int>(times.size());
+        report.message = "up to date";
+        spdlog::info("{}/{}: up to date, skipped", id, pass.id);
+        reports.push_back(report);
+        continue;
+      }
+      try {
+        const PassOutcome outcome =
+            RunPass(options, ctx, pass, report.folder, fingerprint, options_json, times);
+        report.num_states = outcome.num_states;
+        report.num_images = outcome.num_images;
+        report.num_landmarks = outcome.num_landmarks;
+        report.num_cloud_points = outcome.num_cloud_points;
+      } catch (const InputError&) {
+        throw;
+      } catch (const std::exception& e) {
+        report.failed = true;
+        report.message = e.what();
+        spdlog::error("{}/{}: {}", id, pass.id, e.what());
+      }
+      report.seconds = SecondsSince(start);
+      if (!report.failed) {
+        spdlog::info("{}/{}: {} states, {} landmarks, {} cloud points, {:.1f} s", id, pass.id,
+                     report.num_states, report.num_landmarks, report.num_cloud_points,
+                     report.seconds);
+      }
+      reports.push_back(report);
+    }
+  }
+  return reports;
+}
+
+}  // namespace crop4d::pipeline

@@ -1,0 +1,111 @@
+#pragma once
+
+// The row SLAM stage (`crop4d slam`, DESIGN.md §2.1–2.2): for every session of a field, split the
+// drive into row passes from the GPS track (slam/row_passes.h), then per pass run the front end
+// (features/front_end.h), initialise the states from GPS and IMU (slam/initialisation.h), solve
+// the factor graph (slam/row_optimiser.h) and triangulate the sparse cloud from the final poses.
+// Outputs per pass in WS/sessions/<session>/rows/<pass>/:
+//   features.bin   the feature cache of the pass (a rerun skips extraction);
+//   poses.tum      world_from_camera at every image time (world_from_body at the state times for
+//                  a camera-less pass), TUM format, seconds;
+//   landmarks.ply  the sparse cloud with colour, track length and reprojection error;
+//   summary.json   counts, costs, times per phase, the options, and a fingerprint: a pass whose
+//                  fingerprint is unchanged is skipped on a rerun (unless `force`).
+// WS/sessions/<session>/passes.csv lists the passes of the session.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "crop4d/features/front_end.h"
+#include "crop4d/slam/initialisation.h"
+#include "crop4d/slam/row_optimiser.h"
+#include "crop4d/slam/row_passes.h"
+#include "crop4d/slam/sensor_set.h"
+#include "crop4d/slam/triangulation.h"
+
+namespace crop4d::pipeline {
+
+// A window without GPS, seconds after the session's first fix of the receiver in use.
+struct GpsOutage {
+  double start_s = 0;
+  double duration_s = 0;
+};
+
+struct SlamStageOptions {
+  // Only this session (empty: every session of the field).
+  std::string session;
+  // Only this pass: a pass id ("row03", "all") or a row index ("3"); empty: every pass.
+  std::string pass;
+  // The sensor set; unset: cam+imu+rtk when the session has an RTK receiver, cam+imu+gps when it
+  // has only a standard one, cam+imu without GPS, imu+rtk without a camera.
+  std::optional<slam::SensorSet> sensors;
+  // Sensor names (empty: the session's first camera / IMU).
+  std::string camera;
+  std::string imu;
+  // GPS removed from the factors and the initialisation (outage studies).
+  std::vector<GpsOutage> gps_outages;
+  // Camera-less passes: states at this rate, Hz.
+  double state_rate_hz = 10.0;
+  // Before the passes, one IMU + GPS solve over the whole session (turns included) at this
+  // state rate, Hz (0: none). Its biases become each pass's bias prior (turns make the
+  // accelerometer bias observable; a straight pass confuses it with roll and pitch), its
+  // trajectory the passes' initial guess, and its attitudes in turns refine the forward axis.
+  // Only for sensor sets with GPS (cam+imu uses nothing of the GPS beyond the first state).
+  double session_state_rate_hz = 5.0;
+  // Standard deviations of the bias prior taken from the session solve: gyroscope rad/s,
+  // accelerometer m/s².
+  double session_bias_sigma_gyro = 1e-3;
+  double session_bias_sigma_accel = 0.02;
+  // Stage parts. The front end's defaults for row SLAM (bench/RESULTS.md, "Row SLAM speed"):
+  // 1024 features per image spread over an 8×8 grid (soil as well as plants), extracted on the
+  // image downscaled to 640 px (SIFT doubles its input internally), exact matching instead of
+  // FLANN (cheaper at this budget): ≥ 7.5 images/s at 1280×960 on 2 cores at the same accuracy.
+  features::FrontEnd::Options front_end = [] {
+    features::FrontEnd::Options o;
+    o.extraction.max_num_features = 1024;
+    o.extraction.spatial_grid_cells = 8;
+    o.extraction.max_image_size = 640;
+    o.matching.descriptors.method = features::DescriptorMatchOptions::Method::kExhaustive;
+    return o;
+  }();
+  slam::RowPassSegmenter::Options passes;
+  slam::StateInitialiser::Options initialisation;
+  slam::RowOptimiser::Options optimiser;
+  // The output cloud: every track of ≥ 2 images triangulated from the final poses with these
+  // checks.
+  slam::TriangulationOptions cloud;
+  // Recompute passes whose outputs are up to date.
+  bool force = false;
+  bool show_progress = true;
+
+  bool Check() const;
+};
+
+struct PassReport {
+  std::string session;
+  slam::RowPass pass;
+  std::string sensors;
+  std::string folder;
+  // Skipped because its outputs were up to date.
+  bool skipped = false;
+  // Failed (message says why); the other passes go on.
+  bool failed = false;
+  std::string message;
+  int num_states = 0;
+  int num_images = 0;
+  int num_landmarks = 0;
+  int num_cloud_points = 0;
+  double seconds = 0;
+};
+
+// Runs the stage; throws InputError for a field that cannot be read or a sensor set a session
+// cannot provide. A pass that fails is reported and the others go on.
+std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std::string& workspace,
+                                     const SlamStageOptions& options);
+
+// The folder of a pass's outputs.
+std::string PassFolder(const std::string& workspace, const std::string& session,
+                       const std::string& pass_id);
+
+}  // namespace crop4d::pipeline

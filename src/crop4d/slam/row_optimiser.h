@@ -1,0 +1,161 @@
+#pragma once
+
+// The back end of one row pass (DESIGN.md §2.2): one Ceres factor graph with a state per image
+// time (pose, velocity, angular rate, IMU bias; state_layout.h) and
+//   - reprojection factors of the front end's landmarks with a Huber loss, landmarks eliminated by
+//     the Schur complement (SPARSE_SCHUR, landmarks in the first elimination group);
+//   - preintegrated IMU factors and bias random-walk factors between consecutive states, and an
+//     angular-rate factor per state (imu_preintegration.h);
+//   - the Gaussian-process white-noise-on-acceleration prior between consecutive states
+//     (gp_prior.h);
+//   - a GPS factor at every GPS time, interpolating the GP trajectory between its two
+//     neighbouring states, with the antenna lever arm and the fix's sigmas (gps_factor.h);
+//   - a weak prior on the first bias (turn-on bias of a MEMS IMU), and, without GPS, a prior on
+//     the first pose and velocity that fixes the gauge.
+// Solving runs in phases: (1) without the camera (IMU + GP + GPS) to refine the initial states;
+// (2) landmarks triangulated from those poses, then the full problem; (3) observations whose
+// reprojection error exceeds 10 px removed, the IMU re-preintegrated at the estimated biases,
+// and a final solve. An IMU gap inside an interval drops that interval's IMU factor (the GP prior
+// bridges it) with a warning.
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "crop4d/geometry/camera.h"
+#include "crop4d/geometry/rigid.h"
+#include "crop4d/slam/gp_prior.h"
+#include "crop4d/slam/imu_preintegration.h"
+#include "crop4d/slam/initialisation.h"
+#include "crop4d/slam/session_streams.h"
+#include "crop4d/slam/triangulation.h"
+
+namespace crop4d::slam {
+
+// One observation of a landmark: the state (image) index and the distorted pixel.
+struct LandmarkObservation {
+  int state = -1;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+};
+
+struct LandmarkTrack {
+  std::vector<LandmarkObservation> observations;
+  std::array<std::uint8_t, 3> color{128, 128, 128};
+};
+
+class RowOptimiser {
+ public:
+  struct Options {
+    // Standard deviation of a keypoint position, px.
+    double reprojection_sigma_px = 1.0;
+    // Huber loss threshold of the reprojection factors, in sigmas.
+    double reprojection_loss_scale = 2.0;
+    // Observations whose reprojection error exceeds this are removed before the final solve, px.
+    double max_reprojection_error_px = 10.0;
+    // A landmark keeps its place in the final solve with at least this many observations.
+    int min_observations = 3;
+    // Triangulation of the landmarks from the poses of phase 1 (a looser reprojection bound than
+    // the output cloud's, since those poses are not final).
+    TriangulationOptions triangulation = [] {
+      TriangulationOptions o;
+      o.min_parallax_deg = 0.5;
+      o.max_reprojection_error_px = 10.0;
+      return o;
+    }();
+    // A track whose triangulation fails on the error bound loses its worst view and is
+    // triangulated again, at most this many times (those views count as rejected).
+    int max_outliers_per_track = 3;
+    // Huber loss threshold of the GPS factors, in sigmas.
+    double gps_loss_scale = 3.0;
+    // GP prior power spectral densities.
+    GpPriorFactor::Options gp;
+    // Prior on the first state's bias (turn-on bias): gyroscope rad/s, accelerometer m/s².
+    double bias_prior_sigma_gyro = 0.01;
+    double bias_prior_sigma_accel = 0.2;
+    // Gauge prior on the first state when there is no GPS factor: position m, rotation rad,
+    // velocity m/s.
+    double anchor_sigma_position = 0.01;
+    double anchor_sigma_rotation = 0.002;
+    double anchor_sigma_velocity = 0.02;
+    // Standard deviation of the body velocity across the forward axis (non-holonomic
+    // constraint of a ground vehicle, motion_constraint_factor.h), m/s; used when
+    // Input::forward_axis_body is set.
+    double motion_constraint_sigma = 0.05;
+    // An interval whose IMU samples are further apart than this has no IMU factor, s.
+    double max_imu_gap_s = 0.1;
+    // Ceres iterations per phase and threads (0: all cores).
+    int max_iterations = 50;
+    int num_threads = 0;
+
+    bool Check() const;
+  };
+
+  struct Input {
+    // Initial states at the state times (sorted).
+    std::vector<RowState> initial_states;
+    // Camera (null: no camera factors), its extrinsics and the landmark tracks.
+    const geometry::PinholeRadTan* camera = nullptr;
+    geometry::Rigid3 body_from_camera;
+    std::vector<LandmarkTrack> tracks;
+    // IMU samples in the body frame (null or empty: no IMU factors) and its noise.
+    const std::vector<ImuSample>* imu_samples = nullptr;
+    ImuPreintegration::Options imu_noise;
+    double imu_rate_hz = 167.0;
+    // GPS fixes (world frame) and the antenna lever arm; fixes outside the states' span are
+    // ignored.
+    std::vector<GpsFixWorld> gps_fixes;
+    Eigen::Vector3d p_body_antenna = Eigen::Vector3d::Zero();
+    // The vehicle's forward axis in the body frame: when set, every state gets the
+    // non-holonomic motion constraint (a wheeled vehicle in a row; not a person walking).
+    std::optional<Eigen::Vector3d> forward_axis_body;
+    // Prior on the first state's bias [bg; ba]: mean and standard deviations (unset: zero mean
+    // and Options::bias_prior_sigma_*). A session-wide inertial solve, whose turns make the
+    // biases observable, gives a much tighter prior than a straight pass alone.
+    Vector6d bias_prior_mean = Vector6d::Zero();
+    std::optional<Vector6d> bias_prior_sigma;
+  };
+
+  struct Summary {
+    int num_states = 0;
+    int num_imu_factors = 0;
+    int num_imu_gaps = 0;
+    int num_gps_factors = 0;
+    int num_tracks = 0;
+    // Landmarks triangulated for phase 2 and kept for the final solve.
+    int num_landmarks_triangulated = 0;
+    int num_landmarks_final = 0;
+    std::int64_t num_observations = 0;
+    std::int64_t num_rejected_observations = 0;
+    // Cost of the full problem before phase 2 and after the final solve (Ceres' ½‖r‖²).
+    double initial_cost = 0;
+    double final_cost = 0;
+    int iterations = 0;
+    // RMS reprojection error of the kept observations after the final solve, px.
+    double reprojection_rms_px = 0;
+    // Wall-clock seconds.
+    double inertial_seconds = 0;
+    double triangulation_seconds = 0;
+    double full_solve_seconds = 0;
+    double final_solve_seconds = 0;
+    bool converged = false;
+  };
+
+  struct Result {
+    std::vector<RowState> states;
+    // Landmarks of the final solve: position and the index of their track in Input::tracks.
+    std::vector<Eigen::Vector3d> landmarks_world;
+    std::vector<int> landmark_tracks;
+    Summary summary;
+  };
+
+  explicit RowOptimiser(Options options);
+  Result Solve(const Input& input) const;
+  const Options& options() const { return options_; }
+
+ private:
+  Options options_;
+};
+
+}  // namespace crop4d::slam

@@ -1,0 +1,591 @@
+#include "crop4d/slam/row_passes.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numeric>
+#include <stdexcept>
+
+#include "crop4d/core/error.h"
+
+namespace crop4d::slam {
+namespace {
+
+// One fix in seconds since the first fix, horizontal only.
+struct Fix {
+  double t = 0.0;
+  Eigen::Vector2d p = Eigen::Vector2d::Zero();
+};
+
+// A straight stretch of fixes [first, last] in one direction, and what the passes need of it.
+struct Stretch {
+  int first = 0, last = 0;
+  int direction = 0;
+  double t_begin = 0.0, t_end = 0.0;  // s since the first fix
+  double lateral = 0.0;               // mean lateral coordinate, m
+  int row = -1;
+};
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  return values[mid];
+}
+
+// White-noise std-dev per horizontal axis from second differences of evenly spaced fixes:
+// for x_k = smooth + n_k, x_{k+1} − 2 x_k + x_{k−1} has variance 6σ² (the smooth part is
+// negligible on straight stretches at 5 Hz); MAD for robustness against turns and outliers.
+double EstimateNoise(const std::vector<Fix>& fixes, double median_dt) {
+  std::vector<double> abs_second_differences;
+  for (size_t k = 1; k + 1 < fixes.size(); ++k) {
+    const double dt0 = fixes[k].t - fixes[k - 1].t, dt1 = fixes[k + 1].t - fixes[k].t;
+    if (std::abs(dt1 - dt0) > 0.1 * median_dt || dt0 > 1.5 * median_dt) continue;
+    const Eigen::Vector2d e = fixes[k + 1].p - 2.0 * fixes[k].p + fixes[k - 1].p;
+    abs_second_differences.push_back(std::abs(e.x()));
+    abs_second_differences.push_back(std::abs(e.y()));
+  }
+  return 1.4826 * Median(std::move(abs_second_differences)) / std::sqrt(6.0);
+}
+
+// Velocity and fitted position of every fix from a least-squares line p(t) = a + v t over the
+// fixes within ±window/2 (at least 3 spanning half the window, else invalid).
+void FitVelocities(const std::vector<Fix>& fixes, double window, std::vector<Eigen::Vector2d>* v,
+                   std::vector<Eigen::Vector2d>* p_fit, std::vector<bool>* valid) {
+  const int n = static_cast<int>(fixes.size());
+  v->assign(n, Eigen::Vector2d::Zero());
+  p_fit->resize(n);
+  valid->assign(n, false);
+  int lo = 0, hi = 0;  // window [lo, hi)
+  for (int i = 0; i < n; ++i) {
+    (*p_fit)[i] = fixes[i].p;
+    while (fixes[lo].t < fixes[i].t - 0.5 * window) ++lo;
+    while (hi < n && fixes[hi].t <= fixes[i].t + 0.5 * window) ++hi;
+    const int m = hi - lo;
+    if (m < 3 || fixes[hi - 1].t - fixes[lo].t < 0.5 * window) continue;
+    double t_mean = 0.0;
+    Eigen::Vector2d p_mean = Eigen::Vector2d::Zero();
+    for (int j = lo; j < hi; ++j) {
+      t_mean += fixes[j].t;
+      p_mean += fixes[j].p;
+    }
+    t_mean /= m;
+    p_mean /= m;
+    double stt = 0.0;
+    Eigen::Vector2d stp = Eigen::Vector2d::Zero();
+    for (int j = lo; j < hi; ++j) {
+      const double dt = fixes[j].t - t_mean;
+      stt += dt * dt;
+      stp += dt * (fixes[j].p - p_mean);
+    }
+    (*v)[i] = stp / stt;
+    (*p_fit)[i] = p_mean + (*v)[i] * (fixes[i].t - t_mean);
+    (*valid)[i] = true;
+  }
+}
+
+// Axis (angle mod π) of the dominant course: speed-weighted histogram of doubled angles, 1°
+// bins smoothed over ±5°, peak refined by the circular mean of the doubled angles within
+// ±2·tolerance of it (axial data, Mardia & Jupp 2000, §9.3.2). NaN when no fix moves.
+double DominantAxis(const std::vector<Eigen::Vector2d>& v, const std::vector<bool>& valid,
+                    double min_speed, double tolerance) {
+  constexpr int kBins = 360;
+  std::vector<double> histogram(kBins, 0.0);
+  std::vector<std::pair<double, double>> doubled;  // (2θ, weight)
+  for (size_t i = 0; i < v.size(); ++i) {
+    const double speed = v[i].norm();
+    if (!valid[i] || speed < min_speed) continue;
+    double a2 = std::fmod(2.0 * std::atan2(v[i].y(), v[i].x()) + 4.0 * M_PI, 2.0 * M_PI);
+    doubled.emplace_back(a2, speed);
+    histogram[std::min(kBins - 1, static_cast<int>(a2 / (2.0 * M_PI) * kBins))] += speed;
+  }
+  if (doubled.empty()) return std::numeric_limits<double>::quiet_NaN();
+  int best = 0;
+  double best_value = -1.0;
+  for (int b = 0; b < kBins; ++b) {
+    double sum = 0.0;
+    for (int d = -5; d <= 5; ++d) sum += histogram[(b + d + kBins) % kBins];
+    if (sum > best_value) {
+      best_value = sum;
+      best = b;
+    }
+  }
+  const double peak = (best + 0.5) * 2.0 * M_PI / kBins;
+  double c = 0.0, s = 0.0;
+  for (const auto& [a2, w] : doubled) {
+    if (std::abs(std::remainder(a2 - peak, 2.0 * M_PI)) > 2.0 * tolerance) continue;
+    c += w * std::cos(a2);
+    s += w * std::sin(a2);
+  }
+  return 0.5 * std::atan2(s, c);
+}
+
+// Change point t₀ of the lateral offset at the end (or, mirrored, the start) of a straight
+// stretch (file comment in the header, step 4): least squares of
+//   l(t) = c₀ + c₁ s + c₂ s² + b₁ h + b₂ h² + b₃ h³,  s = ±(t − t₀), h = max(0, s),
+// over the fixes in [t_lo − before, t_hi + after] (mirrored for a start), minimised over t₀ in
+// [t_lo, t_hi]. NaN when no candidate has enough fixes on both sides.
+double ChangePoint(const std::vector<Fix>& fixes, const Eigen::Vector2d& lateral_axis, double t_lo,
+                   double t_hi, bool at_end) {
+  constexpr double kStraightSide = 3.0, kTurnSide = 1.0, kStep = 0.05;
+  const double w_lo = at_end ? t_lo - kStraightSide : t_lo - kTurnSide;
+  const double w_hi = at_end ? t_hi + kTurnSide : t_hi + kStraightSide;
+  std::vector<double> ts, ls;
+  for (const Fix& f : fixes) {
+    if (f.t < w_lo || f.t > w_hi) continue;
+    ts.push_back(f.t);
+    ls.push_back(lateral_axis.dot(f.p));
+  }
+  const int m = static_cast<int>(ts.size());
+  if (m < 10) return std::numeric_limits<double>::quiet_NaN();
+  const double l_mean = std::accumulate(ls.begin(), ls.end(), 0.0) / m;
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(ls.data(), m).array() - l_mean;
+  double best_t0 = std::numeric_limits<double>::quiet_NaN(), best_sse = 0.0;
+  for (double t0 = t_lo; t0 <= t_hi + 1e-9; t0 += kStep) {
+    Eigen::MatrixXd a(m, 6);
+    int straight = 0, turn = 0;
+    for (int j = 0; j < m; ++j) {
+      const double s = at_end ? ts[j] - t0 : t0 - ts[j];
+      const double h = std::max(0.0, s);
+      (h > 0.0 ? turn : straight)++;
+      a.row(j) << 1.0, s, s * s, h, h * h, h * h * h;
+    }
+    if (straight < 6 || turn < 4) continue;
+    const Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
+    const double sse = (a * x - y).squaredNorm();
+    if (std::isnan(best_t0) || sse < best_sse) {
+      best_sse = sse;
+      best_t0 = t0;
+    }
+  }
+  return best_t0;
+}
+
+Eigen::Vector2d InterpolatePosition(const std::vector<Fix>& fixes, double t) {
+  const auto it = std::lower_bound(fixes.begin(), fixes.end(), t,
+                                   [](const Fix& f, double value) { return f.t < value; });
+  if (it == fixes.begin()) return fixes.front().p;
+  if (it == fixes.end()) return fixes.back().p;
+  const Fix& b = *it;
+  const Fix& a = *(it - 1);
+  const double f = (t - a.t) / (b.t - a.t);
+  return a.p + f * (b.p - a.p);
+}
+
+std::string RowId(int row, int occurrence) {
+  char buffer[32];
+  if (occurrence <= 1) {
+    std::snprintf(buffer, sizeof(buffer), "row%02d", row);
+  } else {
+    std::snprintf(buffer, sizeof(buffer), "row%02d_%d", row, occurrence);
+  }
+  return buffer;
+}
+
+}  // namespace
+
+bool RowPassSegmenter::Options::Check() const {
+  return row_spacing_m > 0.0 && velocity_window_s >= 0.0 && min_velocity_window_s > 0.0 &&
+         max_velocity_window_s >= min_velocity_window_s && heading_tolerance_rad > 0.0 &&
+         heading_tolerance_rad < 0.5 * M_PI && min_speed_mps > 0.0 && min_length_m > 0.0 &&
+         max_join_gap_s >= 0.0 && refine_max_noise_m >= 0.0 && max_row_distance_m >= 0.0 &&
+         relative_matching_noise_m >= 0.0 && antenna_in_body_xy.allFinite() &&
+         !std::isinf(row_axis_rad) && !std::isinf(lateral_origin_m) &&
+         min_row_time_fraction >= 0.0 && min_row_time_fraction <= 1.0;
+}
+
+RowPassSegmenter::RowPassSegmenter(Options options) : options_(options) {
+  if (!options_.Check()) throw std::invalid_argument("RowPassSegmenter: invalid options");
+}
+
+std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& track,
+                                               const std::vector<io::RowDeclaration>& declared_rows,
+                                               Summary* summary) const {
+  const Options& o = options_;
+  Summary local_summary;
+  Summary& sum = summary != nullptr ? *summary : local_summary;
+  sum = Summary();
+  sum.num_points = static_cast<int>(track.size());
+  for (size_t i = 0; i < track.size(); ++i) {
+    if (!track[i].position_world.allFinite()) {
+      throw InputError("GPS track: fix " + std::to_string(i) + " has a non-finite position");
+    }
+    if (i > 0 && track[i].t <= track[i - 1].t) {
+      throw InputError("GPS track: times not strictly increasing at fix " + std::to_string(i));
+    }
+  }
+  for (const io::RowDeclaration& row : declared_rows) {
+    if (!row.start_enu.allFinite() || !row.end_enu.allFinite() ||
+        (row.end_enu - row.start_enu).norm() < 1e-6) {
+      throw InputError("declared row " + std::to_string(row.index) +
+                       ": start and end must be finite and distinct");
+    }
+  }
+  if (track.size() < 2) return {};
+
+  std::vector<Fix> fixes(track.size());
+  for (size_t i = 0; i < track.size(); ++i) {
+    fixes[i].t = DurationSeconds(track.front().t, track[i].t);
+    fixes[i].p = track[i].position_world.head<2>();
+  }
+  const int n = static_cast<int>(fixes.size());
+  auto to_timestamp = [&](double seconds) { return track.front().t + SecondsToTimestamp(seconds); };
+  std::vector<RowPass> passes;
+  auto whole_session = [&]() {
+    RowPass all;
+    all.id = "all";
+    all.t_begin = track.front().t;
+    all.t_end = track.back().t;
+    all.start_world = fixes.front().p;
+    all.end_world = fixes.back().p;
+    for (int i = 1; i < n; ++i) all.length_m += (fixes[i].p - fixes[i - 1].p).norm();
+    sum.whole_session = true;
+    return std::vector<RowPass>{all};
+  };
+
+  // ---- 1. Noise, velocity window, velocities.
+  std::vector<double> dts;
+  for (int i = 1; i < n; ++i) dts.push_back(fixes[i].t - fixes[i - 1].t);
+  const double median_dt = Median(dts);
+  sum.noise_sigma_m = EstimateNoise(fixes, median_dt);
+  double window = o.velocity_window_s;
+  if (window <= 0.0) {
+    // Typical speed from ~5 s chords (robust to metre noise), then the window that gives a
+    // course noise of ~0.08 rad: σ_θ ≈ σ √12 / (√(W / Δt) v W).
+    std::vector<double> chord_speeds;
+    for (int i = 0, j = 0; i < n; ++i) {
+      while (j < n && fixes[j].t < fixes[i].t + 5.0) ++j;
+      if (j == n) break;
+      chord_speeds.push_back((fixes[j].p - fixes[i].p).norm() / (fixes[j].t - fixes[i].t));
+    }
+    const double speed = std::max(0.5, Median(chord_speeds));
+    constexpr double kCourseSigma = 0.08;
+    window = std::pow(sum.noise_sigma_m * std::sqrt(12.0 * median_dt) / (speed * kCourseSigma),
+                      2.0 / 3.0);
+    window = std::clamp(window, o.min_velocity_window_s, o.max_velocity_window_s);
+  }
+  sum.velocity_window_s = window;
+  std::vector<Eigen::Vector2d> velocity, p_fit;
+  std::vector<bool> valid;
+  FitVelocities(fixes, window, &velocity, &p_fit, &valid);
+  if (!o.antenna_in_body_xy.isZero()) {
+    // Antenna → body origin with the course of the body track (fixed-point iteration).
+    const std::vector<Fix> antenna = fixes;
+    for (int iteration = 0; iteration < 3; ++iteration) {
+      double heading = std::numeric_limits<double>::quiet_NaN();
+      for (int i = 0; i < n; ++i) {
+        if (valid[i] && velocity[i].norm() >= o.min_speed_mps) {
+          heading = std::atan2(velocity[i].y(), velocity[i].x());
+        } else if (std::isnan(heading)) {
+          for (int j = i; j < n && std::isnan(heading); ++j) {
+            if (valid[j] && velocity[j].norm() >= o.min_speed_mps) {
+              heading = std::atan2(velocity[j].y(), velocity[j].x());
+            }
+          }
+        }
+        if (std::isnan(heading)) break;  // never moves: nothing to correct
+        fixes[i].p = antenna[i].p - Eigen::Rotation2Dd(heading) * o.antenna_in_body_xy;
+      }
+      FitVelocities(fixes, window, &velocity, &p_fit, &valid);
+    }
+  }
+
+  // ---- 2. Row axis, canonical in (−45°, 135°]; lateral = axis turned clockwise.
+  double axis = o.row_axis_rad;
+  if (!declared_rows.empty()) {
+    double c = 0.0, s = 0.0;
+    for (const io::RowDeclaration& row : declared_rows) {
+      const Eigen::Vector2d d = row.end_enu - row.start_enu;
+      const double a2 = 2.0 * std::atan2(d.y(), d.x());
+      c += d.norm() * std::cos(a2);
+      s += d.norm() * std::sin(a2);
+    }
+    axis = 0.5 * std::atan2(s, c);
+    sum.used_declared_rows = true;
+  } else if (std::isnan(axis)) {
+    axis = DominantAxis(velocity, valid, o.min_speed_mps, o.heading_tolerance_rad);
+  }
+  if (std::isnan(axis)) return whole_session();
+  axis = std::remainder(axis, M_PI);  // (−90°, 90°]
+  if (axis <= -0.25 * M_PI) axis += M_PI;
+  const Eigen::Vector2d u(std::cos(axis), std::sin(axis));
+  const Eigen::Vector2d lateral_axis(u.y(), -u.x());
+  sum.row_axis_world = u;
+  sum.lateral_axis_world = lateral_axis;
+
+  // ---- 3. Straight fixes, runs, joins, minimum length.
+  const double cos_tolerance = std::cos(o.heading_tolerance_rad);
+  std::vector<int> straight_dir(n, 0);
+  for (int i = 0; i < n; ++i) {
+    const double speed = velocity[i].norm();
+    if (!valid[i] || speed < o.min_speed_mps) continue;
+    const double c = u.dot(velocity[i]) / speed;
+    if (std::abs(c) >= cos_tolerance) straight_dir[i] = c > 0.0 ? 1 : -1;
+  }
+  const double break_gap = 2.5 * median_dt;
+  std::vector<Stretch> runs;
+  for (int i = 0; i < n; ++i) {
+    if (straight_dir[i] == 0) continue;
+    if (!runs.empty() && runs.back().last == i - 1 && runs.back().direction == straight_dir[i] &&
+        fixes[i].t - fixes[i - 1].t <= break_gap) {
+      runs.back().last = i;
+    } else {
+      Stretch run;
+      run.first = run.last = i;
+      run.direction = straight_dir[i];
+      runs.push_back(run);
+    }
+  }
+  sum.num_straight_runs = static_cast<int>(runs.size());
+  auto mean_lateral = [&](int first, int last) {
+    double l = 0.0;
+    for (int i = first; i <= last; ++i) l += lateral_axis.dot(fixes[i].p);
+    return l / (last - first + 1);
+  };
+  std::vector<Stretch> joined;
+  for (const Stretch& run : runs) {
+    if (!joined.empty()) {
+      Stretch& prev = joined.back();
+      const double gap = fixes[run.first].t - fixes[prev.last].t;
+      const int n_prev = prev.last - prev.first + 1, n_run = run.last - run.first + 1;
+      const double lateral_tolerance =
+          0.5 * o.row_spacing_m + 3.0 * sum.noise_sigma_m * std::sqrt(1.0 / n_prev + 1.0 / n_run);
+      const double progress = run.direction * u.dot(p_fit[run.first] - p_fit[prev.last]);
+      if (run.direction == prev.direction && gap <= o.max_join_gap_s &&
+          std::abs(mean_lateral(run.first, run.last) - mean_lateral(prev.first, prev.last)) <=
+              lateral_tolerance &&
+          progress >= -(1.0 + 3.0 * sum.noise_sigma_m)) {
+        prev.last = run.last;
+        if (gap > break_gap) ++sum.num_joined_gaps;
+        continue;
+      }
+    }
+    joined.push_back(run);
+  }
+  std::vector<Stretch> stretches;
+  for (Stretch s : joined) {
+    const double length = s.direction * u.dot(p_fit[s.last] - p_fit[s.first]);
+    if (length < o.min_length_m) {
+      ++sum.num_dropped_short;
+      continue;
+    }
+    s.t_begin = fixes[s.first].t;
+    s.t_end = fixes[s.last].t;
+    stretches.push_back(s);
+  }
+  if (stretches.empty()) return whole_session();
+
+  // ---- 4. Boundaries.
+  const bool refine = sum.noise_sigma_m <= o.refine_max_noise_m;
+  const double session_end = fixes.back().t;
+  for (size_t k = 0; k < stretches.size(); ++k) {
+    Stretch& s = stretches[k];
+    const double coarse_begin = s.t_begin, coarse_end = s.t_end;
+    const double prev_end = k > 0 ? stretches[k - 1].t_end : 0.0;
+    const double next_begin = k + 1 < stretches.size() ? stretches[k + 1].t_begin : session_end;
+    const double middle = 0.5 * (coarse_begin + coarse_end);
+    // A stretch that starts (ends) within the window of the session start (end) runs on to it.
+    const bool at_start = coarse_begin <= 0.5 * window + 2.0 * median_dt;
+    const bool at_finish = coarse_end >= session_end - 0.5 * window - 2.0 * median_dt;
+    if (at_start) {
+      s.t_begin = 0.0;
+    } else if (refine) {
+      const double t0 = ChangePoint(fixes, lateral_axis, std::max(prev_end, coarse_begin - 1.0),
+                                    std::min(middle, coarse_begin + 0.5 * window + 1.0), false);
+      if (!std::isnan(t0)) s.t_begin = t0;
+    } else {
+      s.t_begin = std::min(middle, coarse_begin + 0.5 * window);
+    }
+    if (at_finish) {
+      s.t_end = session_end;
+    } else if (refine) {
+      const double t0 =
+          ChangePoint(fixes, lateral_axis, std::max(middle, coarse_end - 0.5 * window - 1.0),
+                      std::min(next_begin, coarse_end + 1.0), true);
+      if (!std::isnan(t0)) s.t_end = t0;
+    } else {
+      s.t_end = std::max(middle, coarse_end - 0.5 * window);
+    }
+  }
+  for (Stretch& s : stretches) {
+    double l = 0.0;
+    int count = 0;
+    for (int i = 0; i < n; ++i) {
+      if (fixes[i].t < s.t_begin || fixes[i].t > s.t_end) continue;
+      l += lateral_axis.dot(fixes[i].p);
+      ++count;
+    }
+    s.lateral = count > 0 ? l / count : mean_lateral(s.first, s.last);
+  }
+
+  // ---- 5. Row indices.
+  const bool relative = sum.noise_sigma_m > o.relative_matching_noise_m;
+  sum.relative_rows = relative;
+  double spacing = o.row_spacing_m;
+  std::vector<double> declared_lateral;  // sorted across the field
+  std::vector<int> declared_index;
+  if (!declared_rows.empty()) {
+    std::vector<std::pair<double, int>> order;
+    for (const io::RowDeclaration& row : declared_rows) {
+      order.emplace_back(lateral_axis.dot(0.5 * (row.start_enu + row.end_enu)), row.index);
+    }
+    std::sort(order.begin(), order.end());
+    std::vector<double> gaps;
+    for (size_t j = 0; j < order.size(); ++j) {
+      declared_lateral.push_back(order[j].first);
+      declared_index.push_back(order[j].second);
+      if (j > 0 && order[j].first - order[j - 1].first > 1e-6) {
+        gaps.push_back(order[j].first - order[j - 1].first);
+      }
+    }
+    if (!gaps.empty()) spacing = Median(gaps);
+  }
+  sum.row_spacing_m = spacing;
+  // Relative indices: consecutive passes' offsets in whole spacings.
+  std::vector<int> chain(stretches.size(), 0);
+  for (size_t k = 1; k < stretches.size(); ++k) {
+    const double step = (stretches[k].lateral - stretches[k - 1].lateral) / spacing;
+    int increment = static_cast<int>(std::lround(step));
+    if (relative && stretches[k].direction != stretches[k - 1].direction) {
+      increment =
+          (step < 0.0 ? -1 : 1) * static_cast<int>(std::max(1L, std::lround(std::abs(step) - 0.5)));
+    }
+    chain[k] = chain[k - 1] + increment;
+  }
+  const int chain_min = *std::min_element(chain.begin(), chain.end());
+  const int chain_max = *std::max_element(chain.begin(), chain.end());
+  if (!declared_rows.empty() && !relative) {
+    const double max_distance = o.max_row_distance_m > 0.0 ? o.max_row_distance_m : 0.5 * spacing;
+    for (Stretch& s : stretches) {
+      Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+      int count = 0;
+      for (int i = 0; i < n; ++i) {
+        if (fixes[i].t < s.t_begin || fixes[i].t > s.t_end) continue;
+        centroid += fixes[i].p;
+        ++count;
+      }
+      centroid /= std::max(1, count);
+      double best = std::numeric_limits<double>::infinity();
+      for (const io::RowDeclaration& row : declared_rows) {
+        const Eigen::Vector2d d = (row.end_enu - row.start_enu).normalized();
+        const Eigen::Vector2d r = centroid - row.start_enu;
+        const double distance = std::abs(d.x() * r.y() - d.y() * r.x());
+        if (distance < best) {
+          best = distance;
+          s.row = distance <= max_distance ? row.index : -1;
+        }
+      }
+    }
+    sum.row0_lateral_m = declared_lateral.front();
+  } else if (!declared_rows.empty()) {
+    // One integer shift m of the relative indices onto the sorted declared rows: fewest passes
+    // outside the declared rows, then least squares of the lateral offsets.
+    const int num_declared = static_cast<int>(declared_lateral.size());
+    int best_shift = 0, best_outside = 0;
+    double best_sse = 0.0;
+    bool first = true;
+    for (int shift = -chain_max; shift <= num_declared - 1 - chain_min; ++shift) {
+      int outside = 0;
+      double sse = 0.0;
+      for (size_t k = 0; k < stretches.size(); ++k) {
+        const int j = chain[k] + shift;
+        if (j < 0 || j >= num_declared) {
+          ++outside;
+        } else {
+          sse += std::pow(stretches[k].lateral - declared_lateral[j], 2);
+        }
+      }
+      if (first || outside < best_outside || (outside == best_outside && sse < best_sse)) {
+        first = false;
+        best_shift = shift;
+        best_outside = outside;
+        best_sse = sse;
+      }
+    }
+    for (size_t k = 0; k < stretches.size(); ++k) {
+      const int j = chain[k] + best_shift;
+      stretches[k].row = j >= 0 && j < num_declared ? declared_index[j] : -1;
+    }
+    sum.row0_lateral_m = declared_lateral.front();
+  } else {
+    int shift = -chain_min;
+    if (!std::isnan(o.lateral_origin_m)) {
+      double offset = 0.0;
+      for (size_t k = 0; k < stretches.size(); ++k) {
+        offset += stretches[k].lateral - o.lateral_origin_m - chain[k] * spacing;
+      }
+      shift = static_cast<int>(std::lround(offset / stretches.size() / spacing));
+      sum.row0_lateral_m = o.lateral_origin_m;
+    } else {
+      double offset = 0.0;
+      for (size_t k = 0; k < stretches.size(); ++k) {
+        offset += stretches[k].lateral - (chain[k] + shift) * spacing;
+      }
+      sum.row0_lateral_m = offset / stretches.size();
+    }
+    for (size_t k = 0; k < stretches.size(); ++k) stretches[k].row = chain[k] + shift;
+  }
+
+  // ---- Passes.
+  std::map<int, int> occurrences;
+  for (const Stretch& s : stretches) {
+    if (s.row < 0) {
+      ++sum.num_dropped_unmatched;
+      continue;
+    }
+    RowPass pass;
+    pass.row = s.row;
+    pass.direction = s.direction;
+    pass.id = RowId(s.row, ++occurrences[s.row]);
+    pass.t_begin = to_timestamp(s.t_begin);
+    pass.t_end = to_timestamp(s.t_end);
+    pass.lateral_m = s.lateral;
+    if (refine) {
+      pass.start_world = InterpolatePosition(fixes, s.t_begin);
+      pass.end_world = InterpolatePosition(fixes, s.t_end);
+    } else {
+      // Noisy fixes: the along-track line fit, at the pass's mean lateral offset.
+      double t_mean = 0.0, a_mean = 0.0;
+      int count = 0;
+      for (int i = s.first; i <= s.last; ++i) {
+        t_mean += fixes[i].t;
+        a_mean += u.dot(fixes[i].p);
+        ++count;
+      }
+      t_mean /= count;
+      a_mean /= count;
+      double stt = 0.0, sta = 0.0;
+      for (int i = s.first; i <= s.last; ++i) {
+        stt += std::pow(fixes[i].t - t_mean, 2);
+        sta += (fixes[i].t - t_mean) * (u.dot(fixes[i].p) - a_mean);
+      }
+      const double slope = stt > 0.0 ? sta / stt : 0.0;
+      pass.start_world = (a_mean + slope * (s.t_begin - t_mean)) * u + s.lateral * lateral_axis;
+      pass.end_world = (a_mean + slope * (s.t_end - t_mean)) * u + s.lateral * lateral_axis;
+    }
+    pass.length_m = std::abs(u.dot(pass.end_world - pass.start_world));
+    passes.push_back(std::move(pass));
+  }
+  if (passes.empty()) return whole_session();
+  if (declared_rows.empty()) {
+    // A few straight stretches in a recording that is mostly something else (a walk with turns,
+    // a survey) are not a row structure: the whole session is one pass.
+    double in_passes = 0.0;
+    for (const RowPass& p : passes) in_passes += DurationSeconds(p.t_begin, p.t_end);
+    if (in_passes < options_.min_row_time_fraction * fixes.back().t) return whole_session();
+  }
+  return passes;
+}
+
+int FindPass(const std::vector<RowPass>& passes, Timestamp t) {
+  const auto it =
+      std::upper_bound(passes.begin(), passes.end(), t,
+                       [](Timestamp value, const RowPass& p) { return value < p.t_begin; });
+  if (it == passes.begin()) return -1;
+  const int k = static_cast<int>(it - passes.begin()) - 1;
+  return t <= passes[k].t_end ? k : -1;
+}
+
+}  // namespace crop4d::slam

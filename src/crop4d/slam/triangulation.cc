@@ -1,0 +1,251 @@
+#include "crop4d/slam/triangulation.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "crop4d/core/error.h"
+
+namespace crop4d::slam {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+// Tracks up to this length compare all pairs of rays for the parallax.
+constexpr int kAllPairsMaxViews = 30;
+// Step halvings tried when a Gauss-Newton step raises the cost.
+constexpr int kMaxStepHalvings = 10;
+
+// Angle between two vectors, accurate also for small angles.
+double Angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// Largest angle between two of `rays` (see the header comment): all pairs for short tracks,
+// a two-sweep search for long ones.
+double MaxAngle(const std::vector<Eigen::Vector3d>& rays) {
+  const int n = static_cast<int>(rays.size());
+  double best = 0.0;
+  if (n <= kAllPairsMaxViews) {
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) best = std::max(best, Angle(rays[i], rays[j]));
+    }
+    return best;
+  }
+  int far = 0;
+  for (int sweep = 0; sweep < 2; ++sweep) {
+    const int from = far;
+    for (int j = 0; j < n; ++j) {
+      const double angle = Angle(rays[from], rays[j]);
+      if (angle > best) {
+        best = angle;
+        far = j;
+      }
+    }
+  }
+  return best;
+}
+
+struct View {
+  Eigen::Matrix3d camera_from_world_rotation;  // R_iᵀ
+  Eigen::Vector3d center_world;                // t_i
+  Eigen::Vector2d pixel;
+};
+
+// Pixel residual of one view and, if `jacobian` is not null, its derivative with respect to
+// the world point (header comment, step 3). Returns false when the point is not in front.
+bool Residual(const geometry::PinholeRadTan& camera, const View& view,
+              const Eigen::Vector3d& point_world, Eigen::Vector2d* residual,
+              Eigen::Matrix<double, 2, 3>* jacobian) {
+  const Eigen::Vector3d p = view.camera_from_world_rotation * (point_world - view.center_world);
+  if (!(p.z() > 0.0)) return false;
+  const double inv_z = 1.0 / p.z();
+  const Eigen::Vector2d xy = p.head<2>() * inv_z;
+  const Eigen::Vector2d xd = camera.Distort(xy);
+  *residual = Eigen::Vector2d(camera.fx * xd.x() + camera.cx - view.pixel.x(),
+                              camera.fy * xd.y() + camera.cy - view.pixel.y());
+  if (jacobian != nullptr) {
+    Eigen::Matrix<double, 2, 3> dxy_dp;
+    dxy_dp << inv_z, 0.0, -xy.x() * inv_z,  //
+        0.0, inv_z, -xy.y() * inv_z;
+    const Eigen::Matrix2d duv_dxd = Eigen::Vector2d(camera.fx, camera.fy).asDiagonal();
+    *jacobian = duv_dxd * camera.DistortJacobian(xy) * dxy_dp * view.camera_from_world_rotation;
+  }
+  return true;
+}
+
+// Sum of squared pixel residuals; +infinity when the point is not in front of every camera.
+double Cost(const geometry::PinholeRadTan& camera, const std::vector<View>& views,
+            const Eigen::Vector3d& point_world) {
+  double cost = 0.0;
+  Eigen::Vector2d r;
+  for (const View& view : views) {
+    if (!Residual(camera, view, point_world, &r, nullptr)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    cost += r.squaredNorm();
+  }
+  return cost;
+}
+
+}  // namespace
+
+bool TriangulationOptions::Check() const {
+  return min_parallax_deg >= 0.0 && min_parallax_deg < 180.0 && max_reprojection_error_px > 0.0 &&
+         min_depth_m >= 0.0 && max_depth_m > min_depth_m && refine_iterations >= 0;
+}
+
+const char* ToString(TriangulationStatus status) {
+  switch (status) {
+    case TriangulationStatus::kOk:
+      return "ok";
+    case TriangulationStatus::kTooFewViews:
+      return "too few views";
+    case TriangulationStatus::kLowParallax:
+      return "low parallax";
+    case TriangulationStatus::kBehindCamera:
+      return "behind camera";
+    case TriangulationStatus::kTooFar:
+      return "too far";
+    case TriangulationStatus::kLargeError:
+      return "large reprojection error";
+    case TriangulationStatus::kDegenerate:
+      return "degenerate";
+  }
+  return "?";
+}
+
+TriangulationResult TriangulatePoint(const geometry::PinholeRadTan& camera,
+                                     const std::vector<geometry::Rigid3>& world_from_camera,
+                                     const std::vector<Eigen::Vector2d>& pixels,
+                                     const TriangulationOptions& options) {
+  CROP4D_CHECK(world_from_camera.size() == pixels.size());
+  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK(camera.Check());
+  TriangulationResult result;
+  const int n = static_cast<int>(pixels.size());
+  if (n < 2) {
+    result.status = TriangulationStatus::kTooFewViews;
+    return result;
+  }
+
+  // 1. Normalised undistorted coordinates, and the observed rays in the world frame.
+  std::vector<View> views(n);
+  std::vector<Eigen::Vector3d> normalised(n), rays_world(n);
+  Eigen::Vector3d mean_center = Eigen::Vector3d::Zero();
+  for (int i = 0; i < n; ++i) {
+    if (!camera.Unproject(pixels[i], &normalised[i]) || !normalised[i].allFinite()) {
+      return result;  // kDegenerate
+    }
+    const Eigen::Matrix3d world_from_camera_rotation = world_from_camera[i].RotationMatrix();
+    views[i] = {world_from_camera_rotation.transpose(), world_from_camera[i].translation(),
+                pixels[i]};
+    rays_world[i] = world_from_camera_rotation * normalised[i];
+    mean_center += views[i].center_world;
+  }
+  mean_center /= n;
+  // Rays that are (nearly) parallel: no reliable depth, and no unique DLT solution when the
+  // centres coincide.
+  const double min_parallax_rad = options.min_parallax_deg / kRadToDeg;
+  const double observed_parallax = MaxAngle(rays_world);
+  result.max_parallax_deg = observed_parallax * kRadToDeg;
+  if (observed_parallax < min_parallax_rad) {
+    result.status = TriangulationStatus::kLowParallax;
+    return result;
+  }
+
+  // 2. DLT in centred, scaled world coordinates X' = (X − c) / s (H&Z §12.2, §4.4.4).
+  double scale = 0.0;
+  for (const View& view : views) scale += (view.center_world - mean_center).norm();
+  scale /= n;
+  if (!(scale > 0.0)) scale = 1.0;
+  Eigen::MatrixXd A(2 * n, 4);
+  for (int i = 0; i < n; ++i) {
+    // P'_i = [R_iᵀ s | R_iᵀ (c − t_i)] maps X' to the camera frame (up to the factor s).
+    Eigen::Matrix<double, 3, 4> P;
+    P.leftCols<3>() = views[i].camera_from_world_rotation * scale;
+    P.col(3) = views[i].camera_from_world_rotation * (mean_center - views[i].center_world);
+    A.row(2 * i) = normalised[i].x() * P.row(2) - P.row(0);
+    A.row(2 * i + 1) = normalised[i].y() * P.row(2) - P.row(1);
+    const double norm = std::sqrt(A.row(2 * i).squaredNorm() + A.row(2 * i + 1).squaredNorm());
+    if (norm > 0.0) A.middleRows(2 * i, 2) /= norm;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinV);
+  const Eigen::Vector4d X = svd.matrixV().col(3);
+  if (!X.allFinite() || std::abs(X.w()) <= 1e-12 * X.head<3>().norm()) return result;
+  Eigen::Vector3d point = mean_center + scale * X.head<3>() / X.w();
+
+  // 3. Gauss-Newton on the pixel reprojection error, from the DLT point if it lies in front of
+  // every camera (otherwise the depth check below rejects it).
+  double cost = Cost(camera, views, point);
+  for (int iteration = 0; iteration < options.refine_iterations && std::isfinite(cost);
+       ++iteration) {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    Eigen::Vector2d r;
+    Eigen::Matrix<double, 2, 3> J;
+    for (const View& view : views) {
+      Residual(camera, view, point, &r, &J);
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(H);
+    if (ldlt.info() != Eigen::Success) break;
+    Eigen::Vector3d step = -ldlt.solve(g);
+    if (!step.allFinite()) break;
+    ++result.iterations;
+    bool improved = false;
+    for (int halving = 0; halving <= kMaxStepHalvings; ++halving, step *= 0.5) {
+      const double new_cost = Cost(camera, views, point + step);
+      if (new_cost < cost) {
+        point += step;
+        cost = new_cost;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved || step.norm() <= 1e-12 * (1.0 + point.norm())) break;
+  }
+  result.point_world = point;
+
+  // 4. Checks: depth, parallax at the point, reprojection error.
+  for (const View& view : views) {
+    const double depth = (view.camera_from_world_rotation * (point - view.center_world)).z();
+    if (!(depth >= options.min_depth_m)) {
+      result.status = TriangulationStatus::kBehindCamera;
+      return result;
+    }
+    if (depth > options.max_depth_m) {
+      result.status = TriangulationStatus::kTooFar;
+      return result;
+    }
+  }
+  std::vector<Eigen::Vector3d> rays_at_point(n);
+  for (int i = 0; i < n; ++i) rays_at_point[i] = point - views[i].center_world;
+  const double parallax = MaxAngle(rays_at_point);
+  result.max_parallax_deg = parallax * kRadToDeg;
+  double sum = 0.0;
+  result.max_reprojection_error_px = 0.0;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector2d r;
+    Residual(camera, views[i], point, &r, nullptr);
+    const double error = r.norm();
+    sum += error;
+    if (error >= result.max_reprojection_error_px) {
+      result.max_reprojection_error_px = error;
+      result.worst_view = i;
+    }
+  }
+  result.mean_reprojection_error_px = sum / n;
+  if (parallax < min_parallax_rad) {
+    result.status = TriangulationStatus::kLowParallax;
+  } else if (result.max_reprojection_error_px > options.max_reprojection_error_px) {
+    result.status = TriangulationStatus::kLargeError;
+  } else {
+    result.status = TriangulationStatus::kOk;
+  }
+  return result;
+}
+
+}  // namespace crop4d::slam

@@ -7,9 +7,11 @@ demo_dir=${2:?usage: demo.sh CROP4D_BINARY DEMO_DIR}
 field="$demo_dir/field"
 
 start=$(date +%s)
-# The simulation is deterministic: reuse the field when the binary and the configuration are
-# the ones that made it.
-stamp="$("$crop4d" --version; "$crop4d" simulate --print-config --preset demo; md5sum < "$crop4d")"
+# The simulation is deterministic: reuse the field when the simulator's source and the
+# configuration are the ones that made it (a change elsewhere in crop4d does not re-simulate).
+repo=$(cd "$(dirname "$0")/.." && pwd)
+stamp="$("$crop4d" --version; "$crop4d" simulate --print-config --preset demo;
+         cat "$repo"/src/crop4d/sim/*.cc "$repo"/src/crop4d/sim/*.h "$repo"/src/crop4d/io/dataset_writer.cc | md5sum)"
 if [ -f "$field/field.yaml" ] && [ "$(cat "$demo_dir/.simulated" 2>/dev/null)" = "$stamp" ]; then
   echo "demo: reusing the simulated field in $field (delete $demo_dir to simulate again)"
 else

@@ -116,6 +116,9 @@ RunFunction SetupSlam(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--threads", o.front_end.num_threads, "Worker threads (0: all cores)")
       ->capture_default_str();
+  app.add_flag(
+      "--no-motion-constraint", [&o](std::int64_t) { o.motion_constraint = false; },
+      "No non-holonomic constraint on row passes (a rig that slides sideways)");
   app.add_flag("--force", o.force, "Recompute passes that are up to date");
   return [args] {
     args->options.optimiser.num_threads = args->options.front_end.num_threads;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -45,6 +46,8 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
       {"gps_outages", outages},
       {"state_rate_hz", o.state_rate_hz},
       {"session_state_rate_hz", o.session_state_rate_hz},
+      {"session_solve_max_sigma_m", o.session_solve_max_sigma_m},
+      {"motion_constraint", o.motion_constraint},
       {"session_bias_sigma", {o.session_bias_sigma_gyro, o.session_bias_sigma_accel}},
       {"front_end",
        {{"extraction_hash", fe.extraction.Hash()},
@@ -78,7 +81,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 1;
+constexpr int kSlamStageRevision = 4;
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
@@ -217,6 +220,14 @@ struct PassOutcome {
   int num_states = 0, num_images = 0, num_landmarks = 0, num_cloud_points = 0;
 };
 
+double MedianSigmaH(const std::vector<slam::GpsFixWorld>& fixes) {
+  if (fixes.empty()) return std::numeric_limits<double>::infinity();
+  std::vector<double> sigmas;
+  for (const slam::GpsFixWorld& fix : fixes) sigmas.push_back(fix.sigma_h);
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
+}
+
 // The session solution at t (linear between its states; clamped at the ends).
 slam::RowState SessionStateAt(const std::vector<slam::RowState>& states, Timestamp t) {
   auto it = std::lower_bound(states.begin(), states.end(), t,
@@ -240,18 +251,23 @@ slam::RowState SessionStateAt(const std::vector<slam::RowState>& states, Timesta
   return s;
 }
 
-// One IMU + GPS solve over the whole session (SlamStageOptions::session_state_rate_hz).
-void SolveSession(const SlamStageOptions& options, SessionContext* ctx) {
+// One IMU + GPS solve over the whole session (SlamStageOptions::session_state_rate_hz) with the
+// receiver `gps`. Its attitudes in turns refine the forward axis (the IMU's mounting on the
+// vehicle); with keep_states, its states also become the passes' initial guess and bias prior.
+void SolveSession(const SlamStageOptions& options, SessionContext* ctx, const slam::GpsStream& gps,
+                  bool keep_states) {
   const auto start = Clock::now();
   const std::vector<slam::ImuSample>& imu = ctx->streams.imu->samples;
-  const Timestamp begin = std::max(imu.front().timestamp, ctx->factor_fixes.front().t);
-  const Timestamp end = std::min(imu.back().timestamp, ctx->factor_fixes.back().t);
+  const Timestamp begin = std::max(imu.front().timestamp, gps.fixes.front().t);
+  const Timestamp end = std::min(imu.back().timestamp, gps.fixes.back().t);
   const Timestamp step = SecondsToTimestamp(1.0 / options.session_state_rate_hz);
   std::vector<Timestamp> times;
   for (Timestamp t = begin; t <= end; t += step) times.push_back(t);
   if (times.size() < 2) return;
+  slam::StateInitialiser initialiser(options.initialisation, *ctx->streams.imu, &gps);
+  initialiser.set_forward_axis(ctx->initialiser->forward_axis());
   slam::RowOptimiser::Input input;
-  input.initial_states = ctx->initialiser->Initialise(times, ctx->factor_antenna);
+  input.initial_states = initialiser.Initialise(times, gps.sensor.antenna_in_body);
   input.imu_samples = &imu;
   const io::ImuSensor& sensor = ctx->streams.imu->sensor;
   input.imu_noise.gyro_noise_density = sensor.gyroscope_noise_density;
@@ -259,10 +275,10 @@ void SolveSession(const SlamStageOptions& options, SessionContext* ctx) {
   input.imu_noise.gyro_random_walk = sensor.gyroscope_random_walk;
   input.imu_noise.accel_random_walk = sensor.accelerometer_random_walk;
   input.imu_rate_hz = sensor.rate_hz;
-  input.gps_fixes = ctx->factor_fixes;
-  input.p_body_antenna = ctx->factor_antenna;
+  input.gps_fixes = gps.fixes;
+  input.p_body_antenna = gps.sensor.antenna_in_body;
   const slam::RowOptimiser::Result result = slam::RowOptimiser(options.optimiser).Solve(input);
-  ctx->session_states = result.states;
+  if (keep_states) ctx->session_states = result.states;
   // The forward axis from the attitudes in turns, where the heading is well observed.
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   int count = 0;
@@ -272,13 +288,7 @@ void SolveSession(const SlamStageOptions& options, SessionContext* ctx) {
     sum += v.normalized();
     ++count;
   }
-  // Only a precise receiver makes the attitudes in turns better than the alignment windows of
-  // StateInitialiser (with a metre-level receiver the heading in a turn is off by degrees).
-  std::vector<double> sigmas;
-  for (const slam::GpsFixWorld& fix : ctx->factor_fixes) sigmas.push_back(fix.sigma_h);
-  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-  const bool precise = sigmas[sigmas.size() / 2] <= 0.1;
-  if (count >= 10 && precise) {
+  if (count >= 10) {
     const Eigen::Vector3d axis = sum.normalized();
     ctx->initialiser->set_forward_axis(axis);
     ctx->forward_axis_estimated = true;
@@ -368,6 +378,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   auto start = Clock::now();
   slam::StateInitialiser::Summary init_summary;
   std::vector<slam::RowState> initial;
+  int anchor_state = 0;
   if (info.gps && !ctx.session_states.empty()) {
     // The session solution interpolated at the state times.
     for (Timestamp t : times) initial.push_back(SessionStateAt(ctx.session_states, t));
@@ -375,10 +386,16 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   } else if (info.gps) {
     initial = ctx.initialiser->Initialise(times, ctx.factor_antenna, &init_summary);
   } else {
-    // cam+imu: the best GPS only anchors the first state (the gauge); nothing after it.
-    const std::vector<slam::RowState> anchor = ctx.initialiser->Initialise(
-        {times.front()}, ctx.best_gps.sensor.antenna_in_body, &init_summary);
-    initial = ctx.initialiser->InitialiseFromAnchor(anchor.front(), times);
+    // cam+imu: the best GPS only anchors the pass at one instant, its middle, where the motion
+    // is steady (the gauge: position, heading and velocity from a ±2 s line fit); nothing else.
+    anchor_state = static_cast<int>(times.size() / 2);
+    slam::StateInitialiser::Options anchor_options = options.initialisation;
+    anchor_options.gps_half_window_s = std::max(anchor_options.gps_half_window_s, 2.0);
+    slam::StateInitialiser anchor_initialiser(anchor_options, *ctx.streams.imu, &ctx.best_gps);
+    anchor_initialiser.set_forward_axis(ctx.initialiser->forward_axis());
+    const std::vector<slam::RowState> anchor = anchor_initialiser.Initialise(
+        {times[anchor_state]}, ctx.best_gps.sensor.antenna_in_body, &init_summary);
+    initial = anchor_initialiser.InitialiseFromAnchor(anchor.front(), times);
   }
   const double init_seconds = SecondsSince(start);
   {
@@ -398,6 +415,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   const slam::RowOptimiser optimiser(op);
   slam::RowOptimiser::Input input;
   input.initial_states = initial;
+  input.anchor_state = anchor_state;
   if (camera != nullptr) {
     input.camera = &camera->sensor.camera;
     input.body_from_camera = camera->sensor.body_from_sensor;
@@ -417,7 +435,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
         Eigen::Vector3d::Constant(options.session_bias_sigma_accel);
     input.bias_prior_sigma = sigma;
   }
-  if (pass.row >= 0 && ctx.forward_axis_estimated) {
+  if (options.motion_constraint && pass.row >= 0 && ctx.forward_axis_estimated) {
     // A row pass is driven by a vehicle: the non-holonomic constraint holds.
     input.forward_axis_body = ctx.initialiser->forward_axis();
   }
@@ -552,9 +570,9 @@ bool SlamStageOptions::Check() const {
   for (const GpsOutage& g : gps_outages) {
     if (!(g.duration_s > 0) || !std::isfinite(g.start_s)) return false;
   }
-  return state_rate_hz > 0 && session_state_rate_hz >= 0 && session_bias_sigma_gyro > 0 &&
-         session_bias_sigma_accel > 0 && front_end.Check() && passes.Check() &&
-         initialisation.Check() && optimiser.Check() && cloud.Check();
+  return state_rate_hz > 0 && session_state_rate_hz >= 0 && session_solve_max_sigma_m >= 0 &&
+         session_bias_sigma_gyro > 0 && session_bias_sigma_accel > 0 && front_end.Check() &&
+         passes.Check() && initialisation.Check() && optimiser.Check() && cloud.Check();
 }
 
 std::string PassFolder(const std::string& workspace, const std::string& session,
@@ -631,7 +649,18 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       ctx.initialiser->set_forward_axis(axis);
       ctx.forward_axis_estimated = !s.forward_axis_fallback;
     }
-    if (info.gps && options.session_state_rate_hz > 0) SolveSession(options, &ctx);
+    // The session solve needs a precise receiver: with a metre-level one the turns do not make
+    // the accelerometer bias observable, and a wrong tight bias prior does more harm than the
+    // weak zero-mean one.
+    if (options.session_state_rate_hz > 0) {
+      if (info.gps && MedianSigmaH(ctx.factor_fixes) <= options.session_solve_max_sigma_m) {
+        SolveSession(options, &ctx, ctx.init_gps, /*keep_states=*/true);
+      } else if (MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m) {
+        // Only the mounting calibration (forward axis) from the precise receiver; the passes
+        // use nothing else of it.
+        SolveSession(options, &ctx, ctx.best_gps, /*keep_states=*/false);
+      }
+    }
 
     // Row passes from the best track.
     std::vector<slam::TrackPoint> track;

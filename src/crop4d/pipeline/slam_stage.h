@@ -48,11 +48,15 @@ struct SlamStageOptions {
   // Camera-less passes: states at this rate, Hz.
   double state_rate_hz = 10.0;
   // Before the passes, one IMU + GPS solve over the whole session (turns included) at this
-  // state rate, Hz (0: none). Its biases become each pass's bias prior (turns make the
-  // accelerometer bias observable; a straight pass confuses it with roll and pitch), its
-  // trajectory the passes' initial guess, and its attitudes in turns refine the forward axis.
-  // Only for sensor sets with GPS (cam+imu uses nothing of the GPS beyond the first state).
+  // state rate, Hz (0: none), with a precise receiver (median sigma_h ≤
+  // session_solve_max_sigma_m). Its attitudes in turns give the forward axis (the IMU's mounting;
+  // in every sensor set). When the set's GPS factors use that receiver, its biases also become
+  // each pass's bias prior (turns make the accelerometer bias observable; a straight pass
+  // confuses it with roll and pitch) and its trajectory the passes' initial guess.
   double session_state_rate_hz = 5.0;
+  // Precision a receiver needs for the session solve, m (RTK; a metre-level receiver does not
+  // make the biases observable in the turns).
+  double session_solve_max_sigma_m = 0.1;
   // Standard deviations of the bias prior taken from the session solve: gyroscope rad/s,
   // accelerometer m/s².
   double session_bias_sigma_gyro = 1e-3;
@@ -75,6 +79,8 @@ struct SlamStageOptions {
   // The output cloud: every track of ≥ 2 images triangulated from the final poses with these
   // checks.
   slam::TriangulationOptions cloud;
+  // The non-holonomic constraint of a vehicle (slam/motion_constraint_factor.h) on row passes.
+  bool motion_constraint = true;
   // Recompute passes whose outputs are up to date.
   bool force = false;
   bool show_progress = true;

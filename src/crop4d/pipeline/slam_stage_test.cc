@@ -127,23 +127,25 @@ TEST_F(SlamStageTest, CamImuGpsIsNoWorseThanTheReceiverAndLocallyConsistent) {
     SCOPED_TRACE(p.pass);
     // The receiver: σ 1.5 m per axis plus a drifting bias of ~1 m (≈ 2.4 m horizontal RMS).
     EXPECT_LT(p.metrics.ate_raw_m.rmse, 2.5);
-    EXPECT_LT(p.metrics.ate_aligned_m.rmse, 0.25);
-    EXPECT_LT(p.metrics.rpe_translation_percent.rmse, 8.0);
+    // The shape comes from the camera and the IMU (measured 0.7–5.4 cm aligned, 0.5–2.1 % RPE
+    // over 1 m on the tiny field's 7 m passes; the demo's 20 m passes: see bench/RESULTS.md).
+    EXPECT_LT(p.metrics.ate_aligned_m.rmse, 0.12);
+    EXPECT_LT(p.metrics.rpe_translation_percent.rmse, 4.0);
   }
 }
 
-TEST_F(SlamStageTest, CamImuKeepsTheShapeFromTheAnchoredStart) {
+TEST_F(SlamStageTest, CamImuDriftsLittleFromItsAnchor) {
   options_.sensors = slam::SensorSet::kCamImu;
   RunSlamStage(TinyField(), workspace_, options_);
   const eval::WorkspaceEval e = Evaluate(TinyField());
   ExpectAllEvaluated(e, 2);
   for (const eval::PassEval& p : e.passes) {
     SCOPED_TRACE(p.pass);
-    // Without GPS after the anchor: a few cm of shape error and a drift of a few % over the
-    // 7 m pass (measured 1.7–8 cm aligned, 1.2–2.7 % RPE).
-    EXPECT_LT(p.metrics.ate_aligned_m.rmse, 0.15);
-    EXPECT_LT(p.metrics.rpe_translation_percent.rmse, 5.0);
-    EXPECT_LT(p.metrics.ate_raw_m.rmse, 0.5);
+    // GPS only at the anchor (mid-pass): a few cm over the 7 m pass (measured 4–9 cm raw,
+    // 1.4–4.2 cm aligned, 0.7–1.5 % RPE).
+    EXPECT_LT(p.metrics.ate_raw_m.rmse, 0.2);
+    EXPECT_LT(p.metrics.ate_aligned_m.rmse, 0.08);
+    EXPECT_LT(p.metrics.rpe_translation_percent.rmse, 3.0);
   }
 }
 

@@ -188,14 +188,16 @@ class ProblemBuilder {
     }
     if (summary != nullptr) summary->num_gps_factors = gps_factors;
     if (gps_factors == 0) {
+      const std::size_t anchor = std::min<std::size_t>(input_.anchor_state, n - 1);
       // The gauge: position, heading and velocity of the first state as initialised.
       problem->AddResidualBlock(
-          PosePriorFactor::Create(input_.initial_states[0].nav.world_from_body,
+          PosePriorFactor::Create(input_.initial_states[anchor].nav.world_from_body,
                                   options_.anchor_sigma_position, options_.anchor_sigma_rotation),
-          nullptr, blocks_[0].pose);
+          nullptr, blocks_[anchor].pose);
       const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() / options_.anchor_sigma_velocity;
-      problem->AddResidualBlock(new ceres::NormalPrior(A, input_.initial_states[0].nav.vel_world),
-                                nullptr, blocks_[0].vel);
+      problem->AddResidualBlock(
+          new ceres::NormalPrior(A, input_.initial_states[anchor].nav.vel_world), nullptr,
+          blocks_[anchor].vel);
     }
   }
 

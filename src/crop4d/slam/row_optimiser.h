@@ -10,8 +10,8 @@
 //     (gp_prior.h);
 //   - a GPS factor at every GPS time, interpolating the GP trajectory between its two
 //     neighbouring states, with the antenna lever arm and the fix's sigmas (gps_factor.h);
-//   - a weak prior on the first bias (turn-on bias of a MEMS IMU), and, without GPS, a prior on
-//     the first pose and velocity that fixes the gauge.
+//   - a prior on the first bias (turn-on bias of a MEMS IMU), and, without GPS, a prior on the
+//     pose and velocity of one state (Input::anchor_state) that fixes the gauge.
 // Solving runs in phases: (1) without the camera (IMU + GP + GPS) to refine the initial states;
 // (2) landmarks triangulated from those poses, then the full problem; (3) observations whose
 // reprojection error exceeds 10 px removed, the IMU re-preintegrated at the estimated biases,
@@ -110,6 +110,8 @@ class RowOptimiser {
     // The vehicle's forward axis in the body frame: when set, every state gets the
     // non-holonomic motion constraint (a wheeled vehicle in a row; not a person walking).
     std::optional<Eigen::Vector3d> forward_axis_body;
+    // Without GPS factors, the gauge prior (pose and velocity as initialised) sits on this state.
+    int anchor_state = 0;
     // Prior on the first state's bias [bg; ba]: mean and standard deviations (unset: zero mean
     // and Options::bias_prior_sigma_*). A session-wide inertial solve, whose turns make the
     // biases observable, gives a much tighter prior than a straight pass alone.

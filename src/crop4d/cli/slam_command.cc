@@ -83,7 +83,8 @@ RunFunction SetupSlam(CLI::App& app) {
   auto args = std::make_shared<SlamArgs>();
   pipeline::SlamStageOptions& o = args->options;
   app.description(
-      "Multi-sensor SLAM of every row pass (docs/cli.md#crop4d-slam): the GPS track is split "
+      "Multi-sensor SLAM of every row pass (docs/cli.md#slam, docs/slam.md): the GPS track is "
+      "split "
       "into row passes; per pass, SIFT features matched with the next k images, tracks, and a "
       "Ceres factor graph with reprojection (Schur-eliminated landmarks), preintegrated IMU, "
       "Gaussian-process prior and interpolated GPS factors. Writes poses.tum, landmarks.ply and "

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "crop4d/geometry/rotation.h"
+#include "crop4d/slam/camera_test_util.h"
 #include "crop4d/slam/jacobian_check_test_util.h"
 #include "crop4d/slam/pose_manifold.h"
 #include "crop4d/slam/state_layout.h"
@@ -19,21 +20,7 @@ std::vector<double> Vec(const Eigen::VectorXd& v) {
   return std::vector<double>(v.data(), v.data() + v.size());
 }
 
-geometry::PinholeRadTan TestCamera() {
-  geometry::PinholeRadTan camera;
-  camera.width = 1280;
-  camera.height = 960;
-  camera.fx = 1100;
-  camera.fy = 1090;
-  camera.cx = 640;
-  camera.cy = 480;
-  camera.k1 = -0.2;
-  camera.k2 = 0.05;
-  camera.p1 = 1e-3;
-  camera.p2 = -5e-4;
-  camera.k3 = 0.01;
-  return camera;
-}
+geometry::PinholeRadTan TestCamera() { return testing::DistortedTestCamera(); }
 
 // Camera looking forward along the body x axis and tilted down: z_cam ≈ x_body.
 Rigid3 TestBodyFromCamera() {

@@ -8,28 +8,14 @@
 #include <random>
 
 #include "crop4d/geometry/rotation.h"
+#include "crop4d/slam/camera_test_util.h"
 
 namespace crop4d::slam {
 namespace {
 
 using geometry::Rigid3;
 
-// A wide-angle lens with noticeable distortion (≈ 60 px at the image corners).
-geometry::PinholeRadTan TestCamera() {
-  geometry::PinholeRadTan camera;
-  camera.width = 1280;
-  camera.height = 960;
-  camera.fx = 1100;
-  camera.fy = 1090;
-  camera.cx = 640;
-  camera.cy = 480;
-  camera.k1 = -0.2;
-  camera.k2 = 0.05;
-  camera.p1 = 1e-3;
-  camera.p2 = -5e-4;
-  camera.k3 = 0.01;
-  return camera;
-}
+geometry::PinholeRadTan TestCamera() { return testing::DistortedTestCamera(); }
 
 // ENU offset of the test field: points and cameras lie ~1.7 km from the origin.
 const Eigen::Vector3d kField(1500.0, -800.0, 30.0);

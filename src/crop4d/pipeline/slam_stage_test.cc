@@ -61,6 +61,16 @@ class SlamStageTest : public ::testing::Test {
     return eval::EvaluateWorkspace(workspace_, field);
   }
 
+  // Runs the stage with `sensors` on the tiny field and evaluates both passes.
+  eval::WorkspaceEval RunAndEvaluate(slam::SensorSet sensors) {
+    options_.sensors = sensors;
+    RunSlamStage(TinyField(), workspace_, options_);
+    eval::WorkspaceEval e = Evaluate(TinyField());
+    EXPECT_EQ(e.overall.num_passes, 2);
+    EXPECT_EQ(e.overall.num_evaluated, 2);
+    return e;
+  }
+
   std::string workspace_;
   SlamStageOptions options_;
 };
@@ -106,10 +116,7 @@ TEST_F(SlamStageTest, CamImuRtkIsCentimetreAccurateOnEveryPass) {
 }
 
 TEST_F(SlamStageTest, ImuRtkWithoutCameraStaysWithinTheRtkNoise) {
-  options_.sensors = slam::SensorSet::kImuRtk;
-  RunSlamStage(TinyField(), workspace_, options_);
-  const eval::WorkspaceEval e = Evaluate(TinyField());
-  ExpectAllEvaluated(e, 2);
+  const eval::WorkspaceEval e = RunAndEvaluate(slam::SensorSet::kImuRtk);
   for (const eval::PassEval& p : e.passes) {
     SCOPED_TRACE(p.pass);
     EXPECT_EQ(p.pose_frame, "body");
@@ -119,10 +126,7 @@ TEST_F(SlamStageTest, ImuRtkWithoutCameraStaysWithinTheRtkNoise) {
 }
 
 TEST_F(SlamStageTest, CamImuGpsIsNoWorseThanTheReceiverAndLocallyConsistent) {
-  options_.sensors = slam::SensorSet::kCamImuGps;
-  RunSlamStage(TinyField(), workspace_, options_);
-  const eval::WorkspaceEval e = Evaluate(TinyField());
-  ExpectAllEvaluated(e, 2);
+  const eval::WorkspaceEval e = RunAndEvaluate(slam::SensorSet::kCamImuGps);
   for (const eval::PassEval& p : e.passes) {
     SCOPED_TRACE(p.pass);
     // The receiver: σ 1.5 m per axis plus a drifting bias of ~1 m (≈ 2.4 m horizontal RMS).
@@ -135,10 +139,7 @@ TEST_F(SlamStageTest, CamImuGpsIsNoWorseThanTheReceiverAndLocallyConsistent) {
 }
 
 TEST_F(SlamStageTest, CamImuDriftsLittleFromItsAnchor) {
-  options_.sensors = slam::SensorSet::kCamImu;
-  RunSlamStage(TinyField(), workspace_, options_);
-  const eval::WorkspaceEval e = Evaluate(TinyField());
-  ExpectAllEvaluated(e, 2);
+  const eval::WorkspaceEval e = RunAndEvaluate(slam::SensorSet::kCamImu);
   for (const eval::PassEval& p : e.passes) {
     SCOPED_TRACE(p.pass);
     // GPS only at the anchor (mid-pass): a few cm over the 7 m pass (measured 4–9 cm raw,

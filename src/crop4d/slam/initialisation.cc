@@ -299,11 +299,9 @@ std::vector<RowState> StateInitialiser::Initialise(const std::vector<Timestamp>&
 std::vector<RowState> StateInitialiser::InitialiseFromAnchor(
     const RowState& anchor, const std::vector<Timestamp>& times) const {
   std::vector<RowState> states(times.size());
-  for (std::size_t k = 0; k < times.size(); ++k) {
+  auto fill = [&](std::size_t k, const Eigen::Matrix3d& R) {
     RowState& s = states[k];
     s.t = times[k];
-    const Eigen::Matrix3d R = anchor.nav.world_from_body.RotationMatrix() *
-                              GyroRotation(imu_.samples, anchor.t, times[k]);
     const double dt = DurationSeconds(anchor.t, times[k]);
     s.nav.world_from_body =
         geometry::Rigid3(Eigen::Quaterniond(R).normalized(),
@@ -311,6 +309,23 @@ std::vector<RowState> StateInitialiser::InitialiseFromAnchor(
     s.nav.vel_world = anchor.nav.vel_world;
     s.nav.rate_body = InterpolateImu(imu_.samples, times[k]).gyro_body;
     s.bias = anchor.bias;
+  };
+  // The gyro is integrated outward from the anchor, one interval at a time (each sample once).
+  const std::size_t first_after =
+      std::lower_bound(times.begin(), times.end(), anchor.t) - times.begin();
+  Eigen::Matrix3d R = anchor.nav.world_from_body.RotationMatrix();
+  Timestamp t = anchor.t;
+  for (std::size_t k = first_after; k < times.size(); ++k) {
+    R = R * GyroRotation(imu_.samples, t, times[k]);
+    t = times[k];
+    fill(k, R);
+  }
+  R = anchor.nav.world_from_body.RotationMatrix();
+  t = anchor.t;
+  for (std::size_t k = first_after; k-- > 0;) {
+    R = R * GyroRotation(imu_.samples, t, times[k]);
+    t = times[k];
+    fill(k, R);
   }
   return states;
 }

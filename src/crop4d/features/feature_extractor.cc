@@ -15,7 +15,13 @@ namespace {
 
 // Bumped when the extraction code changes in a way that changes its output, so that caches
 // written by an older crop4d are not reused.
-constexpr std::uint32_t kExtractorRevision = 1;
+constexpr std::uint32_t kExtractorRevision = 2;
+// OpenCV's SIFT (4.6; 4.8+ unless enable_precise_upscale) doubles the image with a bilinear
+// resize that samples at x/2 instead of (x + 0.5)/2 − 0.5, so every keypoint it reports sits a
+// quarter pixel right of and below the feature (a blob centred at (x, y) is reported at
+// (x + 0.25, y + 0.25); FeatureExtractor.KeypointsAreCentredOnBlobs measures it). A quarter pixel
+// is a 0.05° bias at fx = 280 and centimetres on distant ground, so it is removed.
+constexpr double kSiftKeypointOffsetPx = 0.25;
 
 // Bilinear RGB sample of an 8-bit BGR image at (x, y), clamped to the image.
 std::array<std::uint8_t, 3> SampleColor(const cv::Mat& bgr, float x, float y) {
@@ -191,9 +197,10 @@ FeatureSet FeatureExtractor::Extract(const cv::Mat& image) const {
     const cv::KeyPoint& kp = keypoints[order[n]];
     Keypoint k;
     // Pixel centres are at integer coordinates in both resolutions: x_full + 0.5 =
-    // (x_small + 0.5) / scale.
-    k.x = static_cast<float>((kp.pt.x + 0.5) / scale - 0.5);
-    k.y = static_cast<float>((kp.pt.y + 0.5) / scale - 0.5);
+    // (x_small + 0.5) / scale. OpenCV's SIFT reports its keypoints kSiftKeypointOffsetPx too far
+    // right and down (see there); corrected first.
+    k.x = static_cast<float>((kp.pt.x - kSiftKeypointOffsetPx + 0.5) / scale - 0.5);
+    k.y = static_cast<float>((kp.pt.y - kSiftKeypointOffsetPx + 0.5) / scale - 0.5);
     k.size = static_cast<float>(kp.size / scale);
     k.angle = kp.angle;
     k.response = kp.response;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -65,6 +66,52 @@ TEST(FeatureExtractorTest, IsDeterministicAndHonoursMaxFeatures) {
   cv::Mat gray;
   cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
   EXPECT_EQ(FeatureExtractor(options).Extract(gray).keypoints, few.keypoints);
+}
+
+// Gaussian blobs at known sub-pixel centres (pixel centres at integer coordinates) are found
+// where they are, at full resolution and downscaled: no systematic offset.
+TEST(FeatureExtractorTest, KeypointsAreCentredOnBlobs) {
+  std::vector<cv::Point2d> centres;
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j)
+      centres.emplace_back(60 + 120 * i + 0.1 * i, 60 + 120 * j + 0.13 * j);
+  }
+  cv::Mat image(780, 780, CV_8U);
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) {
+      double v = 20;
+      for (const cv::Point2d& c : centres) {
+        v += 200 * std::exp(-((x - c.x) * (x - c.x) + (y - c.y) * (y - c.y)) / (2 * 6.0 * 6.0));
+      }
+      image.at<std::uint8_t>(y, x) = cv::saturate_cast<std::uint8_t>(v);
+    }
+  }
+  for (const int max_size : {0, 390}) {
+    FeatureExtractor::Options options;
+    options.max_image_size = max_size;
+    const FeatureSet features = FeatureExtractor(options).Extract(image);
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    int found = 0;
+    for (const cv::Point2d& c : centres) {
+      double best = 1e9;
+      Eigen::Vector2d offset;
+      for (const Keypoint& k : features.keypoints) {
+        const Eigen::Vector2d d(k.x - c.x, k.y - c.y);
+        if (d.norm() < best) {
+          best = d.norm();
+          offset = d;
+        }
+      }
+      if (best < 2.0) {
+        sum += offset;
+        ++found;
+      }
+    }
+    ASSERT_GE(found, 30) << "max_image_size " << max_size;
+    const Eigen::Vector2d mean = sum / found;
+    EXPECT_LT(mean.norm(), 0.06) << "max_image_size " << max_size << ": mean offset "
+                                 << mean.transpose();
+  }
 }
 
 TEST(FeatureExtractorTest, DownscaledExtractionReportsFullResolutionPixels) {

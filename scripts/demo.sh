@@ -23,10 +23,17 @@ fi
 
 "$crop4d" validate "$field"
 
-# Row SLAM of every pass of every session (passes already done are skipped), then the
-# trajectory errors against the simulator's ground truth.
+# Row SLAM of every pass of every session, cross matches between neighbouring passes (the robust
+# method and the naive baseline), the joint 4D optimisation, then every error against the
+# simulator's ground truth (trajectories, association precision, cross-session misalignment).
+# Work already done is skipped.
 workspace="$demo_dir/workspace"
-"$crop4d" slam "$field" --workspace "$workspace"
-"$crop4d" eval --workspace "$workspace" --truth "$field"
+timed() { local s; s=$(date +%s); "$@"; echo "demo: $2 took $(( $(date +%s) - s )) s"; }
+timed "$crop4d" slam "$field" --workspace "$workspace"
+timed "$crop4d" associate "$field" --workspace "$workspace" --method both
+timed "$crop4d" fuse "$field" --workspace "$workspace"
+timed "$crop4d" eval --workspace "$workspace" --truth "$field"
+"$crop4d" section --workspace "$workspace" --field "$field" --row 1 --output "$demo_dir/cross_section.png"
 
-echo "demo: done in $(( $(date +%s) - start )) s; field in $field, workspace in $workspace"
+echo "demo: done in $(( $(date +%s) - start )) s; field in $field, workspace in $workspace,"
+echo "      cross-section figure in $demo_dir/cross_section.png"

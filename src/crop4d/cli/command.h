@@ -22,6 +22,9 @@ RunFunction SetupValidate(CLI::App& app);
 RunFunction SetupSimulate(CLI::App& app);
 RunFunction SetupImport(CLI::App& app);
 RunFunction SetupSlam(CLI::App& app);
+RunFunction SetupAssociate(CLI::App& app);
+RunFunction SetupFuse(CLI::App& app);
 RunFunction SetupEval(CLI::App& app);
+RunFunction SetupSection(CLI::App& app);
 
 }  // namespace crop4d::cli

@@ -1,6 +1,8 @@
-// crop4d eval --workspace WS --truth FIELD: compares the row-pass trajectories of a workspace
-// with a synthetic field's ground truth, prints a table and writes WS/eval/metrics.json.
+// crop4d eval --workspace WS --truth FIELD: compares a workspace with a synthetic field's ground
+// truth — row-pass trajectories, cross matches, fused trajectories, cross-session ground
+// misalignment — prints tables and writes WS/eval/metrics.json.
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
@@ -33,9 +35,43 @@ int RunEval(const EvalArgs& args) {
     std::fputs(eval::FormatWorkspaceEvalTable(result).c_str(), stdout);
     std::fflush(stdout);
   }
-  std::fprintf(stderr, "eval: %d of %d passes evaluated, metrics in %s\n",
-               result.overall.num_evaluated, result.overall.num_passes, written.c_str());
-  return args.strict && result.overall.num_failed > 0 ? 2 : 0;
+  int failed = result.overall.num_failed;
+  if (result.association) {
+    const eval::WorkspaceAssociationEval& a = *result.association;
+    if (!a.error.empty()) {
+      spdlog::warn("association files not evaluated: {}", a.error);
+    } else {
+      for (const eval::AssociationFileEval& f : a.eval.files) {
+        if (!f.ok()) spdlog::warn("association file {} not evaluated: {}", f.file, f.error);
+      }
+    }
+    failed += a.eval.num_failed;
+  }
+  if (result.fused) {
+    for (const eval::FusedSessionEval& s : result.fused->sessions) {
+      if (!s.ok()) spdlog::warn("fused session {} not evaluated: {}", s.session, s.error);
+    }
+    failed += result.fused->num_failed;
+  }
+  for (const eval::CloudSetEval& set : result.clouds) {
+    if (!set.error.empty()) spdlog::warn("{} clouds not evaluated: {}", set.label, set.error);
+    for (const eval::CloudSetEval::Session& s : set.sessions) {
+      if (!s.error.empty())
+        spdlog::warn("{} cloud of {} not used: {}", set.label, s.session, s.error);
+    }
+  }
+  std::string also;
+  if (result.association) {
+    also += fmt::format(", {} association files", result.association->num_files);
+  }
+  if (result.fused) also += fmt::format(", {} fused sessions", result.fused->sessions.size());
+  for (const eval::CloudSetEval& set : result.clouds) {
+    also += fmt::format(", {} clouds of {} sessions", set.label, set.sessions.size());
+  }
+  std::fprintf(stderr, "eval: %d of %d passes evaluated%s, metrics in %s\n",
+               result.overall.num_evaluated, result.overall.num_passes, also.c_str(),
+               written.c_str());
+  return args.strict && failed > 0 ? 2 : 0;
 }
 
 }  // namespace
@@ -55,12 +91,27 @@ RunFunction SetupEval(CLI::App& app) {
       "per metre; rotation error (angle of R_truth^T R_est, deg). Overall: the same pooled over "
       "all poses, and the worst pass (largest raw ATE).\n"
       "A pass without ground truth or with a malformed file is listed with its error.\n"
+      "Later stages, each when its outputs exist:\n"
+      "- associations (WS/associations/**/*.bin, e.g. robust/ and naive/): a cross match is "
+      "correct when the true 3D points of its two keypoints lie within --match-distance; the "
+      "true point of a keypoint is what its pixel sees at the true pose, from a depth map "
+      "rendered from the World of FIELD/ground_truth/simulate.yaml (or the simulator's --depth "
+      "maps; rendered maps are kept in --depth-cache). Keypoints on a depth edge, in the sky or "
+      "without truth make the match unknown. Precision = correct / (correct + incorrect), per "
+      "pair type (cross-row same/opposite direction from WS/sessions/<s>/passes.csv, "
+      "cross-session, cross-session after rain) and method.\n"
+      "- fusion (WS/fused/<session>/poses.tum): ATE raw and aligned per session and pooled, and "
+      "with one alignment of all sessions.\n"
+      "- clouds (WS/fused/<s>/sparse.ply, WS/sessions/<s>/rows/*/landmarks.ply): cross-session "
+      "ground misalignment, the distance of each session's ground points to the local plane of "
+      "another session's ground points (median, 90th percentile, signed median).\n"
       "Example:\n"
       "  crop4d simulate --preset tiny --out field\n"
       "  crop4d slam field --workspace ws\n"
       "  crop4d eval --workspace ws --truth field\n"
-      "Exit code: 0 when metrics.json is written (2 with --strict when a pass could not be "
-      "evaluated); 2 for a missing workspace, no pass, or a field without ground_truth/.");
+      "Exit code: 0 when metrics.json is written (2 with --strict when a pass, an association "
+      "file or a fused session could not be evaluated); 2 for a missing workspace, nothing to "
+      "evaluate, or a field without ground_truth/.");
   app.add_option("--workspace", args->workspace, "The workspace (holds sessions/)")
       ->required()
       ->type_name("WS");
@@ -82,7 +133,40 @@ RunFunction SetupEval(CLI::App& app) {
                  "estimate pose")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e3));
-  app.add_flag("--strict", args->strict, "Exit with code 2 when a pass could not be evaluated");
+  app.add_flag("--strict", args->strict,
+               "Exit with code 2 when a pass, an association file or a fused session could not "
+               "be evaluated");
+  // Associations.
+  app.add_flag("!--no-associations", args->options.associations,
+               "Skip the association precision (WS/associations/)");
+  app.add_option("--match-distance", args->options.association.max_distance_m,
+                 "A cross match is correct when the true 3D points of its two keypoints are at "
+                 "most this many metres apart")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1e3));
+  app.add_option("--depth-edge", args->options.association.true_point.max_edge_m,
+                 "A keypoint whose 3x3 pixels depart from one smooth surface by more than this "
+                 "many metres sits on a depth edge: its true point is unknown")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 1e3));
+  app.add_option("--depth-cache", args->options.depth_cache_dir,
+                 "Keep the rendered true depth maps here (default WS/eval/depth)")
+      ->type_name("DIR");
+  app.add_flag("!--no-render", args->options.render_depth,
+               "Do not render missing true depth maps (their matches count as unknown)");
+  // Fusion and clouds.
+  app.add_flag("!--no-fused", args->options.fused,
+               "Skip the fused trajectories and the ground misalignment of the clouds");
+  app.add_option("--ground-radius", args->options.clouds.misalignment.radius_m,
+                 "Ground misalignment: horizontal radius of the local plane fitted to the other "
+                 "session's ground points, m")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-3, 1e3));
+  app.add_option("--ground-min-points", args->options.clouds.misalignment.min_points,
+                 "Ground misalignment: fewer of the other session's ground points within the "
+                 "radius and the point is skipped")
+      ->capture_default_str()
+      ->check(CLI::Range(3, 1000000));
   return [args] { return RunEval(*args); };
 }
 

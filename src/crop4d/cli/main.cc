@@ -24,8 +24,15 @@ constexpr Command kCommands[] = {
      crop4d::cli::SetupImport},
     {"slam", "Multi-sensor SLAM of every row pass: poses, sparse cloud, summary",
      crop4d::cli::SetupSlam},
-    {"eval", "Compare a workspace's trajectories with a synthetic field's ground truth",
+    {"associate", "Match row passes with their neighbours in space and time (cross matches)",
+     crop4d::cli::SetupAssociate},
+    {"fuse", "Joint 4D optimisation of every pass of every session with the cross matches",
+     crop4d::cli::SetupFuse},
+    {"eval",
+     "Compare a workspace (trajectories, cross matches, fusion) with a synthetic field's truth",
      crop4d::cli::SetupEval},
+    {"section", "Draw the cross-section figure: a slice across a row, points coloured by date",
+     crop4d::cli::SetupSection},
 };
 
 }  // namespace

@@ -1,65 +1,33 @@
 #include "crop4d/eval/workspace_eval.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string_view>
 #include <utility>
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/version.h"
+#include "crop4d/eval/natural_order.h"
 #include "crop4d/io/atomic_file.h"
+#include "crop4d/io/csv.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/sim/sim_config.h"
 
 namespace crop4d::eval {
 namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;  // keys in the order written (schema order)
-
-// "2" < "10": runs of digits compare as numbers, everything else character by character.
-bool NaturalLess(const std::string& a, const std::string& b) {
-  std::size_t i = 0, j = 0;
-  while (i < a.size() && j < b.size()) {
-    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
-    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
-    if (da && db) {
-      std::size_t ie = i, je = j;
-      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
-      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
-      std::string na = a.substr(i, ie - i), nb = b.substr(j, je - j);
-      na.erase(0, std::min(na.find_first_not_of('0'), na.size()));
-      nb.erase(0, std::min(nb.find_first_not_of('0'), nb.size()));
-      if (na.size() != nb.size()) return na.size() < nb.size();
-      if (na != nb) return na < nb;
-      i = ie;
-      j = je;
-    } else {
-      if (a[i] != b[j]) return a[i] < b[j];
-      ++i;
-      ++j;
-    }
-  }
-  if ((a.size() - i) != (b.size() - j)) return (a.size() - i) < (b.size() - j);
-  return a < b;
-}
-
-std::vector<std::string> SubFolders(const fs::path& dir) {
-  std::vector<std::string> names;
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return names;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir, ec)) {
-    if (entry.is_directory(ec)) names.push_back(entry.path().filename().string());
-  }
-  std::sort(names.begin(), names.end(), NaturalLess);
-  return names;
-}
 
 std::string ReadWholeFile(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -165,6 +133,167 @@ json MetricsJson(const TrajectoryMetrics& m) {
   return j;
 }
 
+// ---- JSON of the later stages ---------------------------------------------------------------
+
+json NumberOrNull(double value) { return std::isfinite(value) ? json(value) : json(nullptr); }
+
+json CountsJson(const MatchCounts& c, json j = json::object()) {
+  j["matches"] = c.matches;
+  j["correct"] = c.correct;
+  j["incorrect"] = c.incorrect;
+  j["unknown"] = c.unknown;
+  j["unknown_no_truth"] = c.unknown_no_truth;
+  j["unknown_no_surface"] = c.unknown_no_surface;
+  j["unknown_depth_edge"] = c.unknown_depth_edge;
+  j["precision"] = NumberOrNull(c.Precision());
+  j["within_coarse"] = c.within_coarse;
+  j["coarse_precision"] = NumberOrNull(c.CoarsePrecision());
+  return j;
+}
+
+json PassRefJson(const association::PassRef& ref, const PassLayout& layout) {
+  return {{"session", ref.session},
+          {"pass", ref.pass},
+          {"row", layout.row},
+          {"direction", layout.direction}};
+}
+
+json AssociationSectionJson(const WorkspaceAssociationEval& section) {
+  const AssociationEval& e = section.eval;
+  json j;
+  j["error"] = section.error.empty() ? json(nullptr) : json(section.error);
+  j["options"] = {{"max_distance_m", e.options.max_distance_m},
+                  {"coarse_distance_m", e.options.coarse_distance_m},
+                  {"max_edge_m", e.options.true_point.max_edge_m},
+                  {"max_depth_m", e.options.true_point.max_depth_m}};
+  j["num_files"] = section.num_files;
+  j["num_failed"] = e.num_failed;
+  j["depth_maps"] = {{"images", e.images},
+                     {"from_field", e.depth.from_field},
+                     {"from_cache", e.depth.from_cache},
+                     {"rendered", e.depth.rendered},
+                     {"unavailable", e.depth.unavailable},
+                     {"setup_s", e.depth.setup_seconds},
+                     {"render_s", e.depth.render_seconds}};
+  json by_type = json::array();
+  for (const AssociationGroupEval& g : e.groups) {
+    json item;
+    item["type"] = PairTypeName(g.type);
+    item["method"] = g.method;
+    item["files"] = g.files;
+    by_type.push_back(CountsJson(g.counts, std::move(item)));
+  }
+  j["by_type"] = std::move(by_type);
+  json by_method = json::array();
+  for (const AssociationGroupEval& g : e.methods) {
+    json item;
+    item["method"] = g.method;
+    item["files"] = g.files;
+    by_method.push_back(CountsJson(g.counts, std::move(item)));
+  }
+  j["by_method"] = std::move(by_method);
+  json files = json::array();
+  for (const AssociationFileEval& f : e.files) {
+    json item;
+    item["file"] = f.file;
+    item["method"] = f.method;
+    item["a"] = PassRefJson(f.a, f.layout_a);
+    item["b"] = PassRefJson(f.b, f.layout_b);
+    item["type"] = f.ok() ? json(PairTypeName(f.type)) : json(nullptr);
+    item["error"] = f.ok() ? json(nullptr) : json(f.error);
+    item = CountsJson(f.counts, std::move(item));
+    item["median_distance_m"] = NumberOrNull(f.median_distance_m);
+    item["p90_distance_m"] = NumberOrNull(f.p90_distance_m);
+    files.push_back(std::move(item));
+  }
+  j["files"] = std::move(files);
+  return j;
+}
+
+json RigidJson(const geometry::Rigid3& T) {
+  const Eigen::Vector3d& t = T.translation();
+  const Eigen::Quaterniond& q = T.rotation();
+  return {{"translation_m", {t.x(), t.y(), t.z()}},
+          {"rotation_xyzw", {q.x(), q.y(), q.z(), q.w()}},
+          {"rotation_angle_deg", RotationAngleDeg(q)}};
+}
+
+json FusedJson(const FusedEval& fused) {
+  json j;
+  json sessions = json::array();
+  for (const FusedSessionEval& s : fused.sessions) {
+    json item;
+    item["session"] = s.session;
+    item["poses_file"] = s.poses_file;
+    item["truth_file"] = s.truth_file;
+    item["error"] = s.ok() ? json(nullptr) : json(s.error);
+    item["association"] = {{"estimate_poses", s.estimate_poses},
+                           {"exact", s.exact},
+                           {"interpolated", s.interpolated},
+                           {"dropped", s.dropped}};
+    item["metrics"] = s.ok() ? MetricsJson(s.metrics) : json(nullptr);
+    sessions.push_back(std::move(item));
+  }
+  j["sessions"] = std::move(sessions);
+  json overall;
+  overall["num_sessions"] = static_cast<int>(fused.sessions.size());
+  overall["num_evaluated"] = fused.num_evaluated;
+  overall["num_failed"] = fused.num_failed;
+  overall["num_poses"] = fused.num_poses;
+  overall["ate_raw_m"] = StatsJson(fused.ate_raw_m);
+  overall["ate_aligned_m"] = StatsJson(fused.ate_aligned_m);
+  overall["ate_aligned_joint_m"] = StatsJson(fused.ate_aligned_joint_m);
+  overall["truth_from_estimate_joint"] = fused.ate_aligned_joint_m.count > 0
+                                             ? RigidJson(fused.truth_from_estimate_joint)
+                                             : json(nullptr);
+  overall["rotation_deg"] = StatsJson(fused.rotation_deg);
+  j["overall"] = std::move(overall);
+  return j;
+}
+
+json MisalignmentJson(const MisalignmentStats& m, json j = json::object()) {
+  j["count"] = m.count;
+  j["skipped"] = m.skipped;
+  const bool any = m.count > 0;
+  j["median_m"] = any ? NumberOrNull(m.median_m) : json(nullptr);
+  j["p90_m"] = any ? NumberOrNull(m.p90_m) : json(nullptr);
+  j["signed_median_m"] = any ? NumberOrNull(m.signed_median_m) : json(nullptr);
+  j["mean_abs_m"] = any ? NumberOrNull(m.mean_abs_m) : json(nullptr);
+  return j;
+}
+
+json CloudSetJson(const CloudSetEval& set) {
+  json j;
+  j["error"] = set.error.empty() ? json(nullptr) : json(set.error);
+  json sessions = json::array();
+  for (const CloudSetEval::Session& s : set.sessions) {
+    sessions.push_back({{"session", s.session},
+                        {"files", static_cast<int>(s.files.size())},
+                        {"points", s.points},
+                        {"ground_points", s.ground_points},
+                        {"error", s.error.empty() ? json(nullptr) : json(s.error)}});
+  }
+  j["sessions"] = std::move(sessions);
+  j["pooled"] = MisalignmentJson(set.misalignment.pooled);
+  json pairs = json::array();
+  for (const PairMisalignment& p : set.misalignment.pairs) {
+    json item;
+    item["a"] = p.a;
+    item["b"] = p.b;
+    pairs.push_back(MisalignmentJson(p.stats, std::move(item)));
+  }
+  j["pairs"] = std::move(pairs);
+  j["pooled_self"] = MisalignmentJson(set.misalignment.pooled_self);
+  json self = json::array();
+  for (const SelfMisalignment& m : set.misalignment.self) {
+    json item;
+    item["session"] = m.session;
+    self.push_back(MisalignmentJson(m.stats, std::move(item)));
+  }
+  j["self"] = std::move(self);
+  return j;
+}
+
 std::string Cm(const ErrorStats& s) {
   return s.count == 0 ? std::string("-") : fmt::format("{:.2f}", 100.0 * s.rmse);
 }
@@ -172,10 +301,171 @@ std::string Value(const ErrorStats& s, const char* format) {
   return s.count == 0 ? std::string("-") : fmt::format(fmt::runtime(format), s.rmse);
 }
 
+// ---- Association files ---------------------------------------------------------------------
+
+// Every *.bin under WS/associations (any depth: robust/, naive/), relative to the workspace,
+// in natural order.
+std::vector<std::string> FindAssociationFiles(const std::string& workspace) {
+  std::vector<std::string> files;
+  const fs::path root = fs::path(workspace) / "associations";
+  std::error_code ec;
+  if (!fs::is_directory(root, ec)) return files;
+  for (auto it = fs::recursive_directory_iterator(root, ec); !ec && it != fs::end(it);
+       it.increment(ec)) {
+    if (it->is_regular_file(ec) && it->path().extension() == ".bin") {
+      files.push_back(fs::relative(it->path(), workspace, ec).generic_string());
+    }
+  }
+  std::sort(files.begin(), files.end(), NaturalLess);
+  return files;
+}
+
+// The sessions in recording order with their rain, from simulate.yaml; empty when the field
+// has none (then sessions sort by name and no pair counts as "after rain").
+SessionTimeline ReadTimeline(const std::string& field) {
+  SessionTimeline timeline;
+  const fs::path path = fs::path(field) / "ground_truth" / "simulate.yaml";
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return timeline;
+  try {
+    sim::SimConfig config = sim::PresetConfig("tiny");  // the file holds every key
+    sim::LoadSimConfigFile(path.string(), &config);
+    for (const sim::SessionSpec& s : config.sessions) {
+      timeline.sessions.push_back(s.date);
+      timeline.rain_before.push_back(s.rain_before);
+    }
+  } catch (const InputError& e) {
+    spdlog::warn("eval: {}: session order and rain unknown", e.what());
+  }
+  return timeline;
+}
+
+bool ParseInt(std::string_view text, int* value) {
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), *value);
+  return ec == std::errc() && ptr == text.data() + text.size();
+}
+
+// Row and direction of every pass of a session: WS/sessions/<session>/passes.csv (pass,row,
+// direction,...), else each pass's summary.json. Passes found in neither are missing.
+std::map<std::string, PassLayout> ReadPassLayouts(const std::string& workspace,
+                                                  const std::string& session) {
+  std::map<std::string, PassLayout> layouts;
+  const fs::path dir = fs::path(workspace) / "sessions" / session;
+  std::error_code ec;
+  if (fs::exists(dir / "passes.csv", ec)) {
+    io::CsvReader reader((dir / "passes.csv").string());
+    io::CsvRecord record;
+    while (reader.Next(&record)) {
+      PassLayout layout;
+      if (record.fields.size() < 3 || !ParseInt(record.fields[1], &layout.row) ||
+          !ParseInt(record.fields[2], &layout.direction)) {
+        continue;  // the header line, or a line this reader does not need
+      }
+      layouts[std::string(record.fields[0])] = layout;
+    }
+  }
+  for (const std::string& pass : SubFolders(dir / "rows")) {
+    if (layouts.count(pass) > 0 || !fs::exists(dir / "rows" / pass / "summary.json", ec)) continue;
+    try {
+      const json j = json::parse(ReadWholeFile(dir / "rows" / pass / "summary.json"));
+      PassLayout layout;
+      if (j.contains("row") && j["row"].is_number_integer()) layout.row = j["row"].get<int>();
+      if (j.contains("direction") && j["direction"].is_number_integer()) {
+        layout.direction = j["direction"].get<int>();
+      }
+      layouts[pass] = layout;
+    } catch (const std::exception&) {
+      // Not readable: the pass stays without layout.
+    }
+  }
+  return layouts;
+}
+
+bool BothSelected(const std::vector<std::string>& sessions, const association::PassRef& a,
+                  const association::PassRef& b) {
+  const auto selected = [&](const std::string& s) {
+    return sessions.empty() || std::find(sessions.begin(), sessions.end(), s) != sessions.end();
+  };
+  return selected(a.session) && selected(b.session);
+}
+
+WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& workspace,
+                                                       const std::string& field,
+                                                       const std::vector<std::string>& files,
+                                                       const SessionTimeline& timeline,
+                                                       const WorkspaceEvalOptions& options) {
+  WorkspaceAssociationEval result;
+  std::vector<AssociationInput> inputs;
+  std::map<std::string, std::map<std::string, PassLayout>> layouts;  // per session
+  const auto layout_of = [&](const association::PassRef& ref, PassLayout* layout) {
+    auto it = layouts.find(ref.session);
+    if (it == layouts.end())
+      it = layouts.emplace(ref.session, ReadPassLayouts(workspace, ref.session)).first;
+    const auto found = it->second.find(ref.pass);
+    if (found == it->second.end()) return false;
+    *layout = found->second;
+    return true;
+  };
+  for (const std::string& file : files) {
+    AssociationInput input;
+    input.file = file;
+    std::string detail;
+    const association::AssociationFileStatus status = association::ReadAssociationFile(
+        (fs::path(workspace) / file).string(), &input.association, &detail);
+    if (status != association::AssociationFileStatus::kOk) {
+      input.error = fmt::format("{}: {}", association::ToString(status), detail);
+    } else if (!BothSelected(options.sessions, input.association.a, input.association.b)) {
+      continue;
+    } else {
+      const association::PassRef& a = input.association.a;
+      const association::PassRef& b = input.association.b;
+      const bool known_a = layout_of(a, &input.layout_a);
+      const bool known_b = layout_of(b, &input.layout_b);
+      // Without the directions the type of a same-session pair is unknown.
+      if (a.session == b.session && !(known_a && known_b)) {
+        const association::PassRef& missing = known_a ? b : a;
+        input.error =
+            fmt::format("pass {} is not in sessions/{}/passes.csv: its direction is unknown",
+                        missing.pass, missing.session);
+      }
+    }
+    inputs.push_back(std::move(input));
+  }
+  result.num_files = static_cast<int>(inputs.size());
+  if (inputs.empty()) return result;
+
+  SimulatedFieldTruthOptions truth_options;
+  truth_options.depth_cache_dir = options.depth_cache_dir.empty()
+                                      ? (fs::path(workspace) / "eval" / "depth").string()
+                                      : options.depth_cache_dir;
+  truth_options.render = options.render_depth;
+  try {
+    SimulatedFieldTruth truth(field, truth_options);
+    result.eval = EvaluateAssociations(inputs, timeline, truth, options.association);
+  } catch (const std::exception& e) {
+    // No simulate.yaml, no EGL to render with, a cache that cannot be written: the section
+    // says why, the other sections are still evaluated.
+    result.error = e.what();
+    result.eval = AssociationEval();
+    result.eval.options = options.association;
+    for (const AssociationInput& input : inputs) {
+      AssociationFileEval f;
+      f.file = input.file;
+      f.method = input.association.method;
+      f.a = input.association.a;
+      f.b = input.association.b;
+      f.error = input.error.empty() ? "no true geometry" : input.error;
+      result.eval.files.push_back(std::move(f));
+    }
+    result.eval.num_failed = static_cast<int>(inputs.size());
+  }
+  return result;
+}
 }  // namespace
 
 bool WorkspaceEvalOptions::Check() const {
-  return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0;
+  return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0 && association.Check() &&
+         clouds.selection.Check() && clouds.misalignment.Check();
 }
 
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
@@ -211,7 +501,13 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
       eval.passes.push_back(pass);
     }
   }
-  if (eval.passes.empty()) {
+  const std::vector<std::string> association_files =
+      options.associations ? FindAssociationFiles(workspace) : std::vector<std::string>();
+  bool has_fused = false;
+  for (const std::string& session : SubFolders(fs::path(workspace) / "fused")) {
+    has_fused = has_fused || fs::exists(fs::path(workspace) / "fused" / session / "poses.tum", ec);
+  }
+  if (eval.passes.empty() && association_files.empty() && !(options.fused && has_fused)) {
     throw InputError(
         workspace, 0,
         options.sessions.empty()
@@ -292,6 +588,26 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   overall.rotation_deg = ErrorStats::Pool(rot);
   overall.rpe_translation_percent = ErrorStats::Pool(rpe_t);
   overall.rpe_rotation_deg_per_m = ErrorStats::Pool(rpe_r);
+
+  // The later stages, each when its inputs exist.
+  const SessionTimeline timeline = ReadTimeline(field);
+  if (!association_files.empty()) {
+    eval.association =
+        EvaluateWorkspaceAssociations(workspace, field, association_files, timeline, options);
+  }
+  if (options.fused) {
+    if (has_fused) {
+      eval.fused = EvaluateFusedTrajectories(workspace, field, timeline.sessions, options.sessions,
+                                             max_dt, options.metrics);
+    }
+    for (const char* label : {"row_slam", "fused"}) {
+      const std::vector<SessionCloudFiles> clouds =
+          FindCloudFiles(workspace, label, timeline.sessions, options.sessions);
+      if (clouds.size() >= 2) {
+        eval.clouds.push_back(EvaluateCloudSet(workspace, field, label, clouds, options.clouds));
+      }
+    }
+  }
   return eval;
 }
 
@@ -348,6 +664,20 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
     overall["worst_pass"] = nullptr;
   }
   root["overall"] = std::move(overall);
+  if (eval.association) root["association"] = AssociationSectionJson(*eval.association);
+  if (eval.fused) root["fused"] = FusedJson(*eval.fused);
+  if (!eval.clouds.empty()) {
+    const CloudSetOptions& c = eval.options.clouds;
+    json ground;
+    ground["options"] = {{"plant_margin_m", c.selection.plant_margin_m},
+                         {"max_terrain_distance_m", c.selection.max_terrain_distance_m},
+                         {"radius_m", c.misalignment.radius_m},
+                         {"min_points", c.misalignment.min_points},
+                         {"max_slope_deg", c.misalignment.max_slope_deg},
+                         {"max_query_points", c.misalignment.max_query_points}};
+    for (const CloudSetEval& set : eval.clouds) ground[set.label] = CloudSetJson(set);
+    root["ground_misalignment"] = std::move(ground);
+  }
   return root.dump(2) + "\n";
 }
 
@@ -359,6 +689,141 @@ std::string WriteWorkspaceEval(const WorkspaceEval& eval, const std::string& pat
 }
 
 std::string FormatWorkspaceEvalTable(const WorkspaceEval& eval) {
+  // The row passes (unless there are none), then each later stage's section.
+  std::string out = eval.passes.empty() ? std::string() : FormatPassTable(eval);
+  const auto section = [&](const std::string& text) { out += (out.empty() ? "" : "\n") + text; };
+  if (eval.association) section(FormatAssociationTable(*eval.association));
+  if (eval.fused || !eval.clouds.empty()) section(FormatFusedTable(eval));
+  return out;
+}
+
+std::string FormatAssociationTable(const WorkspaceAssociationEval& section) {
+  const AssociationEval& e = section.eval;
+  std::string out = fmt::format(
+      "association precision: correct when the true points of the two keypoints are within "
+      "{:g} cm; unknown: no truth, sky or a depth edge\n",
+      100.0 * e.options.max_distance_m);
+  if (!section.error.empty()) {
+    out +=
+        fmt::format("{} association files not evaluated: {}\n", section.num_files, section.error);
+    return out;
+  }
+  std::size_t w_method = 6;
+  for (const AssociationGroupEval& g : e.methods) w_method = std::max(w_method, g.method.size());
+  const auto percent = [](double value) {
+    return std::isfinite(value) ? fmt::format("{:.2f}", 100.0 * value) : std::string("-");
+  };
+  const std::string coarse = fmt::format("<={:g}cm %", 100.0 * e.options.coarse_distance_m);
+  const auto row = [&](const std::string& type, const std::string& method, const std::string& files,
+                       const std::string& matches, const std::string& correct,
+                       const std::string& incorrect, const std::string& unknown,
+                       const std::string& precision, const std::string& coarse_precision) {
+    out += fmt::format("{:<16}  {:<{}}  {:>5}  {:>8}  {:>8}  {:>9}  {:>8}  {:>11}  {:>10}\n", type,
+                       method, w_method, files, matches, correct, incorrect, unknown, precision,
+                       coarse_precision);
+  };
+  const auto line = [&](const std::string& type, const std::string& method, const MatchCounts& c,
+                        int files) {
+    row(type, method, std::to_string(files), std::to_string(c.matches), std::to_string(c.correct),
+        std::to_string(c.incorrect), std::to_string(c.unknown), percent(c.Precision()),
+        percent(c.CoarsePrecision()));
+  };
+  row("pair type", "method", "files", "matches", "correct", "incorrect", "unknown", "precision %",
+      coarse);
+  for (const AssociationGroupEval& g : e.groups) {
+    line(PairTypeLabel(g.type), g.method, g.counts, g.files);
+  }
+  for (const AssociationGroupEval& g : e.methods) line("all", g.method, g.counts, g.files);
+  const DepthSourceStats& d = e.depth;
+  out += fmt::format(
+      "true depth of {} images: {} from the field, {} cached, {} rendered ({:.1f} s, {:.2f} s "
+      "each), {} unavailable\n",
+      e.images, d.from_field, d.from_cache, d.rendered, d.setup_seconds + d.render_seconds,
+      d.rendered > 0 ? d.render_seconds / static_cast<double>(d.rendered) : 0.0, d.unavailable);
+  if (e.num_failed > 0) {
+    out += fmt::format("{} of {} association files could not be evaluated\n", e.num_failed,
+                       section.num_files);
+  }
+  return out;
+}
+
+std::string FormatFusedTable(const WorkspaceEval& eval) {
+  std::string out;
+  if (eval.fused) {
+    const FusedEval& f = *eval.fused;
+    std::size_t w = 7;
+    for (const FusedSessionEval& s : f.sessions) w = std::max(w, s.session.size());
+    out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n", "fused", w, "N", "ATE raw cm",
+                       "ATE aligned cm", "rot deg");
+    for (const FusedSessionEval& s : f.sessions) {
+      if (!s.ok()) {
+        out += fmt::format("{:<{}}  error: {}\n", s.session, w, s.error);
+        continue;
+      }
+      out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n", s.session, w,
+                         s.metrics.num_poses, Cm(s.metrics.ate_raw_m), Cm(s.metrics.ate_aligned_m),
+                         Value(s.metrics.rotation_deg, "{:.3f}"));
+    }
+    out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n",
+                       fmt::format("all {}/{}", f.num_evaluated, f.sessions.size()), w, f.num_poses,
+                       Cm(f.ate_raw_m), Cm(f.ate_aligned_m), Value(f.rotation_deg, "{:.3f}"));
+    out += fmt::format(
+        "aligned: SE(3) alignment per session; one alignment of all sessions together: {} cm\n",
+        Cm(f.ate_aligned_joint_m));
+  }
+  if (!eval.clouds.empty()) {
+    const CloudSetOptions& o = eval.options.clouds;
+    if (!out.empty()) out += "\n";
+    out += fmt::format(
+        "ground misalignment: ground points (beyond canopy + {:g} cm, within {:g} cm of the true "
+        "terrain) against the local plane ({:g} cm radius) of the other session\n",
+        100.0 * o.selection.plant_margin_m, 100.0 * o.selection.max_terrain_distance_m,
+        100.0 * o.misalignment.radius_m);
+    std::size_t w = 18;
+    for (const CloudSetEval& set : eval.clouds) {
+      for (const PairMisalignment& p : set.misalignment.pairs) {
+        w = std::max(w, p.a.size() + p.b.size() + 3);
+      }
+    }
+    const auto cm = [](const MisalignmentStats& m, double value, bool sign) {
+      if (m.count == 0 || !std::isfinite(value)) return std::string("-");
+      return sign ? fmt::format("{:+.2f}", 100.0 * value) : fmt::format("{:.2f}", 100.0 * value);
+    };
+    const auto line = [&](const std::string& label, const std::string& pair,
+                          const MisalignmentStats& m) {
+      out += fmt::format("{:<8}  {:<{}}  {:>8}  {:>9}  {:>6}  {:>9}\n", label, pair, w, m.count,
+                         cm(m, m.median_m, false), cm(m, m.p90_m, false),
+                         cm(m, m.signed_median_m, true));
+    };
+    out += fmt::format("{:<8}  {:<{}}  {:>8}  {:>9}  {:>6}  {:>9}\n", "clouds", "sessions", w, "N",
+                       "median cm", "p90 cm", "signed cm");
+    for (const CloudSetEval& set : eval.clouds) {
+      if (!set.error.empty()) {
+        out += fmt::format("{:<8}  error: {}\n", set.label, set.error);
+        continue;
+      }
+      // Consecutive sessions (what the associations connect); metrics.json has every pair.
+      for (std::size_t k = 0; k + 1 < set.sessions.size(); ++k) {
+        for (const PairMisalignment& p : set.misalignment.pairs) {
+          if (p.a == set.sessions[k].session && p.b == set.sessions[k + 1].session) {
+            line(set.label, p.a + " ~ " + p.b, p.stats);
+          }
+        }
+      }
+      line(set.label, "all pairs", set.misalignment.pooled);
+      line(set.label, "self (noise floor)", set.misalignment.pooled_self);
+      for (const CloudSetEval::Session& s : set.sessions) {
+        if (!s.error.empty()) out += fmt::format("{:<8}  {}: {}\n", set.label, s.session, s.error);
+      }
+    }
+    out +=
+        "signed: median of the distances, positive when the earlier session lies above; self: "
+        "each session's ground against its own (point left out)\n";
+  }
+  return out;
+}
+
+std::string FormatPassTable(const WorkspaceEval& eval) {
   std::size_t w_session = 7, w_pass = 4, w_sensors = 7;
   for (const PassEval& p : eval.passes) {
     w_session = std::max(w_session, p.session.size());

@@ -11,10 +11,25 @@
 //   FIELD/ground_truth/<session>/body_poses.tum     world_from_body at the IMU timestamps
 //
 // The truth file is chosen by the pass's pose_frame. Metrics: trajectory_metrics.h.
+//
+// The later stages are evaluated when their outputs are there (each section is optional):
+//
+//   WS/associations/**/*.bin                        cross matches (association_file.h), e.g.
+//                                                   robust/<name>.bin and naive/<name>.bin
+//   WS/sessions/<session>/passes.csv                row and direction of each pass
+//   FIELD/ground_truth/simulate.yaml                the simulation (true geometry, rain)
+//       → association precision per pair type and method (association_eval.h)
+//   WS/fused/<session>/poses.tum, sparse.ply        the 4D fusion's output
+//   WS/sessions/<session>/rows/*/landmarks.ply      the row-SLAM clouds
+//   FIELD/ground_truth/<session>/plants.csv, FIELD/ground_truth/terrain.csv
+//       → fused trajectory accuracy and cross-session ground misalignment (fused_eval.h)
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "crop4d/eval/association_eval.h"
+#include "crop4d/eval/fused_eval.h"
 #include "crop4d/eval/trajectory_metrics.h"
 
 namespace crop4d::eval {
@@ -25,8 +40,22 @@ struct WorkspaceEvalOptions {
   // compared with the truth interpolated between its neighbours when both are within this.
   // The truth is at every image (camera) or IMU (body) timestamp, so 50 ms is generous.
   double max_dt_s = 0.05;
-  // Evaluate only these sessions (empty: all).
+  // Evaluate only these sessions (empty: all). An association file is evaluated when both of
+  // its sessions are selected.
   std::vector<std::string> sessions;
+
+  // Association precision, when the workspace has association files.
+  bool associations = true;
+  AssociationEvalOptions association;
+  // Where depth maps rendered for it are kept (<dir>/<session>/<t>.png); empty:
+  // WS/eval/depth.
+  std::string depth_cache_dir;
+  // Render the true depth maps that are neither in the field (simulated with --depth) nor in
+  // the cache; off: their matches count as unknown.
+  bool render_depth = true;
+  // Fused trajectories and the ground misalignment of the fused and row-SLAM clouds.
+  bool fused = true;
+  CloudSetOptions clouds;
 
   bool Check() const;
 };
@@ -67,16 +96,34 @@ struct OverallEval {
   int worst_pass = -1;
 };
 
+// The association section: present when the workspace has association files.
+struct WorkspaceAssociationEval {
+  // Why nothing could be evaluated (e.g. no simulate.yaml in the field); `eval` is then empty
+  // except for the files found.
+  std::string error;
+  int num_files = 0;  // association files found (selected sessions)
+  AssociationEval eval;
+};
+
 struct WorkspaceEval {
   std::string workspace, field;
   WorkspaceEvalOptions options;
   std::vector<PassEval> passes;  // sorted by session, then pass (numbers numerically)
   OverallEval overall;
+  std::optional<WorkspaceAssociationEval> association;
+  std::optional<FusedEval> fused;  // when WS/fused/<session>/poses.tum exist
+  // Ground misalignment per cloud set, "row_slam" then "fused", each when at least two
+  // sessions have clouds of that kind.
+  std::vector<CloudSetEval> clouds;
 };
 
-// Reads every pass of `workspace` and evaluates it against `field`'s ground truth. A pass whose
-// files are missing or malformed, or without truth, is listed with its error. Throws InputError
-// when the workspace has no sessions/*/rows/* folder or the field has no ground_truth/ folder.
+// Reads every pass of `workspace` and evaluates it against `field`'s ground truth, then the
+// association files, the fused trajectories and the clouds when they exist. A pass, a file or a
+// session whose files are missing or malformed, or without truth, is listed with its error.
+// Throws InputError when the workspace has nothing to evaluate (no sessions/*/rows/* folder, no
+// association file and no fused session) or the field has no ground_truth/ folder. When the
+// true geometry is unavailable (no simulate.yaml, no EGL/OpenGL to render depth maps with) the
+// association section holds the error and the other sections are still evaluated.
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
                                 const WorkspaceEvalOptions& options = {});
 
@@ -89,7 +136,20 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval);
 std::string WriteWorkspaceEval(const WorkspaceEval& eval, const std::string& path = "");
 
 // A table for people: one line per pass (session, pass, sensors, N, ATE raw cm, ATE aligned cm,
-// RPE %, rotation deg), failed passes with their error, then the pooled line.
+// RPE %, rotation deg), failed passes with their error, then the pooled line; then the tables
+// of the sections that are present (FormatAssociationTable, FormatFusedTable).
 std::string FormatWorkspaceEvalTable(const WorkspaceEval& eval);
+
+// The row passes only (the first table of FormatWorkspaceEvalTable).
+std::string FormatPassTable(const WorkspaceEval& eval);
+
+// Association precision: one line per pair type and method (files, matches, correct, incorrect,
+// unknown, precision %), a line per method over all types, and where the depth maps came from.
+std::string FormatAssociationTable(const WorkspaceAssociationEval& association);
+
+// Fused trajectories (one line per session and the pooled line, as for the passes) and the
+// ground misalignment of each cloud set (pooled, and each pair of consecutive sessions: median,
+// 90th percentile and signed median in cm, distances).
+std::string FormatFusedTable(const WorkspaceEval& eval);
 
 }  // namespace crop4d::eval

@@ -20,6 +20,7 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/pipeline/pass_files.h"
 #include "crop4d/slam/session_streams.h"
 
 namespace crop4d::pipeline {
@@ -81,7 +82,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 4;
+constexpr int kSlamStageRevision = 5;
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
@@ -114,8 +115,14 @@ std::string DataStamp(const io::Session& session) {
 
 bool UpToDate(const std::string& folder, const std::string& fingerprint, bool needs_cloud) {
   const fs::path summary_path = fs::path(folder) / "summary.json";
-  if (!fs::exists(summary_path) || !fs::exists(fs::path(folder) / "poses.tum")) return false;
-  if (needs_cloud && !fs::exists(fs::path(folder) / "landmarks.ply")) return false;
+  for (const char* name : {"poses.tum", "states.csv"}) {
+    if (!fs::exists(fs::path(folder) / name)) return false;
+  }
+  if (!fs::exists(summary_path)) return false;
+  if (needs_cloud && (!fs::exists(fs::path(folder) / "landmarks.ply") ||
+                      !fs::exists(fs::path(folder) / "tracks.bin"))) {
+    return false;
+  }
   try {
     std::ifstream in(summary_path);
     const json summary = json::parse(in);
@@ -158,20 +165,6 @@ slam::SensorSet ChooseSensorSet(const SlamStageOptions& options,
   return *options.sensors;
 }
 
-std::vector<slam::GpsFixWorld> ApplyOutages(const std::vector<slam::GpsFixWorld>& fixes,
-                                            const std::vector<GpsOutage>& outages) {
-  if (outages.empty() || fixes.empty()) return fixes;
-  std::vector<slam::GpsFixWorld> kept;
-  const Timestamp t0 = fixes.front().t;
-  for (const slam::GpsFixWorld& fix : fixes) {
-    const double s = DurationSeconds(t0, fix.t);
-    bool dropped = false;
-    for (const GpsOutage& g : outages) dropped |= s >= g.start_s && s < g.start_s + g.duration_s;
-    if (!dropped) kept.push_back(fix);
-  }
-  return kept;
-}
-
 bool PassSelected(const SlamStageOptions& options, const slam::RowPass& pass) {
   if (options.pass.empty()) return true;
   if (options.pass == pass.id) return true;
@@ -212,6 +205,7 @@ struct SessionContext {
   // The session-wide IMU + GPS solution (empty when not run).
   std::vector<slam::RowState> session_states;
   Eigen::Vector3d factor_antenna = Eigen::Vector3d::Zero();
+  std::string factor_gps_name;
   std::unique_ptr<slam::StateInitialiser> initialiser;
   std::string data_stamp;
 };
@@ -460,6 +454,30 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   }
   const slam::RowOptimiser::Result result = optimiser.Solve(input);
   const slam::RowOptimiser::Summary& s = result.summary;
+  {
+    // What the joint 4D problem needs to rebuild this pass's graph from the session's data
+    // (fuse_stage.h): the sensors, the GPS receiver and outages, and the priors.
+    json problem;
+    problem["camera"] = camera != nullptr ? camera->sensor.name : "";
+    problem["imu"] = imu.sensor.name;
+    problem["gps"] = info.gps ? ctx.factor_gps_name : "";
+    json outages = json::array();
+    for (const GpsOutage& g : options.gps_outages) outages.push_back({g.start_s, g.duration_s});
+    problem["gps_outages"] = outages;
+    problem["anchor_state"] = input.anchor_state;
+    problem["forward_axis_body"] =
+        input.forward_axis_body
+            ? json::array({input.forward_axis_body->x(), input.forward_axis_body->y(),
+                           input.forward_axis_body->z()})
+            : json();
+    problem["bias_prior_mean"] = std::vector<double>(
+        input.bias_prior_mean.data(), input.bias_prior_mean.data() + input.bias_prior_mean.size());
+    problem["bias_prior_sigma"] =
+        input.bias_prior_sigma ? json(std::vector<double>(input.bias_prior_sigma->data(),
+                                                          input.bias_prior_sigma->data() + 6))
+                               : json();
+    summary["problem"] = problem;
+  }
 
   // Outputs: poses, cloud, summary.
   start = Clock::now();
@@ -476,6 +494,8 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                std::string(camera != nullptr ? "world_from_camera" : "world_from_body") +
                    " of session " + ctx.session->id() + ", pass " + pass.id + " (" +
                    slam::ToString(ctx.sensors) + "), field ENU frame");
+
+  WritePassStates((fs::path(folder) / "states.csv").string(), result.states);
 
   PassOutcome outcome;
   outcome.num_states = static_cast<int>(result.states.size());
@@ -522,6 +542,27 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
       error.values.push_back(tri[i].mean_reprojection_error_px);
     }
     cloud.scalars = {length, error};
+    // The observations behind the optimised landmarks and behind every cloud point, for
+    // association and the joint 4D problem (pass_files.h).
+    PassTracks pass_tracks;
+    for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+      const features::Track& track = front.tracks[result.landmark_tracks[l]];
+      PassTrack t;
+      t.position_world = result.landmarks_world[l];
+      t.color = tracks[result.landmark_tracks[l]].color;
+      for (std::size_t o = 0; o < track.observations.size(); ++o) {
+        if (result.landmark_observations_kept[l][o])
+          t.observations.push_back(track.observations[o]);
+      }
+      pass_tracks.landmarks.push_back(std::move(t));
+    }
+    for (std::size_t i = 0, point = 0; i < all_tracks.size(); ++i) {
+      if (!tri[i].ok()) continue;
+      pass_tracks.cloud.push_back(
+          {cloud.points[point], cloud.colors[point], all_tracks[i].observations});
+      ++point;
+    }
+    WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
     io::PlyWriteOptions ply_options;
     ply_options.comment = "crop4d sparse cloud of " + ctx.session->id() + "/" + pass.id +
                           ", field ENU frame (metres)";
@@ -566,6 +607,20 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
 
 }  // namespace
 
+std::vector<slam::GpsFixWorld> ApplyGpsOutages(const std::vector<slam::GpsFixWorld>& fixes,
+                                               const std::vector<GpsOutage>& outages) {
+  if (outages.empty() || fixes.empty()) return fixes;
+  std::vector<slam::GpsFixWorld> kept;
+  const Timestamp t0 = fixes.front().t;
+  for (const slam::GpsFixWorld& fix : fixes) {
+    const double s = DurationSeconds(t0, fix.t);
+    bool dropped = false;
+    for (const GpsOutage& g : outages) dropped |= s >= g.start_s && s < g.start_s + g.duration_s;
+    if (!dropped) kept.push_back(fix);
+  }
+  return kept;
+}
+
 bool SlamStageOptions::Check() const {
   for (const GpsOutage& g : gps_outages) {
     if (!(g.duration_s > 0) || !std::isfinite(g.start_s)) return false;
@@ -602,13 +657,14 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
     const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
     if (const slam::GpsStream* best = ctx.streams.BestGps()) {
       ctx.best_gps = *best;
-      ctx.best_gps.fixes = ApplyOutages(best->fixes, options.gps_outages);
+      ctx.best_gps.fixes = ApplyGpsOutages(best->fixes, options.gps_outages);
       ctx.has_best_gps = true;
     }
     if (info.gps) {
       const slam::GpsStream* gps = ctx.streams.FindGps(info.gps_kind);
-      ctx.factor_fixes = ApplyOutages(gps->fixes, options.gps_outages);
+      ctx.factor_fixes = ApplyGpsOutages(gps->fixes, options.gps_outages);
       ctx.factor_antenna = gps->sensor.antenna_in_body;
+      ctx.factor_gps_name = gps->sensor.name;
     }
     // Initialisation from the receiver the factors use; cam+imu anchors each pass with the best
     // receiver.

@@ -9,6 +9,9 @@
 //   poses.tum      world_from_camera at every image time (world_from_body at the state times for
 //                  a camera-less pass), TUM format, seconds;
 //   landmarks.ply  the sparse cloud with colour, track length and reprojection error;
+//   tracks.bin     the observations of the optimised landmarks and of the cloud's points
+//                  (pass_files.h), for association and the joint 4D problem;
+//   states.csv     the full state (pose, velocity, angular rate, biases) at every state time;
 //   summary.json   counts, costs, times per phase, the options, and a fingerprint: a pass whose
 //                  fingerprint is unchanged is skipped on a rerun (unless `force`).
 // WS/sessions/<session>/passes.csv lists the passes of the session.
@@ -109,6 +112,10 @@ struct PassReport {
 // cannot provide. A pass that fails is reported and the others go on.
 std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std::string& workspace,
                                      const SlamStageOptions& options);
+
+// The fixes outside the outages (GpsOutage: seconds after the first fix of `fixes`).
+std::vector<slam::GpsFixWorld> ApplyGpsOutages(const std::vector<slam::GpsFixWorld>& fixes,
+                                               const std::vector<GpsOutage>& outages);
 
 // The folder of a pass's outputs.
 std::string PassFolder(const std::string& workspace, const std::string& session,

@@ -1,7 +1,6 @@
 #include "crop4d/slam/row_optimiser.h"
 
 #include <ceres/ceres.h>
-#include <ceres/normal_prior.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -11,10 +10,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "crop4d/slam/gps_factor.h"
-#include "crop4d/slam/motion_constraint_factor.h"
-#include "crop4d/slam/pose_manifold.h"
-#include "crop4d/slam/pose_prior_factor.h"
+#include "crop4d/slam/pass_graph.h"
 #include "crop4d/slam/reprojection_factor.h"
 
 namespace crop4d::slam {
@@ -26,253 +22,6 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The four parameter blocks of one state (state_layout.h).
-struct StateBlocks {
-  double pose[kPoseSize];
-  double vel[kVelocitySize];
-  double rate[kRateSize];
-  double bias[kBiasSize];
-};
-
-StateBlocks ToBlocks(const RowState& s) {
-  StateBlocks b;
-  const Vector7d pose = PoseToBlock(s.nav.world_from_body);
-  std::copy(pose.data(), pose.data() + 7, b.pose);
-  for (int k = 0; k < 3; ++k) {
-    b.vel[k] = s.nav.vel_world(k);
-    b.rate[k] = s.nav.rate_body(k);
-  }
-  for (int k = 0; k < 6; ++k) b.bias[k] = s.bias(k);
-  return b;
-}
-
-RowState FromBlocks(Timestamp t, const StateBlocks& b) {
-  RowState s;
-  s.t = t;
-  s.nav.world_from_body = BlockToPose(b.pose);
-  s.nav.vel_world = Eigen::Vector3d(b.vel[0], b.vel[1], b.vel[2]);
-  s.nav.rate_body = Eigen::Vector3d(b.rate[0], b.rate[1], b.rate[2]);
-  s.bias = Eigen::Map<const Vector6d>(b.bias);
-  return s;
-}
-
-// True when the samples cover [t_i, t_j] with no two consecutive samples (including the last
-// one at or before t_i and the first at or after t_j) further apart than max_gap.
-bool ImuCovers(const std::vector<ImuSample>& samples, Timestamp t_i, Timestamp t_j,
-               Timestamp max_gap) {
-  if (samples.empty() || samples.front().timestamp > t_i || samples.back().timestamp < t_j) {
-    return false;
-  }
-  auto it = std::upper_bound(samples.begin(), samples.end(), t_i,
-                             [](Timestamp t, const ImuSample& s) { return t < s.timestamp; });
-  --it;  // last sample at or before t_i
-  for (; it + 1 != samples.end() && it->timestamp < t_j; ++it) {
-    if ((it + 1)->timestamp - it->timestamp > max_gap) return false;
-  }
-  return true;
-}
-
-class ProblemBuilder {
- public:
-  ProblemBuilder(const RowOptimiser::Options& options, const RowOptimiser::Input& input,
-                 std::vector<StateBlocks>* blocks)
-      : options_(options), input_(input), blocks_(*blocks) {
-    reprojection_loss_ = std::make_unique<ceres::HuberLoss>(options.reprojection_loss_scale);
-    gps_loss_ = std::make_unique<ceres::HuberLoss>(options.gps_loss_scale);
-  }
-
-  bool has_imu() const { return input_.imu_samples != nullptr && !input_.imu_samples->empty(); }
-  bool has_gps() const { return !input_.gps_fixes.empty(); }
-
-  // (Re)integrates the IMU between consecutive states at each state's current bias estimate.
-  void Preintegrate(RowOptimiser::Summary* summary) {
-    const std::size_t n = blocks_.size();
-    preintegrations_.assign(n > 0 ? n - 1 : 0, std::nullopt);
-    if (!has_imu()) return;
-    const Timestamp max_gap = SecondsToTimestamp(options_.max_imu_gap_s);
-    int gaps = 0;
-    for (std::size_t k = 0; k + 1 < n; ++k) {
-      const Timestamp t_i = input_.initial_states[k].t, t_j = input_.initial_states[k + 1].t;
-      if (!ImuCovers(*input_.imu_samples, t_i, t_j, max_gap)) {
-        ++gaps;
-        continue;
-      }
-      ImuPreintegration pre(input_.imu_noise, Eigen::Map<const Vector6d>(blocks_[k].bias));
-      pre.Integrate(*input_.imu_samples, t_i, t_j);
-      preintegrations_[k] = std::move(pre);
-    }
-    if (summary != nullptr) {
-      summary->num_imu_gaps = gaps;
-      summary->num_imu_factors = static_cast<int>(n - 1) - gaps;
-    }
-  }
-
-  // States, motion factors (IMU, bias walk, rate, GP prior), GPS and the priors.
-  void AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summary) const {
-    const std::size_t n = blocks_.size();
-    for (StateBlocks& b : blocks_) {
-      problem->AddParameterBlock(b.pose, kPoseSize, &pose_manifold_);
-      problem->AddParameterBlock(b.vel, kVelocitySize);
-      problem->AddParameterBlock(b.rate, kRateSize);
-      problem->AddParameterBlock(b.bias, kBiasSize);
-    }
-    const std::vector<RowState>& st = input_.initial_states;
-    const double sigma_rate =
-        input_.imu_noise.gyro_noise_density * std::sqrt(std::max(input_.imu_rate_hz, 1.0));
-    for (std::size_t k = 0; k < n; ++k) {
-      StateBlocks& b = blocks_[k];
-      if (has_imu() && st[k].t >= input_.imu_samples->front().timestamp &&
-          st[k].t <= input_.imu_samples->back().timestamp) {
-        const ImuSample gyro = InterpolateImu(*input_.imu_samples, st[k].t);
-        problem->AddResidualBlock(AngularRateFactor::Create(gyro.gyro_body, sigma_rate), nullptr,
-                                  b.rate, b.bias);
-      }
-      if (k + 1 == n) break;
-      StateBlocks& c = blocks_[k + 1];
-      const double dt = DurationSeconds(st[k].t, st[k + 1].t);
-      problem->AddResidualBlock(GpPriorFactor::Create(options_.gp, dt), nullptr, b.pose, b.vel,
-                                b.rate, c.pose, c.vel, c.rate);
-      if (has_imu()) {
-        problem->AddResidualBlock(
-            BiasRandomWalkFactor::Create(input_.imu_noise.gyro_random_walk,
-                                         input_.imu_noise.accel_random_walk, dt),
-            nullptr, b.bias, c.bias);
-        if (preintegrations_[k]) {
-          problem->AddResidualBlock(ImuFactor::Create(*preintegrations_[k]), nullptr, b.pose, b.vel,
-                                    b.bias, c.pose, c.vel);
-        }
-      }
-    }
-    if (n == 0) return;
-    if (input_.forward_axis_body) {
-      for (StateBlocks& b : blocks_) {
-        problem->AddResidualBlock(MotionConstraintFactor::Create(*input_.forward_axis_body,
-                                                                 options_.motion_constraint_sigma),
-                                  nullptr, b.pose, b.vel);
-      }
-    }
-    if (has_imu()) {
-      // Weak prior on the turn-on bias.
-      Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-      if (input_.bias_prior_sigma) {
-        A.diagonal() = input_.bias_prior_sigma->cwiseInverse();
-      } else {
-        A.diagonal() << Eigen::Vector3d::Constant(1.0 / options_.bias_prior_sigma_gyro),
-            Eigen::Vector3d::Constant(1.0 / options_.bias_prior_sigma_accel);
-      }
-      problem->AddResidualBlock(new ceres::NormalPrior(A, input_.bias_prior_mean), nullptr,
-                                blocks_[0].bias);
-    } else {
-      for (StateBlocks& b : blocks_) problem->SetParameterBlockConstant(b.bias);
-    }
-    int gps_factors = 0;
-    for (const GpsFixWorld& fix : input_.gps_fixes) {
-      if (fix.t < st.front().t || fix.t > st.back().t) continue;
-      // The states i, j = i + 1 around the fix: t_i ≤ τ ≤ t_j.
-      std::size_t j = std::lower_bound(st.begin(), st.end(), fix.t,
-                                       [](const RowState& s, Timestamp t) { return s.t < t; }) -
-                      st.begin();
-      if (j == 0) j = 1;
-      if (j >= n) continue;
-      const std::size_t i = j - 1;
-      GpsMeasurement m;
-      m.position_world = fix.position_world;
-      m.sigma_horizontal = std::max(fix.sigma_h, 1e-3);
-      m.sigma_vertical = std::max(fix.sigma_v, 1e-3);
-      const double dt = DurationSeconds(st[i].t, st[j].t);
-      const double s = std::clamp(DurationSeconds(st[i].t, fix.t), 0.0, dt);
-      problem->AddResidualBlock(GpsInterpolatedFactor::Create(m, input_.p_body_antenna, dt, s),
-                                gps_loss_.get(), blocks_[i].pose, blocks_[i].vel, blocks_[i].rate,
-                                blocks_[j].pose, blocks_[j].vel, blocks_[j].rate);
-      ++gps_factors;
-    }
-    if (summary != nullptr) summary->num_gps_factors = gps_factors;
-    if (gps_factors == 0) {
-      const std::size_t anchor = std::min<std::size_t>(input_.anchor_state, n - 1);
-      // The gauge: position, heading and velocity of the first state as initialised.
-      problem->AddResidualBlock(
-          PosePriorFactor::Create(input_.initial_states[anchor].nav.world_from_body,
-                                  options_.anchor_sigma_position, options_.anchor_sigma_rotation),
-          nullptr, blocks_[anchor].pose);
-      const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() / options_.anchor_sigma_velocity;
-      problem->AddResidualBlock(
-          new ceres::NormalPrior(A, input_.initial_states[anchor].nav.vel_world), nullptr,
-          blocks_[anchor].vel);
-    }
-  }
-
-  // Reprojection factors of the landmarks (observations with keep[l][o] true).
-  std::int64_t AddLandmarks(ceres::Problem* problem, std::vector<Eigen::Vector3d>* landmarks,
-                            const std::vector<int>& tracks,
-                            const std::vector<std::vector<bool>>& keep) const {
-    std::int64_t count = 0;
-    for (std::size_t l = 0; l < landmarks->size(); ++l) {
-      const LandmarkTrack& track = input_.tracks[tracks[l]];
-      for (std::size_t o = 0; o < track.observations.size(); ++o) {
-        if (!keep[l][o]) continue;
-        const LandmarkObservation& obs = track.observations[o];
-        problem->AddResidualBlock(
-            ReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,
-                                       options_.reprojection_sigma_px),
-            reprojection_loss_.get(), blocks_[obs.state].pose, (*landmarks)[l].data());
-        ++count;
-      }
-    }
-    return count;
-  }
-
- private:
-  const RowOptimiser::Options& options_;
-  const RowOptimiser::Input& input_;
-  std::vector<StateBlocks>& blocks_;
-  std::vector<std::optional<ImuPreintegration>> preintegrations_;
-  std::unique_ptr<ceres::LossFunction> reprojection_loss_, gps_loss_;
-  mutable PoseManifold pose_manifold_;
-};
-
-ceres::Problem::Options ProblemOptions() {
-  ceres::Problem::Options o;
-  // Manifolds and losses are shared between blocks and owned by the builder.
-  o.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  return o;
-}
-
-ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
-                                 const std::vector<Eigen::Vector3d>* landmarks) {
-  ceres::Solver::Options so;
-  so.max_num_iterations = options.max_iterations;
-  so.num_threads = options.num_threads > 0 ? options.num_threads
-                                           : static_cast<int>(std::thread::hardware_concurrency());
-  so.logging_type = ceres::SILENT;
-  so.minimizer_progress_to_stdout = false;
-  if (landmarks != nullptr && !landmarks->empty()) {
-    // Landmarks first: eliminated by the Schur complement.
-    so.linear_solver_type = ceres::SPARSE_SCHUR;
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    std::vector<double*> blocks;
-    problem->GetParameterBlocks(&blocks);
-    for (double* block : blocks) ordering->AddElementToGroup(block, 1);
-    for (const Eigen::Vector3d& p : *landmarks) {
-      ordering->AddElementToGroup(const_cast<double*>(p.data()), 0);
-    }
-    so.linear_solver_ordering = ordering;
-  } else {
-    so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  }
-  ceres::Solver::Summary summary;
-  ceres::Solve(so, problem, &summary);
-  return summary;
-}
-
-std::vector<geometry::Rigid3> CameraPoses(const std::vector<StateBlocks>& blocks,
-                                          const geometry::Rigid3& body_from_camera) {
-  std::vector<geometry::Rigid3> poses;
-  poses.reserve(blocks.size());
-  for (const StateBlocks& b : blocks) poses.push_back(BlockToPose(b.pose) * body_from_camera);
-  return poses;
-}
-
 }  // namespace
 
 bool RowOptimiser::Options::Check() const {
@@ -281,7 +30,7 @@ bool RowOptimiser::Options::Check() const {
          triangulation.Check() && gps_loss_scale > 0 && gp.Check() && bias_prior_sigma_gyro > 0 &&
          bias_prior_sigma_accel > 0 && anchor_sigma_position > 0 && anchor_sigma_rotation > 0 &&
          anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 && max_imu_gap_s > 0 &&
-         max_iterations > 0 && num_threads >= 0;
+         max_iterations > 0 && max_linear_iterations > 0 && num_threads >= 0;
 }
 
 RowOptimiser::RowOptimiser(Options options) : options_(std::move(options)) {
@@ -303,7 +52,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
   std::vector<StateBlocks> blocks;
   blocks.reserve(n);
   for (const RowState& s : input.initial_states) blocks.push_back(ToBlocks(s));
-  ProblemBuilder builder(options_, input, &blocks);
+  PassGraph builder(options_, input, &blocks);
   builder.Preintegrate(&summary);
   if (summary.num_imu_gaps > 0) {
     spdlog::warn(
@@ -347,27 +96,17 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
       const LandmarkTrack& track = input.tracks[t];
       // A track with an outlier observation (above the triangulation's error bound) loses its
       // worst view and is triangulated again, a few times at most.
-      std::vector<bool> mask(track.observations.size(), true);
-      int remaining = static_cast<int>(track.observations.size());
-      TriangulationResult tri;
-      for (int attempt = 0; attempt <= options_.max_outliers_per_track; ++attempt) {
-        std::vector<geometry::Rigid3> poses;
-        std::vector<Eigen::Vector2d> pixels;
-        std::vector<std::size_t> index;
-        for (std::size_t o = 0; o < track.observations.size(); ++o) {
-          if (!mask[o]) continue;
-          poses.push_back(cameras[track.observations[o].state]);
-          pixels.push_back(track.observations[o].pixel);
-          index.push_back(o);
-        }
-        tri = TriangulatePoint(*input.camera, poses, pixels, options_.triangulation);
-        if (tri.status != TriangulationStatus::kLargeError || tri.worst_view < 0 ||
-            remaining - 1 < options_.min_observations) {
-          break;
-        }
-        mask[index[tri.worst_view]] = false;
-        --remaining;
+      std::vector<geometry::Rigid3> poses;
+      std::vector<Eigen::Vector2d> pixels;
+      for (const LandmarkObservation& obs : track.observations) {
+        poses.push_back(cameras[obs.state]);
+        pixels.push_back(obs.pixel);
       }
+      std::vector<bool> mask;
+      const TriangulationResult tri = TriangulateDroppingWorstViews(
+          *input.camera, poses, pixels, options_.triangulation, options_.max_outliers_per_track,
+          options_.min_observations, &mask);
+      const int remaining = static_cast<int>(std::count(mask.begin(), mask.end(), true));
       if (tri.status != TriangulationStatus::kOk) continue;
       summary.num_rejected_observations += static_cast<int>(track.observations.size()) - remaining;
       landmarks.push_back(tri.point_world);
@@ -448,6 +187,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
     summary.final_solve_seconds = SecondsSince(start);
     result.landmarks_world = std::move(kept_landmarks);
     result.landmark_tracks = std::move(kept_tracks);
+    result.landmark_observations_kept = std::move(kept_masks);
   }
 
   result.states.reserve(n);

@@ -248,4 +248,33 @@ TriangulationResult TriangulatePoint(const geometry::PinholeRadTan& camera,
   return result;
 }
 
+TriangulationResult TriangulateDroppingWorstViews(
+    const geometry::PinholeRadTan& camera, const std::vector<geometry::Rigid3>& world_from_camera,
+    const std::vector<Eigen::Vector2d>& pixels, const TriangulationOptions& options,
+    int max_dropped_views, int min_views, std::vector<bool>* kept) {
+  const std::size_t n = pixels.size();
+  kept->assign(n, true);
+  int remaining = static_cast<int>(n);
+  TriangulationResult result;
+  for (int attempt = 0; attempt <= max_dropped_views; ++attempt) {
+    std::vector<geometry::Rigid3> poses;
+    std::vector<Eigen::Vector2d> used;
+    std::vector<std::size_t> index;
+    for (std::size_t o = 0; o < n; ++o) {
+      if (!(*kept)[o]) continue;
+      poses.push_back(world_from_camera[o]);
+      used.push_back(pixels[o]);
+      index.push_back(o);
+    }
+    result = TriangulatePoint(camera, poses, used, options);
+    if (result.status != TriangulationStatus::kLargeError || result.worst_view < 0 ||
+        remaining - 1 < min_views) {
+      break;
+    }
+    (*kept)[index[result.worst_view]] = false;
+    --remaining;
+  }
+  return result;
+}
+
 }  // namespace crop4d::slam

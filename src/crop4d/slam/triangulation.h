@@ -87,4 +87,13 @@ TriangulationResult TriangulatePoint(const geometry::PinholeRadTan& camera,
                                      const std::vector<Eigen::Vector2d>& pixels,
                                      const TriangulationOptions& options = {});
 
+// TriangulatePoint, and while the result fails on the reprojection bound (kLargeError), the worst
+// view is dropped and the point triangulated again: at most `max_dropped_views` times, and never
+// below `min_views` views. `kept` (resized to the number of views) flags the views used by the
+// returned result.
+TriangulationResult TriangulateDroppingWorstViews(
+    const geometry::PinholeRadTan& camera, const std::vector<geometry::Rigid3>& world_from_camera,
+    const std::vector<Eigen::Vector2d>& pixels, const TriangulationOptions& options,
+    int max_dropped_views, int min_views, std::vector<bool>* kept);
+
 }  // namespace crop4d::slam

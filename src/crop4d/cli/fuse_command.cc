@@ -1,0 +1,91 @@
+// crop4d fuse: the joint 4D optimisation of every row pass of every session with the cross
+// matches of `crop4d associate` (DESIGN.md §2.4); outputs in WS/fused/ (pipeline/fuse_stage.h,
+// docs/cli.md#fuse).
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "crop4d/cli/command.h"
+#include "crop4d/core/error.h"
+#include "crop4d/pipeline/fuse_stage.h"
+
+namespace crop4d::cli {
+namespace {
+
+struct FuseArgs {
+  std::string linear_solver;
+  std::string field;
+  std::string workspace;
+  int threads = 0;
+  pipeline::FuseStageOptions options;
+};
+
+int RunFuse(FuseArgs& args) {
+  pipeline::FuseStageOptions& o = args.options;
+  o.optimiser.row.num_threads = args.threads;
+  if (args.linear_solver != "exact" && args.linear_solver != "iterative") {
+    throw InputError("--linear-solver", 0,
+                     "expected exact or iterative, got '" + args.linear_solver + "'");
+  }
+  o.optimiser.row.iterative_schur = args.linear_solver == "iterative";
+  if (o.method != "robust" && o.method != "naive") {
+    throw InputError("--method", 0, "expected robust or naive, got '" + o.method + "'");
+  }
+  if (!o.Check()) throw InputError("crop4d fuse", 0, "invalid options");
+  const pipeline::FuseReport report = pipeline::RunFuseStage(args.field, args.workspace, o);
+  if (spdlog::get_level() <= spdlog::level::info) {
+    std::fputs(pipeline::FormatFuseReport(report).c_str(), stdout);
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
+}  // namespace
+
+RunFunction SetupFuse(CLI::App& app) {
+  auto args = std::make_shared<FuseArgs>();
+  pipeline::FuseStageOptions& o = args->options;
+  app.description(
+      "Joint 4D optimisation (docs/cli.md#fuse, docs/fusion.md): one Ceres problem over every "
+      "row pass of every session — each pass's IMU, GP prior and GPS factors plus the cross "
+      "matches of `crop4d associate` as shared landmarks — initialised from row SLAM, with "
+      "robust losses and rejection of inconsistent matches. Writes WS/fused/<session>/poses.tum "
+      "and sparse.ply, WS/fused/landmarks.ply, a COLMAP text model in WS/fused/colmap/ and "
+      "WS/fused/summary.json; skipped when its inputs have not changed.\n\nExample:\n  crop4d "
+      "fuse demo/field --workspace demo/workspace");
+  app.add_option("field", args->field, "Field folder (docs/format.md)")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("-w,--workspace", args->workspace, "Workspace with row SLAM and associations")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--method", o.method, "Associations to use: robust or naive")
+      ->capture_default_str();
+  app.add_option("--matches-per-image-pair", o.max_matches_per_image_pair,
+                 "Cross matches of one image pair used at most (the best, spread over the image; "
+                 "0: all)")
+      ->capture_default_str();
+  app.add_option("--max-reprojection-error", o.optimiser.row.max_reprojection_error_px,
+                 "Observations above this error (px) are removed before the final solve")
+      ->capture_default_str();
+  args->linear_solver = o.optimiser.row.iterative_schur ? "iterative" : "exact";
+  app.add_option("--linear-solver", args->linear_solver,
+                 "exact: sparse Cholesky of the Schur complement; iterative: conjugate gradients "
+                 "(faster on many passes)")
+      ->capture_default_str();
+  app.add_option("--max-iterations", o.optimiser.row.max_iterations,
+                 "Levenberg–Marquardt iterations per solve")
+      ->capture_default_str();
+  app.add_flag(
+      "--no-colmap", [&o](std::int64_t) { o.write_colmap = false; },
+      "Do not write the COLMAP text model");
+  app.add_option("--threads", args->threads, "Worker threads (0: all cores)")
+      ->capture_default_str();
+  app.add_flag("--force", o.force, "Fuse again even when the inputs have not changed");
+  return [args] { return RunFuse(*args); };
+}
+
+}  // namespace crop4d::cli

@@ -1,0 +1,402 @@
+#include "crop4d/fusion/joint_optimiser.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+
+#include "crop4d/slam/pass_graph.h"
+#include "crop4d/slam/reprojection_factor.h"
+#include "crop4d/slam/triangulation.h"
+
+namespace crop4d::fusion {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+bool SameCamera(const geometry::PinholeRadTan& a, const geometry::PinholeRadTan& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
+         a.cx == b.cx && a.cy == b.cy && a.k1 == b.k1 && a.k2 == b.k2 && a.p1 == b.p1 &&
+         a.p2 == b.p2 && a.k3 == b.k3;
+}
+
+// Everything the phases share: the state blocks and graph of every pass.
+class JointProblem {
+ public:
+  JointProblem(const slam::RowOptimiser::Options& options,
+               const std::vector<JointOptimiser::Pass>& passes)
+      : options_(options), passes_(passes), blocks_(passes.size()) {
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      for (const slam::RowState& s : passes[p].initial_states) {
+        blocks_[p].push_back(slam::ToBlocks(s));
+      }
+      graphs_.push_back(std::make_unique<slam::PassGraph>(options_, passes_[p], &blocks_[p]));
+    }
+  }
+
+  void Preintegrate() {
+    for (auto& graph : graphs_) graph->Preintegrate(nullptr);
+  }
+
+  // world_from_camera of every state of every pass (identity for camera-less passes).
+  std::vector<std::vector<geometry::Rigid3>> CameraPoses() const {
+    std::vector<std::vector<geometry::Rigid3>> poses(passes_.size());
+    for (std::size_t p = 0; p < passes_.size(); ++p) {
+      poses[p] = slam::CameraPoses(blocks_[p], passes_[p].body_from_camera);
+    }
+    return poses;
+  }
+
+  double Error(const JointObservation& obs, const Eigen::Vector3d& point) const {
+    const JointOptimiser::Pass& pass = passes_[obs.pass];
+    return slam::ReprojectionError(*pass.camera, pass.body_from_camera,
+                                   slam::BlockToPose(blocks_[obs.pass][obs.state].pose), point,
+                                   obs.pixel);
+  }
+
+  // Builds and solves the problem with the kept observations of `landmarks`.
+  ceres::Solver::Summary Solve(const std::vector<JointLandmark>& given, const std::vector<int>& ids,
+                               std::vector<Eigen::Vector3d>* landmarks,
+                               const std::vector<std::vector<bool>>& keep,
+                               std::int64_t* num_observations) {
+    ceres::Problem problem(slam::ProblemOptions());
+    for (auto& graph : graphs_) graph->AddMotion(&problem, nullptr);
+    std::int64_t count = 0;
+    for (std::size_t l = 0; l < landmarks->size(); ++l) {
+      const JointLandmark& landmark = given[ids[l]];
+      for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+        if (!keep[l][o]) continue;
+        const JointObservation& obs = landmark.observations[o];
+        const JointOptimiser::Pass& pass = passes_[obs.pass];
+        problem.AddResidualBlock(
+            slam::ReprojectionFactor::Create(*pass.camera, pass.body_from_camera, obs.pixel,
+                                             options_.reprojection_sigma_px),
+            graphs_[obs.pass]->reprojection_loss(), blocks_[obs.pass][obs.state].pose,
+            (*landmarks)[l].data());
+        ++count;
+      }
+    }
+    if (num_observations != nullptr) *num_observations = count;
+    return slam::RunSolver(options_, &problem, landmarks);
+  }
+
+  // Moves pass p rigidly: world' = correction · world.
+  void Transform(std::size_t p, const geometry::Rigid3& correction) {
+    for (slam::StateBlocks& b : blocks_[p]) {
+      const geometry::Rigid3 pose = correction * slam::BlockToPose(b.pose);
+      const slam::Vector7d block = slam::PoseToBlock(pose);
+      std::copy(block.data(), block.data() + 7, b.pose);
+      const Eigen::Vector3d v =
+          correction.rotation() * Eigen::Vector3d(b.vel[0], b.vel[1], b.vel[2]);
+      for (int k = 0; k < 3; ++k) b.vel[k] = v(k);
+    }
+  }
+
+  std::vector<std::vector<slam::RowState>> States() const {
+    std::vector<std::vector<slam::RowState>> states(passes_.size());
+    for (std::size_t p = 0; p < passes_.size(); ++p) {
+      for (std::size_t k = 0; k < blocks_[p].size(); ++k) {
+        states[p].push_back(slam::FromBlocks(passes_[p].initial_states[k].t, blocks_[p][k]));
+      }
+    }
+    return states;
+  }
+
+ private:
+  const slam::RowOptimiser::Options& options_;
+  const std::vector<JointOptimiser::Pass>& passes_;
+  std::vector<std::vector<slam::StateBlocks>> blocks_;
+  std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
+};
+
+// Whether observation o of a landmark comes from a pass other than its first observation's.
+bool IsCross(const JointLandmark& landmark, std::size_t o) {
+  return landmark.observations[o].pass != landmark.observations.front().pass;
+}
+
+double MedianGpsSigma(const JointOptimiser::Pass& pass) {
+  if (pass.gps_fixes.empty()) return std::numeric_limits<double>::infinity();
+  std::vector<double> sigmas;
+  for (const slam::GpsFixWorld& fix : pass.gps_fixes) sigmas.push_back(fix.sigma_h);
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
+}
+
+// Step (0): each landmark seen from several passes is triangulated by each pass alone; pairs of
+// passes with enough common points are aligned (4 DOF), and the passes without a precise GPS
+// are moved along a spanning tree of the best-supported alignments, grown from the precise
+// passes (or from the first pass of a group without any).
+void AlignPasses(const JointOptimiser::Options& options,
+                 const std::vector<JointOptimiser::Pass>& passes,
+                 const std::vector<JointLandmark>& landmarks, JointProblem* problem,
+                 JointOptimiser::Summary* summary) {
+  const std::size_t n = passes.size();
+  std::vector<bool> precise(n);
+  for (std::size_t p = 0; p < n; ++p) {
+    precise[p] = MedianGpsSigma(passes[p]) <= options.precise_gps_sigma_m;
+  }
+  if (std::all_of(precise.begin(), precise.end(), [](bool b) { return b; })) return;
+  const std::vector<std::vector<geometry::Rigid3>> cameras = problem->CameraPoses();
+  // Per landmark, the point of each pass that sees it at least twice.
+  std::vector<std::vector<std::pair<int, Eigen::Vector3d>>> per_pass(landmarks.size());
+  tbb::parallel_for(std::size_t{0}, landmarks.size(), [&](std::size_t l) {
+    const JointLandmark& landmark = landmarks[l];
+    if (landmark.observations.front().pass == landmark.observations.back().pass) return;
+    std::map<int, std::pair<std::vector<geometry::Rigid3>, std::vector<Eigen::Vector2d>>> views;
+    for (const JointObservation& obs : landmark.observations) {
+      views[obs.pass].first.push_back(cameras[obs.pass][obs.state]);
+      views[obs.pass].second.push_back(obs.pixel);
+    }
+    for (const auto& [pass, v] : views) {
+      if (v.first.size() < 2) continue;
+      const slam::TriangulationResult tri = slam::TriangulatePoint(
+          *passes[pass].camera, v.first, v.second, options.row.triangulation);
+      if (tri.ok()) per_pass[l].emplace_back(pass, tri.point_world);
+    }
+  });
+  std::map<std::pair<int, int>,
+           std::pair<std::vector<Eigen::Vector3d>, std::vector<Eigen::Vector3d>>>
+      common;
+  for (const auto& points : per_pass) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      for (std::size_t j = i + 1; j < points.size(); ++j) {
+        auto& c = common[{points[i].first, points[j].first}];
+        c.first.push_back(points[i].second);
+        c.second.push_back(points[j].second);
+      }
+    }
+  }
+  struct Edge {
+    int p, q;
+    PassAlignment alignment;  // q_from_p
+  };
+  std::vector<Edge> edges;
+  for (const auto& [key, c] : common) {
+    const PassAlignment a = AlignPasses4Dof(c.first, c.second, options.alignment);
+    if (a.ok) edges.push_back({key.first, key.second, a});
+  }
+  // Prim's algorithm from the precise passes, best-supported edge first.
+  std::vector<std::optional<geometry::Rigid3>> correction(n);
+  for (std::size_t p = 0; p < n; ++p) {
+    if (precise[p]) correction[p] = geometry::Rigid3();
+  }
+  for (;;) {
+    const Edge* best = nullptr;
+    for (const Edge& e : edges) {
+      if (correction[e.p].has_value() == correction[e.q].has_value()) continue;
+      if (best == nullptr || e.alignment.num_inliers > best->alignment.num_inliers) best = &e;
+    }
+    if (best == nullptr) {
+      // A group without a precise pass: its first pass stays where it is.
+      std::size_t start = n;
+      for (std::size_t p = 0; p < n && start == n; ++p) {
+        if (correction[p].has_value()) continue;
+        for (const Edge& e : edges) {
+          if (e.p == static_cast<int>(p) || e.q == static_cast<int>(p)) start = p;
+        }
+      }
+      if (start == n) break;
+      correction[start] = geometry::Rigid3();
+      continue;
+    }
+    // x_q = A x_p: C_q = C_p A⁻¹, C_p = C_q A.
+    const geometry::Rigid3& A = best->alignment.b_from_a;
+    if (correction[best->p]) {
+      correction[best->q] = *correction[best->p] * A.Inverse();
+    } else {
+      correction[best->p] = *correction[best->q] * A;
+    }
+  }
+  for (std::size_t p = 0; p < n; ++p) {
+    if (precise[p] || !correction[p]) continue;
+    double shift = 0;
+    for (const geometry::Rigid3& c : cameras[p]) {
+      shift = std::max(shift, ((*correction[p]) * c.translation() - c.translation()).norm());
+    }
+    problem->Transform(p, *correction[p]);
+    ++summary->num_passes_aligned;
+    summary->max_alignment_shift_m = std::max(summary->max_alignment_shift_m, shift);
+  }
+  if (summary->num_passes_aligned > 0) {
+    spdlog::info("joint problem: {} passes aligned onto their neighbours (largest move {:.2f} m)",
+                 summary->num_passes_aligned, summary->max_alignment_shift_m);
+  }
+}
+
+}  // namespace
+
+JointOptimiser::JointOptimiser(Options options) : options_(std::move(options)) {
+  if (!options_.Check()) throw std::invalid_argument("JointOptimiser: invalid options");
+}
+
+JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
+                                             const std::vector<JointLandmark>& landmarks) const {
+  const slam::RowOptimiser::Options& op = options_.row;
+  Result result;
+  Summary& summary = result.summary;
+  summary.num_passes = static_cast<int>(passes.size());
+  summary.num_landmarks_given = static_cast<int>(landmarks.size());
+  for (const Pass& pass : passes) {
+    if (pass.initial_states.size() < 2) {
+      throw std::invalid_argument("JointOptimiser: a pass has fewer than 2 states");
+    }
+    for (std::size_t k = 1; k < pass.initial_states.size(); ++k) {
+      if (pass.initial_states[k].t <= pass.initial_states[k - 1].t) {
+        throw std::invalid_argument("JointOptimiser: state times not increasing");
+      }
+    }
+    summary.num_states += static_cast<int>(pass.initial_states.size());
+  }
+  for (const JointLandmark& landmark : landmarks) {
+    if (landmark.observations.empty()) {
+      throw std::invalid_argument("JointOptimiser: a landmark without observations");
+    }
+    for (const JointObservation& obs : landmark.observations) {
+      if (obs.pass < 0 || obs.pass >= static_cast<int>(passes.size()) ||
+          passes[obs.pass].camera == nullptr || obs.state < 0 ||
+          obs.state >= static_cast<int>(passes[obs.pass].initial_states.size())) {
+        throw std::invalid_argument("JointOptimiser: an observation out of range");
+      }
+    }
+  }
+
+  JointProblem problem(op, passes);
+  problem.Preintegrate();
+  if (options_.align_passes) AlignPasses(options_, passes, landmarks, &problem, &summary);
+
+  // (1) Landmarks from the row-SLAM poses. Pixels of a pass whose camera differs from the
+  // landmark's first pass are mapped into that camera's pixels along the same ray, so one
+  // camera model triangulates them all.
+  auto start = Clock::now();
+  const std::vector<std::vector<geometry::Rigid3>> cameras = problem.CameraPoses();
+  std::vector<slam::TriangulationResult> tri(landmarks.size());
+  std::vector<std::vector<bool>> masks(landmarks.size());
+  tbb::parallel_for(std::size_t{0}, landmarks.size(), [&](std::size_t l) {
+    const JointLandmark& landmark = landmarks[l];
+    const geometry::PinholeRadTan& reference = *passes[landmark.observations.front().pass].camera;
+    std::vector<geometry::Rigid3> poses;
+    std::vector<Eigen::Vector2d> pixels;
+    for (const JointObservation& obs : landmark.observations) {
+      poses.push_back(cameras[obs.pass][obs.state]);
+      const geometry::PinholeRadTan& camera = *passes[obs.pass].camera;
+      Eigen::Vector2d pixel = obs.pixel;
+      Eigen::Vector3d ray;
+      if (!SameCamera(camera, reference) &&
+          !(camera.Unproject(obs.pixel, &ray) && reference.Project(ray, &pixel))) {
+        pixel = obs.pixel;  // outside the reference's model: let the error bound judge it
+      }
+      pixels.push_back(pixel);
+    }
+    tri[l] = slam::TriangulateDroppingWorstViews(reference, poses, pixels, op.triangulation,
+                                                 op.max_outliers_per_track, op.min_observations,
+                                                 &masks[l]);
+  });
+  std::vector<Eigen::Vector3d> points;
+  std::vector<int> ids;
+  std::vector<std::vector<bool>> keep;
+  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+    if (!tri[l].ok()) continue;
+    for (std::size_t o = 0; o < masks[l].size(); ++o) {
+      if (masks[l][o]) continue;
+      ++summary.num_rejected_observations;
+      if (IsCross(landmarks[l], o)) ++summary.num_rejected_cross_observations;
+    }
+    points.push_back(tri[l].point_world);
+    ids.push_back(static_cast<int>(l));
+    keep.push_back(std::move(masks[l]));
+  }
+  summary.triangulation_seconds = SecondsSince(start);
+
+  // (2) The whole problem.
+  start = Clock::now();
+  {
+    const ceres::Solver::Summary s = problem.Solve(landmarks, ids, &points, keep, nullptr);
+    summary.initial_cost = s.initial_cost;
+    summary.iterations += static_cast<int>(s.iterations.size());
+    spdlog::trace("joint problem, first solve: {}", s.FullReport());
+    spdlog::debug("joint problem, first solve: {}", s.BriefReport());
+  }
+  summary.solve_seconds = SecondsSince(start);
+  spdlog::info("joint problem: {} landmarks, first solve in {:.1f} s", points.size(),
+               summary.solve_seconds);
+
+  // (3) Reject, re-preintegrate, final solve.
+  start = Clock::now();
+  std::vector<Eigen::Vector3d> kept_points;
+  std::vector<int> kept_ids;
+  std::vector<std::vector<bool>> kept_masks;
+  for (std::size_t l = 0; l < points.size(); ++l) {
+    const JointLandmark& landmark = landmarks[ids[l]];
+    std::vector<bool> mask = keep[l];
+    int good = 0;
+    for (std::size_t o = 0; o < mask.size(); ++o) {
+      if (!mask[o]) continue;
+      mask[o] = problem.Error(landmark.observations[o], points[l]) <= op.max_reprojection_error_px;
+      if (mask[o]) {
+        ++good;
+      } else {
+        ++summary.num_rejected_observations;
+        if (IsCross(landmark, o)) ++summary.num_rejected_cross_observations;
+      }
+    }
+    if (good < op.min_observations) {
+      summary.num_rejected_observations += good;
+      continue;
+    }
+    kept_points.push_back(points[l]);
+    kept_ids.push_back(ids[l]);
+    kept_masks.push_back(std::move(mask));
+  }
+  problem.Preintegrate();
+  {
+    const ceres::Solver::Summary s =
+        problem.Solve(landmarks, kept_ids, &kept_points, kept_masks, &summary.num_observations);
+    summary.final_cost = s.final_cost;
+    summary.iterations += static_cast<int>(s.iterations.size());
+    summary.converged = s.termination_type == ceres::CONVERGENCE;
+  }
+  summary.final_solve_seconds = SecondsSince(start);
+
+  // Statistics of the final solve.
+  double sum_sq = 0, cross_sq = 0;
+  std::int64_t count = 0, cross = 0;
+  for (std::size_t l = 0; l < kept_points.size(); ++l) {
+    const JointLandmark& landmark = landmarks[kept_ids[l]];
+    bool shared = false;
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (!kept_masks[l][o]) continue;
+      const double e = problem.Error(landmark.observations[o], kept_points[l]);
+      if (!std::isfinite(e)) continue;
+      sum_sq += e * e;
+      ++count;
+      if (IsCross(landmark, o)) {
+        cross_sq += e * e;
+        ++cross;
+        shared = true;
+      }
+    }
+    summary.num_shared_landmarks += shared ? 1 : 0;
+  }
+  summary.num_cross_observations = cross;
+  summary.reprojection_rms_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
+  summary.cross_reprojection_rms_px = cross > 0 ? std::sqrt(cross_sq / cross) : 0.0;
+  summary.num_landmarks = static_cast<int>(kept_points.size());
+
+  result.states = problem.States();
+  result.landmarks_world = std::move(kept_points);
+  result.landmark_ids = std::move(kept_ids);
+  result.observations_kept = std::move(kept_masks);
+  return result;
+}
+
+}  // namespace crop4d::fusion

@@ -1,0 +1,112 @@
+#pragma once
+
+// The joint 4D problem (DESIGN.md §2.4): one Ceres problem over every row pass of every session.
+// Each pass brings its own graph (slam/pass_graph.h: IMU, bias walk, angular rate, GP prior, GPS,
+// non-holonomic constraint, priors), and the landmarks are shared: a landmark observed from
+// several passes (merged through the cross matches of association) ties their poses together,
+// so the sessions land in one frame. Reprojection factors have the Huber loss and landmarks are
+// eliminated by the Schur complement, so the reduced system couples only the poses of passes
+// that share landmarks: its cost grows with the number of associated pairs, not with the square
+// of the number of passes.
+//
+// Solving, initialised from row SLAM: (0) passes with an imprecise GPS aligned rigidly onto their
+// neighbours through the shared landmarks (Options::align_passes), (1) every landmark triangulated
+// from the row-SLAM poses (its worst views dropped while the reprojection bound fails), (2)
+// Levenberg–Marquardt on the whole problem, (3) observations whose reprojection error exceeds the
+// bound removed — a cross match that stays inconsistent with the rest goes here — the IMU
+// re-preintegrated at the estimated biases and a final solve.
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "crop4d/fusion/pass_alignment.h"
+#include "crop4d/slam/row_optimiser.h"
+
+namespace crop4d::fusion {
+
+// One observation of a landmark: a pass, the state (image) in that pass, the distorted pixel.
+struct JointObservation {
+  int pass = -1;
+  int state = -1;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+};
+
+struct JointLandmark {
+  std::vector<JointObservation> observations;
+  std::array<std::uint8_t, 3> color{128, 128, 128};
+};
+
+class JointOptimiser {
+ public:
+  struct Options {
+    // Factor weights, losses, triangulation, rejection bound, iterations and threads, as in
+    // row SLAM.
+    slam::RowOptimiser::Options row;
+    // Before triangulating, passes whose GPS is not precise are moved rigidly (yaw and
+    // translation, pass_alignment.h) onto the passes they share landmarks with, so that a
+    // metre-level GPS error does not make every shared landmark fail to triangulate. Passes
+    // with a precise receiver (median horizontal sigma ≤ precise_gps_sigma_m) define the frame
+    // and are not moved; without any, the first pass of each connected group does.
+    bool align_passes = true;
+    double precise_gps_sigma_m = 0.1;
+    PassAlignmentOptions alignment;
+
+    bool Check() const { return row.Check() && alignment.Check() && precise_gps_sigma_m > 0; }
+  };
+
+  // One pass: its row-SLAM problem (initial_states from row SLAM; `tracks` is ignored, the
+  // landmarks are given jointly). A pass without a camera takes part through its motion only.
+  using Pass = slam::RowOptimiser::Input;
+
+  struct Summary {
+    int num_passes = 0;
+    int num_states = 0;
+    int num_landmarks_given = 0;
+    // Passes moved by the alignment, and the largest move of a camera, m.
+    int num_passes_aligned = 0;
+    double max_alignment_shift_m = 0;
+    // Landmarks triangulated and kept for the final solve; those seen from two or more passes.
+    int num_landmarks = 0;
+    int num_shared_landmarks = 0;
+    std::int64_t num_observations = 0;
+    // Observations of shared landmarks from a pass other than the landmark's first one (the
+    // cross matches' contribution), kept in the final solve and rejected on the way.
+    std::int64_t num_cross_observations = 0;
+    std::int64_t num_rejected_observations = 0;
+    std::int64_t num_rejected_cross_observations = 0;
+    double initial_cost = 0;
+    double final_cost = 0;
+    int iterations = 0;
+    double reprojection_rms_px = 0;
+    double cross_reprojection_rms_px = 0;
+    double triangulation_seconds = 0;
+    double solve_seconds = 0;
+    double final_solve_seconds = 0;
+    bool converged = false;
+  };
+
+  struct Result {
+    // The states of every pass, in the order of the input.
+    std::vector<std::vector<slam::RowState>> states;
+    // Landmarks of the final solve: position, the index of the given landmark, and which of its
+    // observations the final solve kept.
+    std::vector<Eigen::Vector3d> landmarks_world;
+    std::vector<int> landmark_ids;
+    std::vector<std::vector<bool>> observations_kept;
+    Summary summary;
+  };
+
+  explicit JointOptimiser(Options options);
+
+  // Throws std::invalid_argument for inconsistent input (a pass with fewer than 2 states or
+  // unsorted times, an observation of a pass without camera or out of range).
+  Result Solve(const std::vector<Pass>& passes, const std::vector<JointLandmark>& landmarks) const;
+
+  const Options& options() const { return options_; }
+
+ private:
+  Options options_;
+};
+
+}  // namespace crop4d::fusion

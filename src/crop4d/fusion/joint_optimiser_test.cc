@@ -1,0 +1,177 @@
+// The joint 4D problem on two passes of a simulated session (no rendering): pass 0 with RTK,
+// pass 1 with a metre-level receiver whose bias puts its row-SLAM estimate 0.55 m off. Shared
+// landmarks must pull pass 1 onto pass 0; the same landmarks split per pass must not.
+
+#include "crop4d/fusion/joint_optimiser.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "crop4d/slam/simulated_session_test_util.h"
+
+namespace crop4d::fusion {
+namespace {
+
+using slam::testing::MakeInput;
+using slam::testing::MakeScenario;
+using slam::testing::Scenario;
+using slam::testing::TrueBody;
+
+const Eigen::Vector3d kGpsBias(0.4, -0.3, 0.2);
+
+struct TwoPasses {
+  Scenario s;
+  std::vector<Timestamp> times[2];
+  std::vector<JointOptimiser::Pass> passes;
+};
+
+std::vector<slam::RowState> ShiftedTruth(const Scenario& s, const std::vector<Timestamp>& times,
+                                         const Eigen::Vector3d& shift) {
+  std::vector<slam::RowState> states;
+  for (Timestamp t : times) {
+    const sim::BodyState truth = s.record.trajectory->StateAt(s.record.Seconds(t));
+    slam::RowState st;
+    st.t = t;
+    st.nav.world_from_body = geometry::Rigid3(truth.world_from_body.rotation(),
+                                              truth.world_from_body.translation() + shift);
+    st.nav.vel_world = truth.velocity_world;
+    st.nav.rate_body = truth.angular_velocity_body;
+    states.push_back(st);
+  }
+  return states;
+}
+
+// Fills `tp` in place: the passes point at its IMU samples.
+void MakeTwoPasses(TwoPasses& tp) {
+  tp.s = MakeScenario(0);
+  tp.times[0] = tp.s.times;
+  const sim::Pass& second = tp.s.record.trajectory->passes().at(1);
+  for (Timestamp t : tp.s.record.image_times) {
+    const double ts = tp.s.record.Seconds(t);
+    if (ts >= second.t_begin && ts <= second.t_end) tp.times[1].push_back(t);
+  }
+  // Pass 0: RTK, initialised at the truth. Pass 1: a biased metre-level receiver, initialised
+  // where that receiver puts it (as row SLAM would).
+  JointOptimiser::Pass p0 =
+      MakeInput(tp.s, ShiftedTruth(tp.s, tp.times[0], Eigen::Vector3d::Zero()));
+  Scenario s1 = tp.s;
+  s1.times = tp.times[1];
+  JointOptimiser::Pass p1 = MakeInput(s1, ShiftedTruth(s1, tp.times[1], kGpsBias));
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  for (slam::GpsFixWorld& fix : p1.gps_fixes) {
+    fix.position_world += kGpsBias + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    fix.sigma_h = 1.5;
+    fix.sigma_v = 2.0;
+  }
+  for (JointOptimiser::Pass* p : {&p0, &p1}) {
+    p->camera = &tp.s.camera;
+    p->body_from_camera = tp.s.body_from_camera;
+    p->forward_axis_body = Eigen::Vector3d::UnitX();
+  }
+  p1.imu_samples = &tp.s.imu;
+  tp.passes = {p0, p1};
+}
+
+// Ground points along both rows, observed with 0.5 px noise from every image that sees them.
+std::vector<JointLandmark> Landmarks(const TwoPasses& tp, bool shared) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> pixel_noise(0.0, 0.5);
+  const Eigen::Vector3d a = TrueBody(tp.s, tp.times[0].front()).translation();
+  const Eigen::Vector3d b = TrueBody(tp.s, tp.times[0].back()).translation();
+  std::vector<JointLandmark> landmarks;
+  for (int k = 0; k < 1200; ++k) {
+    const Eigen::Vector3d along = a + uniform(rng) * (b - a);
+    const Eigen::Vector3d p(along.x() + 0.45 + 3.0 * (uniform(rng) - 0.5),
+                            along.y() + 4.0 * (uniform(rng) - 0.5), 0.1 * uniform(rng));
+    JointLandmark per_pass[2];
+    for (int pass = 0; pass < 2; ++pass) {
+      for (std::size_t i = 0; i < tp.times[pass].size(); ++i) {
+        const geometry::Rigid3 camera_from_world =
+            (TrueBody(tp.s, tp.times[pass][i]) * tp.s.body_from_camera).Inverse();
+        Eigen::Vector2d pixel;
+        if (!tp.s.camera.Project(camera_from_world * p, &pixel) ||
+            !tp.s.camera.IsInImage(pixel, 5)) {
+          continue;
+        }
+        pixel += Eigen::Vector2d(pixel_noise(rng), pixel_noise(rng));
+        per_pass[pass].observations.push_back({pass, static_cast<int>(i), pixel});
+      }
+    }
+    const bool both = per_pass[0].observations.size() >= 3 && per_pass[1].observations.size() >= 3;
+    if (shared && both) {
+      JointLandmark joint = per_pass[0];
+      joint.observations.insert(joint.observations.end(), per_pass[1].observations.begin(),
+                                per_pass[1].observations.end());
+      landmarks.push_back(joint);
+    } else {
+      for (JointLandmark& l : per_pass) {
+        if (l.observations.size() >= 3) landmarks.push_back(l);
+      }
+    }
+  }
+  return landmarks;
+}
+
+double PositionRms(const TwoPasses& tp, int pass, const std::vector<slam::RowState>& states) {
+  double sum = 0;
+  for (const slam::RowState& st : states) {
+    sum +=
+        (st.nav.world_from_body.translation() - TrueBody(tp.s, st.t).translation()).squaredNorm();
+  }
+  return std::sqrt(sum / states.size());
+}
+
+TEST(JointOptimiser, SharedLandmarksRegisterABiasedPassOntoAnRtkPass) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  ASSERT_GT(tp.times[1].size(), 20u);
+  std::vector<JointLandmark> landmarks = Landmarks(tp, /*shared=*/true);
+  // A few wrong cross observations: 40 px off in the other pass.
+  int outliers = 0;
+  for (std::size_t l = 0; l < landmarks.size() && outliers < 20; l += 7) {
+    JointLandmark& landmark = landmarks[l];
+    if (landmark.observations.front().pass != 0 || landmark.observations.back().pass != 1) continue;
+    landmark.observations.back().pixel += Eigen::Vector2d(40, -30);
+    ++outliers;
+  }
+  ASSERT_EQ(outliers, 20);
+  const JointOptimiser::Result result =
+      JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, landmarks);
+  const JointOptimiser::Summary& s = result.summary;
+  EXPECT_GT(s.num_shared_landmarks, 100);
+  EXPECT_GE(s.num_rejected_cross_observations, outliers);
+  EXPECT_LT(s.cross_reprojection_rms_px, 1.0);
+  EXPECT_LT(s.final_cost, s.initial_cost);
+  EXPECT_LT(PositionRms(tp, 0, result.states[0]), 0.02);
+  EXPECT_LT(PositionRms(tp, 1, result.states[1]), 0.03);
+  EXPECT_GT((kGpsBias).norm(), 0.5);
+}
+
+TEST(JointOptimiser, WithoutSharedLandmarksThePassesStayApart) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  const JointOptimiser::Result result =
+      JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, Landmarks(tp, /*shared=*/false));
+  EXPECT_EQ(result.summary.num_shared_landmarks, 0);
+  EXPECT_LT(PositionRms(tp, 0, result.states[0]), 0.02);
+  // Pass 1 follows its biased receiver.
+  EXPECT_GT(PositionRms(tp, 1, result.states[1]), 0.3);
+}
+
+TEST(JointOptimiser, RejectsInconsistentInput) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  JointLandmark bad;
+  bad.observations.push_back({1, 100000, Eigen::Vector2d(1, 1)});
+  EXPECT_THROW(JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, {bad}),
+               std::invalid_argument);
+  std::vector<JointOptimiser::Pass> passes = tp.passes;
+  passes[1].initial_states.resize(1);
+  EXPECT_THROW(JointOptimiser(JointOptimiser::Options()).Solve(passes, {}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace crop4d::fusion

@@ -1,0 +1,530 @@
+#include "crop4d/io/colmap_text.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string_view>
+#include <unordered_map>
+#include <unordered_set>
+
+#include "crop4d/core/error.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/csv.h"
+
+namespace crop4d::io {
+namespace {
+
+// COLMAP puts the centre of the top-left pixel at (0.5, 0.5), crop4d (OpenCV) at (0, 0):
+// colmap = crop4d + kPixelOffset.
+constexpr double kPixelOffset = 0.5;
+
+std::string Join(const std::string& folder, const char* file) {
+  return (std::filesystem::path(folder) / file).string();
+}
+
+bool HasWhitespace(const std::string& text) {
+  return text.find_first_of(" \t\r\n\v\f") != std::string::npos;
+}
+
+// The parameters COLMAP stores for `c` under ColmapCameraModelName(c), principal point shifted
+// to COLMAP's pixel convention.
+std::vector<double> ColmapParams(const geometry::PinholeRadTan& c) {
+  std::vector<double> params = {c.fx, c.fy, c.cx + kPixelOffset, c.cy + kPixelOffset, c.k1, c.k2,
+                                c.p1, c.p2};
+  if (c.k3 != 0.0) params.insert(params.end(), {c.k3, 0.0, 0.0, 0.0});  // k3, k4, k5, k6
+  return params;
+}
+
+// Buffers formatted text and hands it to an AtomicFile stream in large pieces.
+class TextWriter {
+ public:
+  explicit TextWriter(const std::string& path) : file_(path) {}
+
+  template <typename... Args>
+  void Print(fmt::format_string<Args...> format, Args&&... args) {
+    fmt::format_to(std::back_inserter(buffer_), format, std::forward<Args>(args)...);
+    if (buffer_.size() > (1u << 20)) Flush();
+  }
+  void Commit() {
+    Flush();
+    file_.Commit();
+  }
+
+ private:
+  void Flush() {
+    file_.stream().write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    buffer_.clear();
+  }
+
+  AtomicFile file_;
+  fmt::memory_buffer buffer_;
+};
+
+// ---- reading --------------------------------------------------------------------------------
+
+// Reads a text file line by line, counting lines, for messages "file:line: what".
+class LineReader {
+ public:
+  explicit LineReader(std::string path) : path_(std::move(path)), in_(path_) {
+    if (!in_ || std::filesystem::is_directory(path_)) {
+      throw InputError(path_, 0, "cannot open the COLMAP model file");
+    }
+  }
+  // The next line (without '\n' and a trailing '\r'); false at the end of the file.
+  bool NextRaw(std::string* line) {
+    if (!std::getline(in_, *line)) return false;
+    ++line_;
+    if (!line->empty() && line->back() == '\r') line->pop_back();
+    return true;
+  }
+  // The next line that is neither blank nor a '#' comment.
+  bool NextData(std::string* line) {
+    while (NextRaw(line)) {
+      const std::size_t first = line->find_first_not_of(" \t");
+      if (first != std::string::npos && (*line)[first] != '#') return true;
+    }
+    return false;
+  }
+  const std::string& path() const { return path_; }
+  std::int64_t line() const { return line_; }
+  [[noreturn]] void Fail(const std::string& message) const {
+    throw InputError(path_, line_, message);
+  }
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  std::int64_t line_ = 0;
+};
+
+std::vector<std::string_view> Tokens(std::string_view line) {
+  std::vector<std::string_view> tokens;
+  std::size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+    const std::size_t start = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t') ++i;
+    if (i > start) tokens.push_back(line.substr(start, i - start));
+  }
+  return tokens;
+}
+
+double ParseFinite(const LineReader& reader, std::string_view token, const char* what) {
+  double value = 0;
+  if (!ParseDouble(token, &value)) {
+    reader.Fail(fmt::format("{} '{}' is not a number", what, token));
+  }
+  if (!std::isfinite(value)) reader.Fail(fmt::format("{} is NaN or infinite", what));
+  return value;
+}
+
+std::int64_t ParseInteger(const LineReader& reader, std::string_view token, const char* what,
+                          std::int64_t min, std::int64_t max) {
+  std::int64_t value = 0;
+  if (!ParseInt64(token, &value)) {
+    reader.Fail(fmt::format("{} '{}' is not an integer", what, token));
+  }
+  if (value < min || value > max) {
+    reader.Fail(fmt::format("{} {} is out of range [{}, {}]", what, value, min, max));
+  }
+  return value;
+}
+
+constexpr std::int64_t kMaxId32 = std::numeric_limits<std::uint32_t>::max();
+constexpr std::int64_t kMaxInt64 = std::numeric_limits<std::int64_t>::max();
+
+// Camera intrinsics from a COLMAP model name and its parameters (COLMAP's pixel convention).
+geometry::PinholeRadTan CameraFromColmap(const LineReader& reader, std::string_view model,
+                                         const std::vector<double>& p) {
+  struct ModelInfo {
+    std::string_view name;
+    std::size_t num_params;
+  };
+  static constexpr ModelInfo kModels[] = {{"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},
+                                          {"SIMPLE_RADIAL", 4},  {"RADIAL", 5},
+                                          {"OPENCV", 8},         {"FULL_OPENCV", 12}};
+  const ModelInfo* info = nullptr;
+  for (const ModelInfo& m : kModels) {
+    if (m.name == model) info = &m;
+  }
+  if (info == nullptr) {
+    reader.Fail(
+        fmt::format("camera model '{}' is not supported (crop4d reads SIMPLE_PINHOLE, PINHOLE, "
+                    "SIMPLE_RADIAL, RADIAL, OPENCV and FULL_OPENCV with k4 = k5 = k6 = 0)",
+                    model));
+  }
+  if (p.size() != info->num_params) {
+    reader.Fail(fmt::format("camera model {} has {} parameters, found {}", model, info->num_params,
+                            p.size()));
+  }
+  geometry::PinholeRadTan c;
+  if (model == "SIMPLE_PINHOLE" || model == "SIMPLE_RADIAL" || model == "RADIAL") {
+    c.fx = c.fy = p[0];
+    c.cx = p[1];
+    c.cy = p[2];
+    if (model != "SIMPLE_PINHOLE") c.k1 = p[3];
+    if (model == "RADIAL") c.k2 = p[4];
+  } else {
+    c.fx = p[0];
+    c.fy = p[1];
+    c.cx = p[2];
+    c.cy = p[3];
+    if (model != "PINHOLE") {
+      c.k1 = p[4];
+      c.k2 = p[5];
+      c.p1 = p[6];
+      c.p2 = p[7];
+    }
+    if (model == "FULL_OPENCV") {
+      c.k3 = p[8];
+      if (p[9] != 0.0 || p[10] != 0.0 || p[11] != 0.0) {
+        reader.Fail(
+            "FULL_OPENCV with rational coefficients k4, k5, k6 ≠ 0 is not supported (crop4d's "
+            "camera is pinhole radial-tangential)");
+      }
+    }
+  }
+  c.cx -= kPixelOffset;
+  c.cy -= kPixelOffset;
+  return c;
+}
+
+std::vector<ColmapCamera> ReadCameras(const std::string& path) {
+  LineReader reader(path);
+  std::vector<ColmapCamera> cameras;
+  std::unordered_set<std::uint32_t> ids;
+  for (std::string line; reader.NextData(&line);) {
+    const std::vector<std::string_view> t = Tokens(line);
+    if (t.size() < 4) reader.Fail("expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
+    ColmapCamera camera;
+    camera.camera_id =
+        static_cast<std::uint32_t>(ParseInteger(reader, t[0], "CAMERA_ID", 0, kMaxId32));
+    if (!ids.insert(camera.camera_id).second) {
+      reader.Fail(fmt::format("duplicate CAMERA_ID {}", camera.camera_id));
+    }
+    const int width = static_cast<int>(ParseInteger(reader, t[2], "WIDTH", 1, 1 << 20));
+    const int height = static_cast<int>(ParseInteger(reader, t[3], "HEIGHT", 1, 1 << 20));
+    std::vector<double> params;
+    for (std::size_t i = 4; i < t.size(); ++i) params.push_back(ParseFinite(reader, t[i], "PARAM"));
+    camera.intrinsics = CameraFromColmap(reader, t[1], params);
+    camera.intrinsics.width = width;
+    camera.intrinsics.height = height;
+    if (!camera.intrinsics.Check()) reader.Fail("invalid intrinsics (focal length ≤ 0?)");
+    cameras.push_back(camera);
+  }
+  return cameras;
+}
+
+// images.txt; `points_lines` gets the line number of each image's POINTS2D line.
+std::vector<ColmapImage> ReadImages(const std::string& path,
+                                    const std::unordered_set<std::uint32_t>& camera_ids,
+                                    std::vector<std::int64_t>* points_lines) {
+  LineReader reader(path);
+  std::vector<ColmapImage> images;
+  std::unordered_set<std::uint32_t> ids;
+  for (std::string line; reader.NextData(&line);) {
+    const std::vector<std::string_view> t = Tokens(line);
+    if (t.size() != 10) {
+      reader.Fail(fmt::format(
+          "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME (10 fields), found {}", t.size()));
+    }
+    ColmapImage image;
+    image.image_id =
+        static_cast<std::uint32_t>(ParseInteger(reader, t[0], "IMAGE_ID", 0, kMaxId32));
+    if (!ids.insert(image.image_id).second) {
+      reader.Fail(fmt::format("duplicate IMAGE_ID {}", image.image_id));
+    }
+    double v[7];
+    static constexpr const char* kNames[] = {"QW", "QX", "QY", "QZ", "TX", "TY", "TZ"};
+    for (int k = 0; k < 7; ++k) v[k] = ParseFinite(reader, t[1 + k], kNames[k]);
+    const Eigen::Quaterniond q(v[0], v[1], v[2], v[3]);
+    if (q.norm() < 1e-6) reader.Fail("zero quaternion");
+    const geometry::Rigid3 camera_from_world(q, Eigen::Vector3d(v[4], v[5], v[6]));
+    image.world_from_camera = camera_from_world.Inverse();
+    image.camera_id =
+        static_cast<std::uint32_t>(ParseInteger(reader, t[8], "CAMERA_ID", 0, kMaxId32));
+    if (!camera_ids.contains(image.camera_id)) {
+      reader.Fail(fmt::format("CAMERA_ID {} is not in cameras.txt", image.camera_id));
+    }
+    image.name = std::string(t[9]);
+
+    // The POINTS2D line follows directly (empty when the image has no 2D points).
+    if (!reader.NextRaw(&line)) {
+      reader.Fail(
+          fmt::format("image {} has no POINTS2D line (X Y POINT3D_ID ...)", image.image_id));
+    }
+    const std::vector<std::string_view> p = Tokens(line);
+    if (p.size() % 3 != 0) {
+      reader.Fail(
+          fmt::format("expected POINTS2D as X Y POINT3D_ID triples, found {} fields", p.size()));
+    }
+    image.points2d.resize(p.size() / 3);
+    for (std::size_t i = 0; i < image.points2d.size(); ++i) {
+      ColmapPoint2D& point = image.points2d[i];
+      point.xy = Eigen::Vector2d(ParseFinite(reader, p[3 * i], "X") - kPixelOffset,
+                                 ParseFinite(reader, p[3 * i + 1], "Y") - kPixelOffset);
+      point.point3d_id = ParseInteger(reader, p[3 * i + 2], "POINT3D_ID", -1, kMaxInt64);
+    }
+    points_lines->push_back(reader.line());
+    images.push_back(std::move(image));
+  }
+  return images;
+}
+
+// points3D.txt, checked against the images' 2D points (both directions).
+std::vector<ColmapPoint3D> ReadPoints(const std::string& path,
+                                      const std::vector<ColmapImage>& images,
+                                      const std::string& images_path,
+                                      const std::vector<std::int64_t>& points_lines) {
+  std::unordered_map<std::uint32_t, std::size_t> image_index;
+  for (std::size_t i = 0; i < images.size(); ++i) image_index[images[i].image_id] = i;
+  // Which 2D points a track has claimed.
+  std::vector<std::vector<bool>> claimed(images.size());
+  for (std::size_t i = 0; i < images.size(); ++i)
+    claimed[i].assign(images[i].points2d.size(), false);
+
+  LineReader reader(path);
+  std::vector<ColmapPoint3D> points;
+  std::unordered_set<std::int64_t> ids;
+  for (std::string line; reader.NextData(&line);) {
+    const std::vector<std::string_view> t = Tokens(line);
+    if (t.size() < 8 || (t.size() - 8) % 2 != 0) {
+      reader.Fail("expected POINT3D_ID X Y Z R G B ERROR followed by (IMAGE_ID POINT2D_IDX) pairs");
+    }
+    ColmapPoint3D point;
+    point.point3d_id = ParseInteger(reader, t[0], "POINT3D_ID", 0, kMaxInt64);
+    if (!ids.insert(point.point3d_id).second) {
+      reader.Fail(fmt::format("duplicate POINT3D_ID {}", point.point3d_id));
+    }
+    point.xyz = Eigen::Vector3d(ParseFinite(reader, t[1], "X"), ParseFinite(reader, t[2], "Y"),
+                                ParseFinite(reader, t[3], "Z"));
+    static constexpr const char* kColours[] = {"R", "G", "B"};
+    for (int k = 0; k < 3; ++k) {
+      point.rgb[k] = static_cast<std::uint8_t>(ParseInteger(reader, t[4 + k], kColours[k], 0, 255));
+    }
+    // COLMAP writes -1 for a point whose error was never computed.
+    point.error = ParseFinite(reader, t[7], "ERROR");
+    for (std::size_t i = 8; i < t.size(); i += 2) {
+      ColmapTrackElement e;
+      e.image_id = static_cast<std::uint32_t>(ParseInteger(reader, t[i], "IMAGE_ID", 0, kMaxId32));
+      e.point2d_idx =
+          static_cast<std::uint32_t>(ParseInteger(reader, t[i + 1], "POINT2D_IDX", 0, kMaxId32));
+      const auto found = image_index.find(e.image_id);
+      if (found == image_index.end()) {
+        reader.Fail(fmt::format("track of point {}: IMAGE_ID {} is not in images.txt",
+                                point.point3d_id, e.image_id));
+      }
+      const ColmapImage& image = images[found->second];
+      if (e.point2d_idx >= image.points2d.size()) {
+        reader.Fail(fmt::format("track of point {}: image {} has no 2D point {} (it has {})",
+                                point.point3d_id, e.image_id, e.point2d_idx,
+                                image.points2d.size()));
+      }
+      if (image.points2d[e.point2d_idx].point3d_id != point.point3d_id) {
+        reader.Fail(fmt::format("track of point {}: 2D point {} of image {} refers to 3D point {}",
+                                point.point3d_id, e.point2d_idx, e.image_id,
+                                image.points2d[e.point2d_idx].point3d_id));
+      }
+      if (claimed[found->second][e.point2d_idx]) {
+        reader.Fail(fmt::format("track of point {}: 2D point {} of image {} is listed twice",
+                                point.point3d_id, e.point2d_idx, e.image_id));
+      }
+      claimed[found->second][e.point2d_idx] = true;
+      point.track.push_back(e);
+    }
+    points.push_back(std::move(point));
+  }
+  // Every 2D point that names a 3D point must be in that point's track.
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    for (std::size_t k = 0; k < images[i].points2d.size(); ++k) {
+      const std::int64_t id = images[i].points2d[k].point3d_id;
+      if (id >= 0 && !claimed[i][k]) {
+        throw InputError(images_path, points_lines[i],
+                         fmt::format("2D point {} of image {} refers to 3D point {}, {}", k,
+                                     images[i].image_id, id,
+                                     ids.contains(id) ? "whose track does not contain it"
+                                                      : "which is not in points3D.txt"));
+      }
+    }
+  }
+  return points;
+}
+
+}  // namespace
+
+const char* ColmapCameraModelName(const geometry::PinholeRadTan& camera) {
+  return camera.k3 == 0.0 ? "OPENCV" : "FULL_OPENCV";
+}
+
+std::size_t ColmapModel::NumObservations() const {
+  std::size_t n = 0;
+  for (const ColmapImage& image : images) {
+    for (const ColmapPoint2D& p : image.points2d) n += p.point3d_id >= 0 ? 1 : 0;
+  }
+  return n;
+}
+
+bool ColmapModel::Check(std::string* why) const {
+  auto fail = [why](std::string message) {
+    if (why != nullptr) *why = std::move(message);
+    return false;
+  };
+  std::unordered_set<std::uint32_t> camera_ids;
+  for (const ColmapCamera& c : cameras) {
+    if (!camera_ids.insert(c.camera_id).second) {
+      return fail(fmt::format("duplicate camera id {}", c.camera_id));
+    }
+    if (!c.intrinsics.Check()) return fail(fmt::format("camera {} is invalid", c.camera_id));
+  }
+  std::unordered_map<std::uint32_t, std::size_t> image_index;
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const ColmapImage& image = images[i];
+    if (!image_index.emplace(image.image_id, i).second) {
+      return fail(fmt::format("duplicate image id {}", image.image_id));
+    }
+    if (!camera_ids.contains(image.camera_id)) {
+      return fail(fmt::format("image {} refers to camera {}, which does not exist", image.image_id,
+                              image.camera_id));
+    }
+    if (image.name.empty() || HasWhitespace(image.name)) {
+      return fail(fmt::format("image {} has the name '{}' (empty or with whitespace)",
+                              image.image_id, image.name));
+    }
+    if (!image.world_from_camera.translation().allFinite() ||
+        !image.world_from_camera.rotation().coeffs().allFinite()) {
+      return fail(fmt::format("image {} has a non-finite pose", image.image_id));
+    }
+    for (const ColmapPoint2D& p : image.points2d) {
+      if (!p.xy.allFinite() || p.point3d_id < -1) {
+        return fail(fmt::format("image {} has a non-finite 2D point or a 3D point id < -1",
+                                image.image_id));
+      }
+    }
+  }
+  std::unordered_set<std::int64_t> point_ids;
+  std::vector<std::vector<bool>> claimed(images.size());
+  for (std::size_t i = 0; i < images.size(); ++i)
+    claimed[i].assign(images[i].points2d.size(), false);
+  for (const ColmapPoint3D& point : points) {
+    if (point.point3d_id < 0 || !point_ids.insert(point.point3d_id).second) {
+      return fail(fmt::format("3D point id {} is negative or duplicate", point.point3d_id));
+    }
+    if (!point.xyz.allFinite() || !std::isfinite(point.error)) {
+      return fail(fmt::format("3D point {} is not finite", point.point3d_id));
+    }
+    for (const ColmapTrackElement& e : point.track) {
+      const auto found = image_index.find(e.image_id);
+      if (found == image_index.end() || e.point2d_idx >= images[found->second].points2d.size() ||
+          images[found->second].points2d[e.point2d_idx].point3d_id != point.point3d_id ||
+          claimed[found->second][e.point2d_idx]) {
+        return fail(fmt::format(
+            "track of 3D point {}: (image {}, 2D point {}) is missing, names another 3D point, "
+            "or is listed twice",
+            point.point3d_id, e.image_id, e.point2d_idx));
+      }
+      claimed[found->second][e.point2d_idx] = true;
+    }
+  }
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    for (std::size_t k = 0; k < images[i].points2d.size(); ++k) {
+      if (images[i].points2d[k].point3d_id >= 0 && !claimed[i][k]) {
+        return fail(fmt::format("2D point {} of image {} is not in the track of 3D point {}", k,
+                                images[i].image_id, images[i].points2d[k].point3d_id));
+      }
+    }
+  }
+  return true;
+}
+
+void WriteColmapText(const std::string& folder, const ColmapModel& model) {
+  for (const ColmapImage& image : model.images) {
+    if (image.name.empty() || HasWhitespace(image.name)) {
+      throw InputError(Join(folder, "images.txt"), 0,
+                       fmt::format("image {}: the name '{}' is empty or holds whitespace, which "
+                                   "COLMAP's text format cannot store",
+                                   image.image_id, image.name));
+    }
+  }
+  std::string why;
+  CROP4D_CHECK_MSG(model.Check(&why), why);
+
+  {
+    TextWriter out(Join(folder, "cameras.txt"));
+    out.Print("# Camera list with one line of data per camera:\n");
+    out.Print("#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n");
+    out.Print("# Number of cameras: {}\n", model.cameras.size());
+    out.Print(
+        "# crop4d: principal point in COLMAP's pixel convention (top-left pixel centre at "
+        "(0.5, 0.5))\n");
+    for (const ColmapCamera& c : model.cameras) {
+      out.Print("{} {} {} {}", c.camera_id, ColmapCameraModelName(c.intrinsics), c.intrinsics.width,
+                c.intrinsics.height);
+      for (double p : ColmapParams(c.intrinsics)) out.Print(" {}", p);
+      out.Print("\n");
+    }
+    out.Commit();
+  }
+
+  {
+    const std::size_t num_observations = model.NumObservations();
+    const double mean_observations =
+        model.images.empty() ? 0.0 : double(num_observations) / double(model.images.size());
+    TextWriter out(Join(folder, "images.txt"));
+    out.Print("# Image list with two lines of data per image:\n");
+    out.Print("#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n");
+    out.Print("#   POINTS2D[] as (X, Y, POINT3D_ID)\n");
+    out.Print("# Number of images: {}, mean observations per image: {}\n", model.images.size(),
+              mean_observations);
+    out.Print("# crop4d: pose = camera_from_world; 2D points in COLMAP's pixel convention\n");
+    for (const ColmapImage& image : model.images) {
+      const geometry::Rigid3 camera_from_world = image.world_from_camera.Inverse();
+      const Eigen::Quaterniond& q = camera_from_world.rotation();
+      const Eigen::Vector3d& t = camera_from_world.translation();
+      out.Print("{} {} {} {} {} {} {} {} {} {}\n", image.image_id, q.w(), q.x(), q.y(), q.z(),
+                t.x(), t.y(), t.z(), image.camera_id, image.name);
+      for (std::size_t k = 0; k < image.points2d.size(); ++k) {
+        const ColmapPoint2D& p = image.points2d[k];
+        out.Print("{}{} {} {}", k == 0 ? "" : " ", p.xy.x() + kPixelOffset, p.xy.y() + kPixelOffset,
+                  p.point3d_id);
+      }
+      out.Print("\n");
+    }
+    out.Commit();
+  }
+
+  {
+    std::size_t track_sum = 0;
+    for (const ColmapPoint3D& p : model.points) track_sum += p.track.size();
+    const double mean_track =
+        model.points.empty() ? 0.0 : double(track_sum) / double(model.points.size());
+    TextWriter out(Join(folder, "points3D.txt"));
+    out.Print("# 3D point list with one line of data per point:\n");
+    out.Print("#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n");
+    out.Print("# Number of points: {}, mean track length: {}\n", model.points.size(), mean_track);
+    for (const ColmapPoint3D& p : model.points) {
+      out.Print("{} {} {} {} {} {} {} {}", p.point3d_id, p.xyz.x(), p.xyz.y(), p.xyz.z(),
+                int{p.rgb[0]}, int{p.rgb[1]}, int{p.rgb[2]}, p.error);
+      for (const ColmapTrackElement& e : p.track) out.Print(" {} {}", e.image_id, e.point2d_idx);
+      out.Print("\n");
+    }
+    out.Commit();
+  }
+}
+
+ColmapModel ReadColmapText(const std::string& folder) {
+  ColmapModel model;
+  model.cameras = ReadCameras(Join(folder, "cameras.txt"));
+  std::unordered_set<std::uint32_t> camera_ids;
+  for (const ColmapCamera& c : model.cameras) camera_ids.insert(c.camera_id);
+  const std::string images_path = Join(folder, "images.txt");
+  std::vector<std::int64_t> points_lines;
+  model.images = ReadImages(images_path, camera_ids, &points_lines);
+  model.points = ReadPoints(Join(folder, "points3D.txt"), model.images, images_path, points_lines);
+  return model;
+}
+
+}  // namespace crop4d::io

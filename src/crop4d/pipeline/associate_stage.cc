@@ -1,0 +1,531 @@
+#include "crop4d/pipeline/associate_stage.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <unordered_map>
+
+#include "crop4d/core/error.h"
+#include "crop4d/core/progress.h"
+#include "crop4d/core/version.h"
+#include "crop4d/features/hash.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/pipeline/slam_stage.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// Changes whenever the stage's outputs for the same inputs change.
+constexpr int kAssociateStageRevision = 2;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A pass loaded for association: features, camera, image files, the landmarks seen in each
+// image, and (for a pass that projects its landmarks) the local planes of its cloud.
+struct PassContext {
+  PassData data;
+  geometry::PinholeRadTan camera;
+  std::vector<std::string> image_paths;
+  std::vector<std::vector<association::LandmarkObservation>> landmarks_per_image;
+  std::unique_ptr<association::LocalPlanes> planes;
+  // A low quantile of the cloud's heights: the ground under the plants, for the footprints.
+  double ground_z = 0;
+  // The cloud point of each (image, feature) of the pass.
+  std::unordered_map<std::uint64_t, int> cloud_of;
+  // Solved with RTK: poses good to centimetres.
+  bool precise = false;
+};
+
+std::uint64_t ImageFeatureKey(int image, int feature) {
+  return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
+}
+
+std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string& workspace,
+                                      const std::string& session, const slam::RowPass& pass,
+                                      const AssociateStageOptions& options) {
+  auto ctx = std::make_unique<PassContext>();
+  ctx->data = LoadPassData(workspace, session, pass, {.features = true, .tracks = true});
+  const io::Session s = field.OpenSession(session);
+  const io::CameraSensor* camera = s.FindCamera(ctx->data.camera);
+  if (camera == nullptr) {
+    throw InputError(s.folder(), 0, "no camera '" + ctx->data.camera + "' (used by row SLAM)");
+  }
+  ctx->camera = camera->camera;
+  ctx->precise = ctx->data.sensors.find("rtk") != std::string::npos;
+  std::map<Timestamp, std::string> files;
+  s.ForEachImageEntry(camera->name, [&](const io::ImageEntry& e) {
+    files[e.t] = s.ImagePath(camera->name, e.filename);
+  });
+  for (Timestamp t : ctx->data.times) {
+    const auto it = files.find(t);
+    ctx->image_paths.push_back(it != files.end() ? it->second : std::string());
+  }
+  ctx->landmarks_per_image.resize(ctx->data.times.size());
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<double> heights;
+  const std::vector<PassTrack>& cloud = ctx->data.tracks.cloud;
+  for (std::size_t c = 0; c < cloud.size(); ++c) {
+    positions.push_back(cloud[c].position_world);
+    heights.push_back(cloud[c].position_world.z());
+    for (const features::Observation& o : cloud[c].observations) {
+      ctx->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);
+    }
+    if (static_cast<int>(cloud[c].observations.size()) < options.min_track_length) continue;
+    for (const features::Observation& o : cloud[c].observations) {
+      ctx->landmarks_per_image[o.image].push_back(
+          {o.feature, cloud[c].position_world, static_cast<std::int32_t>(c)});
+    }
+  }
+  if (!heights.empty()) {
+    const std::size_t q = heights.size() / 4;
+    std::nth_element(heights.begin(), heights.begin() + q, heights.end());
+    ctx->ground_z = heights[q];
+  } else if (!ctx->data.poses.empty()) {
+    ctx->ground_z = ctx->data.poses.front().translation().z() - 1.5;
+  }
+  if (options.method != "naive") {
+    ctx->planes = std::make_unique<association::LocalPlanes>(std::move(positions));
+  }
+  return ctx;
+}
+
+json OptionsJson(const AssociateStageOptions& o, const std::string& method) {
+  const association::RobustMatcher::Options& r = o.robust;
+  json j = {{"method", method},
+            {"min_overlap", o.image_pairs.min_overlap},
+            {"max_pairs_per_image", o.image_pairs.max_pairs_per_image},
+            {"stride", o.image_pairs.stride},
+            {"max_axis_angle_deg", o.image_pairs.max_axis_angle_deg},
+            {"footprint_range_m", o.image_pairs.footprint.max_range_m},
+            {"max_scale_change", o.image_pairs.max_scale_change}};
+  if (method == "robust") {
+    j["prealign"] = o.prealign;
+    j["prealign_stride"] = o.prealign_stride;
+    j["prealign_radius_m"] = o.prealign_radius_m;
+    j["imprecise_sigma_position_m"] = o.imprecise_sigma_position_m;
+    j["alignment_min_inliers"] = o.alignment.min_inliers;
+    j["prealigned_sigma_position_m"] = o.prealigned_sigma_position_m;
+    j["alignment_inlier_threshold_m"] = o.alignment.inlier_threshold_m;
+    j["min_track_length"] = o.min_track_length;
+    j["max_landmark_distance_m"] = o.max_landmark_distance_m;
+    j["min_search_radius_px"] = r.min_search_radius_px;
+    j["search_sigmas"] = r.search_sigmas;
+    j["sigma_position_m"] = r.sigma_position_m;
+    j["sigma_rotation_rad"] = r.sigma_rotation_rad;
+    j["max_search_radius_px"] = r.max_search_radius_px;
+    j["max_scale_ratio"] = r.max_scale_ratio;
+    j["warp_min_baseline_m"] = r.warp_min_baseline_m;
+    j["max_ratio"] = r.max_ratio;
+    j["max_descriptor_distance"] = r.max_descriptor_distance;
+    j["verify"] = r.verify;
+    j["ransac_px"] = r.verification.max_error_px;
+    j["min_inliers"] = r.verification.min_num_inliers;
+  } else {
+    j["ratio"] = o.naive.descriptors.max_ratio;
+    j["ransac_px"] = o.naive.verification.max_error_px;
+    j["min_inliers"] = o.naive.verification.min_num_inliers;
+  }
+  return j;
+}
+
+template <typename Body>
+void InArena(int num_threads, Body&& body) {
+  if (num_threads <= 0) {
+    body();
+    return;
+  }
+  tbb::task_arena arena(num_threads);
+  arena.execute(body);
+}
+
+// Naive matches between sampled images of pass a and every few images of pass b within
+// `prealign_radius_m` (the poses may be metres off, so footprint overlap cannot choose the
+// pairs) give ground points placed by both passes (their cloud points); their 4-DOF alignment
+// maps pass a's frame onto pass b's.
+fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
+                               const AssociateStageOptions& options) {
+  std::vector<std::pair<int, int>> image_pairs;
+  const int step_a = std::max(1, options.prealign_stride);
+  const int step_b = std::max(1, options.prealign_stride / 3);
+  for (int ia = 0; ia < static_cast<int>(a.data.poses.size()); ia += step_a) {
+    const geometry::Rigid3& ca = a.data.poses[ia];
+    for (int ib = 0; ib < static_cast<int>(b.data.poses.size()); ib += step_b) {
+      const geometry::Rigid3& cb = b.data.poses[ib];
+      const Eigen::Vector3d axis_a = ca.rotation() * Eigen::Vector3d::UnitZ();
+      const Eigen::Vector3d axis_b = cb.rotation() * Eigen::Vector3d::UnitZ();
+      if ((ca.translation() - cb.translation()).head<2>().norm() > options.prealign_radius_m ||
+          axis_a.dot(axis_b) < 0) {
+        continue;
+      }
+      image_pairs.emplace_back(ia, ib);
+    }
+  }
+  std::vector<association::AssociationResult> results(image_pairs.size());
+  InArena(options.num_threads, [&] {
+    tbb::parallel_for(std::size_t{0}, image_pairs.size(), [&](std::size_t k) {
+      const features::FeatureSet& fa = a.data.features[image_pairs[k].first];
+      const features::FeatureSet& fb = b.data.features[image_pairs[k].second];
+      if (fa.empty() || fb.empty()) return;
+      results[k] = association::NaiveMatch(a.camera, fa, b.camera, fb, options.naive);
+    });
+  });
+  std::vector<Eigen::Vector3d> points_a, points_b;
+  for (std::size_t k = 0; k < image_pairs.size(); ++k) {
+    for (const association::LandmarkMatch& m : results[k].matches) {
+      const auto ca = a.cloud_of.find(ImageFeatureKey(image_pairs[k].first, m.feature_a));
+      const auto cb = b.cloud_of.find(ImageFeatureKey(image_pairs[k].second, m.feature_b));
+      if (ca == a.cloud_of.end() || cb == b.cloud_of.end()) continue;
+      points_a.push_back(a.data.tracks.cloud[ca->second].position_world);
+      points_b.push_back(b.data.tracks.cloud[cb->second].position_world);
+    }
+  }
+  return fusion::AlignPasses4Dof(points_a, points_b, options.alignment);
+}
+
+PassPairReport AssociatePair(const PassPair& pair, const std::string& method, PassContext& a,
+                             PassContext& b, const AssociateStageOptions& options,
+                             const fs::path& out_dir) {
+  PassPairReport report;
+  report.pair = pair;
+  report.method = method;
+  const auto start = Clock::now();
+  const json options_json = OptionsJson(options, method);
+  features::Fnv1aHasher hasher;
+  hasher.Add(kAssociateStageRevision);
+  hasher.AddString(kVersion);
+  hasher.AddString(options_json.dump());
+  hasher.AddString(a.data.label() + " " + a.data.fingerprint);
+  hasher.AddString(b.data.label() + " " + b.data.fingerprint);
+  const std::string fingerprint = std::to_string(hasher.hash());
+  const std::string name = association::AssociationFileName(pair.a, pair.b);
+  const fs::path bin = out_dir / name;
+  const fs::path summary_path = fs::path(bin).replace_extension(".json");
+  if (!options.force && fs::exists(bin) && fs::exists(summary_path)) {
+    try {
+      std::ifstream in(summary_path);
+      const json s = json::parse(in);
+      if (s.value("fingerprint", "") == fingerprint) {
+        report.skipped = true;
+        report.image_pairs = s.value("image_pairs", 0);
+        report.landmarks = s.value("landmarks", 0);
+        report.projected = s.value("projected", 0);
+        report.candidates = s.value("candidates", 0);
+        report.warped = s.value("warped", 0);
+        report.putative = s.value("putative", 0);
+        report.matches = s.value("matches", 0);
+        report.seconds = s.value("seconds", 0.0);
+        return report;
+      }
+    } catch (const std::exception&) {
+      // A damaged summary: associate again.
+    }
+  }
+
+  // Pass b's poses in pass a's frame (changed only by the pre-alignment).
+  std::vector<geometry::Rigid3> poses_b = b.data.poses;
+  association::RobustMatcher::Options robust = options.robust;
+  const bool imprecise = !(a.precise && b.precise);
+  if (method == "robust" && imprecise && pair.a.session == pair.b.session &&
+      options.prealign != "always") {
+    robust.sigma_position_m = std::max(robust.sigma_position_m, options.imprecise_sigma_position_m);
+  }
+  if (method == "robust" &&
+      (options.prealign == "always" ||
+       (options.prealign == "auto" && imprecise && pair.a.session != pair.b.session))) {
+    const fusion::PassAlignment alignment = PreAlign(a, b, options);
+    if (alignment.ok) {
+      const geometry::Rigid3 a_from_b = alignment.b_from_a.Inverse();
+      for (geometry::Rigid3& pose : poses_b) {
+        report.alignment_shift_m = std::max(
+            report.alignment_shift_m, (a_from_b * pose.translation() - pose.translation()).norm());
+        pose = a_from_b * pose;
+      }
+      report.prealigned = true;
+      report.alignment_inliers = alignment.num_inliers;
+      robust.sigma_position_m = options.prealigned_sigma_position_m;
+    } else {
+      spdlog::warn(
+          "{} <-> {}: no pre-alignment (too few consistent naive matches); searching around the "
+          "row-SLAM poses",
+          a.data.label(), b.data.label());
+    }
+  }
+  const std::vector<association::ImagePair> image_pairs = association::SelectImagePairs(
+      a.data.poses, poses_b, a.camera, b.camera, a.ground_z, options.image_pairs);
+  std::vector<association::AssociationResult> results(image_pairs.size());
+  association::RobustMatcher matcher(robust);
+  InArena(options.num_threads, [&] {
+    tbb::parallel_for(std::size_t{0}, image_pairs.size(), [&](std::size_t k) {
+      const int ia = image_pairs[k].image_a, ib = image_pairs[k].image_b;
+      const features::FeatureSet& fa = a.data.features[ia];
+      const features::FeatureSet& fb = b.data.features[ib];
+      if (fa.empty() || fb.empty()) return;
+      if (method == "naive") {
+        results[k] = association::NaiveMatch(a.camera, fa, b.camera, fb, options.naive);
+        return;
+      }
+      association::RobustPairInput input;
+      input.camera_a = &a.camera;
+      input.world_from_camera_a = a.data.poses[ia];
+      input.features_a = &fa;
+      std::vector<association::LandmarkObservation> near;
+      for (const association::LandmarkObservation& l : a.landmarks_per_image[ia]) {
+        if ((l.position_world - a.data.poses[ia].translation()).norm() <=
+            options.max_landmark_distance_m) {
+          near.push_back(l);
+        }
+      }
+      input.landmarks_a = &near;
+      input.planes = a.planes.get();
+      input.camera_b = &b.camera;
+      input.world_from_camera_b = poses_b[ib];
+      input.features_b = &fb;
+      cv::Mat image;
+      const double baseline = (a.data.poses[ia].translation() - poses_b[ib].translation()).norm();
+      if (baseline > options.robust.warp_min_baseline_m && !a.image_paths[ia].empty()) {
+        image = cv::imread(a.image_paths[ia], cv::IMREAD_GRAYSCALE);
+        if (image.empty()) {
+          spdlog::warn("{}: cannot read {}; its landmarks are matched without the warp",
+                       a.data.label(), a.image_paths[ia]);
+        }
+      }
+      input.image_a = image.empty() ? nullptr : &image;
+      results[k] = matcher.Match(input);
+    });
+  });
+
+  association::PassAssociation assoc;
+  assoc.a = pair.a;
+  assoc.b = pair.b;
+  assoc.method = method;
+  for (std::size_t k = 0; k < image_pairs.size(); ++k) {
+    const int ia = image_pairs[k].image_a, ib = image_pairs[k].image_b;
+    const association::AssociationStats& s = results[k].stats;
+    report.landmarks += s.num_landmarks;
+    report.projected += s.num_projected;
+    report.candidates += s.num_candidates;
+    report.warped += s.num_warped;
+    report.putative += s.num_putative;
+    for (const association::LandmarkMatch& m : results[k].matches) {
+      association::CrossMatch c;
+      c.image_a = ia;
+      c.feature_a = m.feature_a;
+      c.image_b = ib;
+      c.feature_b = m.feature_b;
+      c.t_a = a.data.times[ia];
+      c.t_b = b.data.times[ib];
+      const features::Keypoint& ka = a.data.features[ia].keypoints[m.feature_a];
+      const features::Keypoint& kb = b.data.features[ib].keypoints[m.feature_b];
+      c.xa = ka.x;
+      c.ya = ka.y;
+      c.xb = kb.x;
+      c.yb = kb.y;
+      c.distance = m.distance;
+      c.landmark_a = m.landmark;
+      assoc.matches.push_back(c);
+    }
+  }
+  report.image_pairs = static_cast<int>(image_pairs.size());
+  report.matches = static_cast<std::int64_t>(assoc.matches.size());
+  report.seconds = SecondsSince(start);
+  association::WriteAssociationFile(bin.string(), assoc);
+  const json summary = {{"a", {{"session", pair.a.session}, {"pass", pair.a.pass}}},
+                        {"b", {{"session", pair.b.session}, {"pass", pair.b.pass}}},
+                        {"type", ToString(pair.type)},
+                        {"method", method},
+                        {"image_pairs", report.image_pairs},
+                        {"landmarks", report.landmarks},
+                        {"projected", report.projected},
+                        {"candidates", report.candidates},
+                        {"warped", report.warped},
+                        {"putative", report.putative},
+                        {"matches", report.matches},
+                        {"prealigned", report.prealigned},
+                        {"alignment_inliers", report.alignment_inliers},
+                        {"alignment_shift_m", report.alignment_shift_m},
+                        {"seconds", report.seconds},
+                        {"seconds_per_image_pair",
+                         report.image_pairs > 0 ? report.seconds / report.image_pairs : 0.0},
+                        {"options", options_json},
+                        {"fingerprint", fingerprint}};
+  io::WriteFileAtomic(summary_path.string(), summary.dump(2) + "\n");
+  return report;
+}
+
+}  // namespace
+
+const char* ToString(PassPairType type) {
+  switch (type) {
+    case PassPairType::kSameDirection:
+      return "cross-row same direction";
+    case PassPairType::kOppositeDirection:
+      return "cross-row opposite direction";
+    case PassPairType::kCrossSession:
+      return "cross-session";
+  }
+  return "?";
+}
+
+bool AssociateStageOptions::Check() const {
+  return (method == "robust" || method == "naive" || method == "both") && session_gap >= 1 &&
+         (prealign == "auto" || prealign == "always" || prealign == "never") &&
+         prealign_stride >= 1 && prealign_radius_m > 0 && prealigned_sigma_position_m > 0 &&
+         imprecise_sigma_position_m > 0 && alignment.Check() && image_pairs.Check() &&
+         min_track_length >= 2 && max_landmark_distance_m > 0 && robust.Check() && naive.Check() &&
+         num_threads >= 0;
+}
+
+std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
+                                           const std::string& workspace,
+                                           const AssociateStageOptions& options) {
+  const io::Field field(field_folder);
+  // Row passes (not whole-session passes) with a camera, per session in field order.
+  std::vector<std::pair<std::string, std::vector<slam::RowPass>>> sessions;
+  for (const std::string& id : field.session_ids()) {
+    std::vector<slam::RowPass> passes;
+    for (const slam::RowPass& p : ReadPassList(workspace, id)) {
+      if (p.row < 0) continue;
+      const fs::path summary = fs::path(PassFolder(workspace, id, p.id)) / "summary.json";
+      if (!fs::exists(summary)) continue;
+      std::ifstream in(summary);
+      try {
+        if (json::parse(in).value("pose_frame", "") != "camera") continue;
+      } catch (const std::exception&) {
+        continue;
+      }
+      passes.push_back(p);
+    }
+    if (!passes.empty()) sessions.emplace_back(id, std::move(passes));
+  }
+  std::vector<PassPair> pairs;
+  auto add = [&](const std::string& sa, const slam::RowPass& a, const std::string& sb,
+                 const slam::RowPass& b, PassPairType type) {
+    for (const PassPair& p : pairs) {
+      if ((p.a == association::PassRef{sa, a.id} && p.b == association::PassRef{sb, b.id}) ||
+          (p.b == association::PassRef{sa, a.id} && p.a == association::PassRef{sb, b.id})) {
+        return;
+      }
+    }
+    pairs.push_back({{sa, a.id}, {sb, b.id}, type, a.row, b.row});
+  };
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    const auto& [id, passes] = sessions[s];
+    if (options.same_session) {
+      for (const slam::RowPass& p : passes) {
+        // The nearest other pass in each direction (ties: the lower row first).
+        for (const int same : {1, 0}) {
+          const slam::RowPass* best = nullptr;
+          for (const slam::RowPass& q : passes) {
+            if (q.id == p.id || (q.direction == p.direction) != (same == 1)) continue;
+            if (best == nullptr || std::abs(q.row - p.row) < std::abs(best->row - p.row) ||
+                (std::abs(q.row - p.row) == std::abs(best->row - p.row) && q.row < best->row)) {
+              best = &q;
+            }
+          }
+          if (best == nullptr) continue;
+          const bool p_first = p.row < best->row || (p.row == best->row && p.id < best->id);
+          const PassPairType type =
+              same == 1 ? PassPairType::kSameDirection : PassPairType::kOppositeDirection;
+          if (p_first) {
+            add(id, p, id, *best, type);
+          } else {
+            add(id, *best, id, p, type);
+          }
+        }
+      }
+    }
+    if (options.cross_session) {
+      for (std::size_t t = s + 1; t < sessions.size() && t <= s + options.session_gap; ++t) {
+        for (const slam::RowPass& p : passes) {
+          for (const slam::RowPass& q : sessions[t].second) {
+            if (q.row == p.row) add(id, p, sessions[t].first, q, PassPairType::kCrossSession);
+          }
+        }
+      }
+    }
+  }
+  if (!options.session.empty()) {
+    std::erase_if(pairs, [&](const PassPair& p) {
+      return p.a.session != options.session && p.b.session != options.session;
+    });
+  }
+  return pairs;
+}
+
+std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
+                                              const std::string& workspace,
+                                              const AssociateStageOptions& options) {
+  if (!options.Check()) throw std::invalid_argument("RunAssociateStage: invalid options");
+  const io::Field field(field_folder);
+  if (!options.session.empty()) {
+    const auto& ids = field.session_ids();
+    if (std::find(ids.begin(), ids.end(), options.session) == ids.end()) {
+      throw InputError(field_folder, 0, "no session '" + options.session + "' in this field");
+    }
+  }
+  const std::vector<PassPair> pairs = ScheduleAssociations(field_folder, workspace, options);
+  if (pairs.empty()) {
+    throw InputError(workspace, 0,
+                     "no pair of row passes to associate (run `crop4d slam` on the field first; "
+                     "association needs camera passes)");
+  }
+  spdlog::info("associate: {} pass pairs", pairs.size());
+  for (const PassPair& p : pairs) {
+    spdlog::info("  {}/{} <-> {}/{}  ({})", p.a.session, p.a.pass, p.b.session, p.b.pass,
+                 ToString(p.type));
+  }
+  const std::vector<std::string> methods = options.method == "both"
+                                               ? std::vector<std::string>{"robust", "naive"}
+                                               : std::vector<std::string>{options.method};
+  // Passes are loaded once, when first needed.
+  std::map<association::PassRef, std::unique_ptr<PassContext>> loaded;
+  auto get = [&](const association::PassRef& ref) -> PassContext& {
+    auto& slot = loaded[ref];
+    if (!slot) {
+      for (const slam::RowPass& p : ReadPassList(workspace, ref.session)) {
+        if (p.id == ref.pass) slot = LoadPass(field, workspace, ref.session, p, options);
+      }
+      if (!slot)
+        throw InputError(workspace, 0, "pass " + ref.session + "/" + ref.pass + " missing");
+    }
+    return *slot;
+  };
+  std::vector<PassPairReport> reports;
+  Progress progress("associate", pairs.size() * methods.size(), "pair",
+                    Progress::Options{.silent = !options.show_progress});
+  for (const PassPair& pair : pairs) {
+    for (const std::string& method : methods) {
+      const fs::path out_dir = fs::path(workspace) / "associations" / method;
+      PassContext& a = get(pair.a);
+      PassContext& b = get(pair.b);
+      reports.push_back(AssociatePair(pair, method, a, b, options, out_dir));
+      const PassPairReport& r = reports.back();
+      spdlog::debug("{}/{} <-> {}/{} {}: {} image pairs, {} matches, {:.1f} s{}", pair.a.session,
+                    pair.a.pass, pair.b.session, pair.b.pass, method, r.image_pairs, r.matches,
+                    r.seconds, r.skipped ? " (up to date)" : "");
+      progress.Add();
+    }
+  }
+  progress.Finish();
+  return reports;
+}
+
+}  // namespace crop4d::pipeline

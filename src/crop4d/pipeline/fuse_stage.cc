@@ -1,0 +1,745 @@
+#include "crop4d/pipeline/fuse_stage.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <numeric>
+#include <set>
+#include <sstream>
+#include <unordered_map>
+
+#include "crop4d/association/association_file.h"
+#include "crop4d/core/error.h"
+#include "crop4d/core/version.h"
+#include "crop4d/features/hash.h"
+#include "crop4d/geometry/rotation.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/colmap_text.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
+#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/slam/reprojection_factor.h"
+#include "crop4d/slam/session_streams.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// Changes whenever the stage's outputs for the same inputs change.
+constexpr int kFuseStageRevision = 1;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// One (pass, image, feature) as a node of the landmark graph.
+struct Node {
+  int pass = 0, image = 0, feature = 0;
+};
+
+class NodeTable {
+ public:
+  int Get(int pass, int image, int feature) {
+    const std::uint64_t key = (static_cast<std::uint64_t>(pass) << 42) |
+                              (static_cast<std::uint64_t>(image) << 21) |
+                              static_cast<std::uint64_t>(feature);
+    auto [it, inserted] = ids_.emplace(key, static_cast<int>(nodes_.size()));
+    if (inserted) nodes_.push_back({pass, image, feature});
+    return it->second;
+  }
+  const Node& node(int id) const { return nodes_[id]; }
+  std::size_t size() const { return nodes_.size(); }
+
+ private:
+  std::unordered_map<std::uint64_t, int> ids_;
+  std::vector<Node> nodes_;
+};
+
+// Union-find over the nodes whose components never hold two features of one image (one 3D
+// point is seen at most once per image): a union that would is refused. Replaying the cross
+// matches best first, the weakest link of a conflict is the one cut, as features/tracks.h's
+// kSplit policy does within a pass.
+class ConsistentUnionFind {
+ public:
+  explicit ConsistentUnionFind(const NodeTable& nodes)
+      : parent_(nodes.size()), members_(nodes.size()) {
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      parent_[i] = static_cast<int>(i);
+      const Node& n = nodes.node(static_cast<int>(i));
+      members_[i].emplace(ImageKey(n.pass, n.image), n.feature);
+    }
+  }
+  int Find(int x) {
+    while (parent_[x] != x) {
+      parent_[x] = parent_[parent_[x]];
+      x = parent_[x];
+    }
+    return x;
+  }
+  // Joins the components of a and b; false (and nothing changes) when they hold different
+  // features of one image.
+  bool Union(int a, int b) {
+    a = Find(a);
+    b = Find(b);
+    if (a == b) return true;
+    if (members_[a].size() < members_[b].size()) std::swap(a, b);
+    for (const auto& [key, feature] : members_[b]) {
+      const auto it = members_[a].find(key);
+      if (it != members_[a].end() && it->second != feature) return false;
+    }
+    members_[a].insert(members_[b].begin(), members_[b].end());
+    members_[b].clear();
+    parent_[b] = a;
+    return true;
+  }
+
+ private:
+  static std::uint64_t ImageKey(int pass, int image) {
+    return (static_cast<std::uint64_t>(pass) << 32) | static_cast<std::uint32_t>(image);
+  }
+  std::vector<int> parent_;
+  std::vector<std::unordered_map<std::uint64_t, int>> members_;
+};
+
+struct LoadedPass {
+  PassData data;
+  fusion::JointOptimiser::Pass input;
+  const slam::SessionStreams* streams = nullptr;
+  // Cloud track of each (image, feature) of the pass.
+  std::unordered_map<std::uint64_t, int> cloud_of;
+};
+
+std::uint64_t ImageFeatureKey(int image, int feature) {
+  return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
+}
+
+// The pass's row-SLAM problem rebuilt from the session's data and summary.json's "problem".
+void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
+  const json summary = json::parse(pass->data.summary_json);
+  const json& problem = summary.at("problem");
+  const std::string where = pass->data.folder + "/summary.json";
+  fusion::JointOptimiser::Pass& input = pass->input;
+  input.initial_states = pass->data.states;
+  if (pass->data.has_camera()) {
+    if (!streams.camera || streams.camera->sensor.name != pass->data.camera) {
+      throw InputError(where + ": camera '" + pass->data.camera + "' not in the session");
+    }
+    input.camera = &streams.camera->sensor.camera;
+    input.body_from_camera = streams.camera->sensor.body_from_sensor;
+  }
+  if (!streams.imu || streams.imu->samples.empty()) {
+    throw InputError(where + ": the session has no IMU samples");
+  }
+  const slam::ImuStream& imu = *streams.imu;
+  input.imu_samples = &imu.samples;
+  input.imu_noise.gyro_noise_density = imu.sensor.gyroscope_noise_density;
+  input.imu_noise.accel_noise_density = imu.sensor.accelerometer_noise_density;
+  input.imu_noise.gyro_random_walk = imu.sensor.gyroscope_random_walk;
+  input.imu_noise.accel_random_walk = imu.sensor.accelerometer_random_walk;
+  input.imu_rate_hz = imu.sensor.rate_hz;
+  const std::string gps_name = problem.value("gps", "");
+  if (!gps_name.empty()) {
+    const slam::GpsStream* gps = nullptr;
+    for (const slam::GpsStream& g : streams.gps) {
+      if (g.sensor.name == gps_name) gps = &g;
+    }
+    if (gps == nullptr) throw InputError(where + ": GPS '" + gps_name + "' not in the session");
+    std::vector<GpsOutage> outages;
+    for (const json& o : problem.at("gps_outages")) outages.push_back({o.at(0), o.at(1)});
+    input.gps_fixes = ApplyGpsOutages(gps->fixes, outages);
+    input.p_body_antenna = gps->sensor.antenna_in_body;
+  }
+  if (!problem.at("forward_axis_body").is_null()) {
+    const std::vector<double> a = problem.at("forward_axis_body");
+    input.forward_axis_body = Eigen::Vector3d(a.at(0), a.at(1), a.at(2));
+  }
+  input.anchor_state = problem.value("anchor_state", 0);
+  const std::vector<double> mean = problem.at("bias_prior_mean");
+  for (int k = 0; k < 6; ++k) input.bias_prior_mean(k) = mean.at(k);
+  if (!problem.at("bias_prior_sigma").is_null()) {
+    const std::vector<double> sigma = problem.at("bias_prior_sigma");
+    slam::Vector6d s;
+    for (int k = 0; k < 6; ++k) s(k) = sigma.at(k);
+    input.bias_prior_sigma = s;
+  }
+}
+
+std::string FileHash(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  features::Fnv1aHasher hasher;
+  hasher.AddBytes(bytes.data(), bytes.size());
+  return std::to_string(hasher.hash());
+}
+
+json OptionsJson(const FuseStageOptions& o) {
+  const slam::RowOptimiser::Options& r = o.optimiser.row;
+  return {{"method", o.method},
+          {"max_matches_per_image_pair", o.max_matches_per_image_pair},
+          {"reprojection_sigma_px", r.reprojection_sigma_px},
+          {"reprojection_loss_scale", r.reprojection_loss_scale},
+          {"max_reprojection_error_px", r.max_reprojection_error_px},
+          {"min_observations", r.min_observations},
+          {"max_iterations", r.max_iterations},
+          {"iterative_schur", r.iterative_schur},
+          {"max_linear_iterations", r.max_linear_iterations},
+          {"gps_loss_scale", r.gps_loss_scale},
+          {"cloud_min_parallax_deg", o.cloud.min_parallax_deg},
+          {"cloud_max_reprojection_error_px", o.cloud.max_reprojection_error_px},
+          {"write_colmap", o.write_colmap}};
+}
+
+// The image file names of a camera stream by timestamp.
+std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams) {
+  std::map<Timestamp, std::string> names;
+  if (streams.camera) {
+    for (const io::ImageEntry& e : streams.camera->images) names[e.t] = e.filename;
+  }
+  return names;
+}
+
+io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
+                               const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                               const slam::TriangulationOptions& options) {
+  io::PlyPointCloud cloud;
+  io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
+  io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const PassData& data = passes[p]->data;
+    const std::vector<PassTrack>& tracks = data.tracks.cloud;
+    std::vector<slam::TriangulationResult> tri(tracks.size());
+    tbb::parallel_for(std::size_t{0}, tracks.size(), [&](std::size_t i) {
+      std::vector<geometry::Rigid3> views;
+      std::vector<Eigen::Vector2d> pixels;
+      for (const features::Observation& o : tracks[i].observations) {
+        views.push_back(cameras[p][o.image]);
+        pixels.push_back(data.features[o.image].Point(o.feature));
+      }
+      tri[i] = slam::TriangulatePoint(*passes[p]->input.camera, views, pixels, options);
+    });
+    for (std::size_t i = 0; i < tracks.size(); ++i) {
+      if (!tri[i].ok()) continue;
+      cloud.points.push_back(tri[i].point_world);
+      cloud.colors.push_back(tracks[i].color);
+      length.values.push_back(static_cast<double>(tracks[i].observations.size()));
+      error.values.push_back(tri[i].mean_reprojection_error_px);
+    }
+  }
+  cloud.scalars = {length, error};
+  return cloud;
+}
+
+// The best `max_per_pair` matches of every image pair (0: all), by descriptor distance, taken
+// in turn from the cells of a 4×4 grid over image a so that they spread over the view.
+std::vector<association::CrossMatch> ThinMatches(const std::vector<association::CrossMatch>& all,
+                                                 const geometry::PinholeRadTan& camera_a,
+                                                 int max_per_pair) {
+  if (max_per_pair <= 0) return all;
+  std::map<std::pair<int, int>, std::vector<const association::CrossMatch*>> groups;
+  for (const association::CrossMatch& m : all) groups[{m.image_a, m.image_b}].push_back(&m);
+  std::vector<association::CrossMatch> kept;
+  for (auto& [key, group] : groups) {
+    if (static_cast<int>(group.size()) <= max_per_pair) {
+      for (const association::CrossMatch* m : group) kept.push_back(*m);
+      continue;
+    }
+    constexpr int kCells = 4;
+    std::vector<std::vector<const association::CrossMatch*>> cells(kCells * kCells);
+    for (const association::CrossMatch* m : group) {
+      const int cx = std::clamp(static_cast<int>(m->xa * kCells / camera_a.width), 0, kCells - 1);
+      const int cy = std::clamp(static_cast<int>(m->ya * kCells / camera_a.height), 0, kCells - 1);
+      cells[cy * kCells + cx].push_back(m);
+    }
+    for (auto& cell : cells) {
+      std::stable_sort(cell.begin(), cell.end(),
+                       [](const auto* a, const auto* b) { return a->distance < b->distance; });
+    }
+    int taken = 0;
+    for (std::size_t round = 0; taken < max_per_pair; ++round) {
+      bool any = false;
+      for (auto& cell : cells) {
+        if (round >= cell.size() || taken >= max_per_pair) continue;
+        kept.push_back(*cell[round]);
+        ++taken;
+        any = true;
+      }
+      if (!any) break;
+    }
+  }
+  return kept;
+}
+
+}  // namespace
+
+bool FuseStageOptions::Check() const {
+  return (method == "robust" || method == "naive") && max_matches_per_image_pair >= 0 &&
+         optimiser.Check() && cloud.Check();
+}
+
+FuseReport RunFuseStage(const std::string& field_folder, const std::string& workspace,
+                        const FuseStageOptions& options) {
+  if (!options.Check()) throw std::invalid_argument("RunFuseStage: invalid options");
+  const auto start = Clock::now();
+  FuseReport report;
+  const io::Field field(field_folder);
+
+  // Passes with a camera, in session and pass order.
+  std::vector<std::unique_ptr<LoadedPass>> passes;
+  std::map<association::PassRef, int> pass_index;
+  features::Fnv1aHasher fingerprint;
+  fingerprint.Add(kFuseStageRevision);
+  fingerprint.AddString(kVersion);
+  fingerprint.AddString(OptionsJson(options).dump());
+  std::vector<std::string> sessions;
+  for (const std::string& session : field.session_ids()) {
+    bool any = false;
+    for (const slam::RowPass& pass : ReadPassList(workspace, session)) {
+      auto loaded = std::make_unique<LoadedPass>();
+      loaded->data = LoadPassData(workspace, session, pass, {});
+      if (!loaded->data.has_camera()) continue;
+      fingerprint.AddString(loaded->data.label());
+      fingerprint.AddString(loaded->data.fingerprint);
+      pass_index[{session, pass.id}] = static_cast<int>(passes.size());
+      passes.push_back(std::move(loaded));
+      any = true;
+    }
+    if (any) sessions.push_back(session);
+  }
+  if (passes.empty()) {
+    throw InputError(workspace + ": no row pass with a camera (run `crop4d slam` first)");
+  }
+  const fs::path association_dir = fs::path(workspace) / "associations" / options.method;
+  std::vector<fs::path> association_files;
+  if (fs::is_directory(association_dir)) {
+    for (const auto& entry : fs::directory_iterator(association_dir)) {
+      if (entry.path().extension() == ".bin") association_files.push_back(entry.path());
+    }
+  }
+  std::sort(association_files.begin(), association_files.end());
+  for (const fs::path& path : association_files) {
+    fingerprint.AddString(path.filename().string());
+    fingerprint.AddString(FileHash(path));
+  }
+  const std::string stamp = std::to_string(fingerprint.hash());
+  const fs::path out_dir = fs::path(workspace) / "fused";
+  if (!options.force && fs::exists(out_dir / "summary.json")) {
+    try {
+      std::ifstream in(out_dir / "summary.json");
+      if (json::parse(in).value("fingerprint", "") == stamp) {
+        bool complete = true;
+        for (const std::string& s : sessions) {
+          complete &=
+              fs::exists(out_dir / s / "poses.tum") && fs::exists(out_dir / s / "sparse.ply");
+        }
+        if (complete) {
+          spdlog::info("fuse: up to date, skipped (--force to fuse again)");
+          report.skipped = true;
+          report.num_sessions = static_cast<int>(sessions.size());
+          report.num_passes = static_cast<int>(passes.size());
+          return report;
+        }
+      }
+    } catch (const std::exception&) {
+      // A damaged summary: fuse again.
+    }
+  }
+  if (association_files.empty()) {
+    spdlog::warn(
+        "fuse: no associations in {} (run `crop4d associate`); the passes are optimised "
+        "together but nothing ties them to each other",
+        association_dir.string());
+  }
+
+  // Load the passes and rebuild their problems.
+  std::map<std::string, std::unique_ptr<slam::SessionStreams>> streams;
+  std::map<std::string, std::unique_ptr<io::Session>> session_objects;
+  for (auto& pass : passes) {
+    const std::string& session = pass->data.session;
+    pass->data = LoadPassData(workspace, session, pass->data.pass,
+                              {.features = true, .tracks = true, .states = true});
+    if (!streams.count(session)) {
+      session_objects[session] = std::make_unique<io::Session>(field.OpenSession(session));
+      const json summary = json::parse(pass->data.summary_json);
+      streams[session] = std::make_unique<slam::SessionStreams>(
+          slam::LoadSessionStreams(field, *session_objects[session], pass->data.camera,
+                                   summary.at("problem").value("imu", "")));
+    }
+    pass->streams = streams[session].get();
+    BuildInput(*pass->streams, pass.get());
+    for (std::size_t c = 0; c < pass->data.tracks.cloud.size(); ++c) {
+      for (const features::Observation& o : pass->data.tracks.cloud[c].observations) {
+        pass->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);
+      }
+    }
+  }
+  report.num_sessions = static_cast<int>(sessions.size());
+  report.num_passes = static_cast<int>(passes.size());
+
+  // The landmark graph: each pass's landmarks, then the cross matches with the cloud tracks
+  // they join.
+  NodeTable nodes;
+  std::vector<std::pair<int, int>> landmark_edges;
+  std::vector<int> landmark_nodes;  // first node of every pass landmark
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    for (const PassTrack& t : passes[p]->data.tracks.landmarks) {
+      int first = -1;
+      for (const features::Observation& o : t.observations) {
+        const int id = nodes.Get(static_cast<int>(p), o.image, o.feature);
+        if (first < 0) {
+          first = id;
+          landmark_nodes.push_back(id);
+        } else {
+          landmark_edges.emplace_back(first, id);
+        }
+      }
+    }
+  }
+  // Each cross match: its edges (match and the tracks it joins).
+  std::vector<std::vector<std::pair<int, int>>> match_edges;
+  std::vector<float> match_distances;
+  for (const fs::path& path : association_files) {
+    association::PassAssociation assoc;
+    std::string detail;
+    const association::AssociationFileStatus status =
+        association::ReadAssociationFile(path.string(), &assoc, &detail);
+    if (status != association::AssociationFileStatus::kOk) {
+      throw InputError(path.string() + ": " + std::string(association::ToString(status)) + " (" +
+                       detail + "); rerun `crop4d associate`");
+    }
+    ++report.num_association_files;
+    const auto ia = pass_index.find(assoc.a), ib = pass_index.find(assoc.b);
+    if (ia == pass_index.end() || ib == pass_index.end()) {
+      spdlog::warn("{}: its passes are not in the workspace; ignored", path.string());
+      continue;
+    }
+    const int pa = ia->second, pb = ib->second;
+    const std::vector<association::CrossMatch> matches =
+        ThinMatches(assoc.matches, *passes[pa]->input.camera, options.max_matches_per_image_pair);
+    report.num_cross_matches += static_cast<std::int64_t>(assoc.matches.size());
+    report.num_thinned_matches += static_cast<std::int64_t>(assoc.matches.size() - matches.size());
+    for (const association::CrossMatch& m : matches) {
+      const PassData& a = passes[pa]->data;
+      const PassData& b = passes[pb]->data;
+      const bool valid =
+          m.image_a >= 0 && m.image_a < static_cast<int>(a.times.size()) && m.image_b >= 0 &&
+          m.image_b < static_cast<int>(b.times.size()) && a.times[m.image_a] == m.t_a &&
+          b.times[m.image_b] == m.t_b && m.feature_a >= 0 &&
+          m.feature_a < static_cast<int>(a.features[m.image_a].size()) && m.feature_b >= 0 &&
+          m.feature_b < static_cast<int>(b.features[m.image_b].size());
+      if (!valid) {
+        ++report.num_invalid_matches;
+        continue;
+      }
+      std::vector<std::pair<int, int>> edges;
+      const int na = nodes.Get(pa, m.image_a, m.feature_a);
+      const int nb = nodes.Get(pb, m.image_b, m.feature_b);
+      edges.emplace_back(na, nb);
+      for (const auto& [p, image, feature, anchor] : {std::tuple{pa, m.image_a, m.feature_a, na},
+                                                      std::tuple{pb, m.image_b, m.feature_b, nb}}) {
+        const auto it = passes[p]->cloud_of.find(ImageFeatureKey(image, feature));
+        if (it == passes[p]->cloud_of.end()) continue;
+        for (const features::Observation& o :
+             passes[p]->data.tracks.cloud[it->second].observations) {
+          edges.emplace_back(anchor, nodes.Get(p, o.image, o.feature));
+        }
+      }
+      match_edges.push_back(std::move(edges));
+      match_distances.push_back(m.distance);
+    }
+    if (report.num_invalid_matches > 0) {
+      spdlog::warn(
+          "{}: matches that do not fit the passes' images (stale; rerun `crop4d associate`)",
+          path.string());
+    }
+  }
+
+  // Landmarks: each pass's own, then the cross matches best first (smallest descriptor distance),
+  // refusing any union that would put two features of one image in a landmark.
+  ConsistentUnionFind uf(nodes);
+  std::vector<bool> in_graph(nodes.size(), false);
+  for (int id : landmark_nodes) in_graph[id] = true;
+  for (const auto& [a, b] : landmark_edges) {
+    uf.Union(a, b);
+    in_graph[a] = in_graph[b] = true;
+  }
+  std::vector<std::size_t> order(match_edges.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return match_distances[x] < match_distances[y];
+  });
+  for (std::size_t m : order) {
+    const std::vector<std::pair<int, int>>& edges = match_edges[m];
+    if (!uf.Union(edges.front().first, edges.front().second)) {
+      ++report.num_conflicting_matches;
+      continue;
+    }
+    for (const auto& [a, b] : edges) {
+      if (uf.Union(a, b)) in_graph[a] = in_graph[b] = true;
+    }
+  }
+  std::unordered_map<int, int> landmark_of_root;
+  std::vector<fusion::JointLandmark> landmarks;
+  std::vector<Eigen::Vector3i> color_sums;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (!in_graph[i]) continue;
+    const int root = uf.Find(static_cast<int>(i));
+    auto [it, inserted] = landmark_of_root.emplace(root, static_cast<int>(landmarks.size()));
+    if (inserted) {
+      landmarks.emplace_back();
+      color_sums.push_back(Eigen::Vector3i::Zero());
+    }
+    const Node& n = nodes.node(static_cast<int>(i));
+    const features::FeatureSet& f = passes[n.pass]->data.features[n.image];
+    landmarks[it->second].observations.push_back({n.pass, n.image, f.Point(n.feature)});
+    if (!f.colors.empty()) {
+      for (int c = 0; c < 3; ++c) color_sums[it->second](c) += f.colors[n.feature][c];
+    }
+  }
+  {
+    // A node whose only link was refused is alone: not a landmark.
+    std::size_t kept = 0;
+    for (std::size_t l = 0; l < landmarks.size(); ++l) {
+      if (landmarks[l].observations.size() < 2) continue;
+      if (kept != l) {
+        landmarks[kept] = std::move(landmarks[l]);
+        color_sums[kept] = color_sums[l];
+      }
+      ++kept;
+    }
+    landmarks.resize(kept);
+    color_sums.resize(kept);
+  }
+  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+    auto& obs = landmarks[l].observations;
+    // The landmark's first pass first (IsCross counts the others' observations).
+    std::stable_sort(obs.begin(), obs.end(),
+                     [](const fusion::JointObservation& a, const fusion::JointObservation& b) {
+                       return a.pass != b.pass ? a.pass < b.pass : a.state < b.state;
+                     });
+    for (int c = 0; c < 3; ++c) {
+      landmarks[l].color[c] =
+          static_cast<std::uint8_t>(color_sums[l](c) / static_cast<int>(obs.size()));
+    }
+  }
+  spdlog::info(
+      "fuse: {} passes of {} sessions, {} landmarks, {} cross matches from {} files ({} dropped "
+      "as inconsistent)",
+      passes.size(), sessions.size(), landmarks.size(), report.num_cross_matches,
+      report.num_association_files, report.num_conflicting_matches);
+
+  // The joint problem.
+  std::vector<fusion::JointOptimiser::Pass> inputs;
+  for (const auto& pass : passes) inputs.push_back(pass->input);
+  const fusion::JointOptimiser optimiser(options.optimiser);
+  const fusion::JointOptimiser::Result result = optimiser.Solve(inputs, landmarks);
+  report.joint = result.summary;
+
+  // Outputs.
+  std::vector<std::vector<geometry::Rigid3>> cameras(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    FusePassReport pr;
+    pr.session = passes[p]->data.session;
+    pr.pass = passes[p]->data.pass.id;
+    pr.images = static_cast<int>(result.states[p].size());
+    double rot_sq = 0;
+    for (std::size_t k = 0; k < result.states[p].size(); ++k) {
+      const geometry::Rigid3 pose =
+          result.states[p][k].nav.world_from_body * passes[p]->input.body_from_camera;
+      cameras[p].push_back(pose);
+      pr.mean_shift += pose.translation() - passes[p]->data.poses[k].translation();
+      const double a =
+          geometry::AngleBetween(pose.rotation(), passes[p]->data.poses[k].rotation()) * 180 / M_PI;
+      rot_sq += a * a;
+    }
+    pr.mean_shift /= std::max<std::size_t>(1, result.states[p].size());
+    pr.rotation_change_deg = std::sqrt(rot_sq / std::max<std::size_t>(1, result.states[p].size()));
+    report.passes.push_back(pr);
+  }
+  for (const std::string& session : sessions) {
+    std::vector<io::StampedPose> poses;
+    std::vector<const LoadedPass*> session_passes;
+    std::vector<std::vector<geometry::Rigid3>> session_cameras;
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      if (passes[p]->data.session != session) continue;
+      session_passes.push_back(passes[p].get());
+      session_cameras.push_back(cameras[p]);
+      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
+        poses.push_back({passes[p]->data.times[k], cameras[p][k]});
+      }
+    }
+    std::sort(poses.begin(), poses.end(),
+              [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
+    io::WriteTum((out_dir / session / "poses.tum").string(), poses,
+                 "world_from_camera of session " + session +
+                     " after 4D fusion (all passes), field ENU frame");
+    io::PlyWriteOptions ply;
+    ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
+    io::WritePly((out_dir / session / "sparse.ply").string(),
+                 SessionCloud(session_passes, session_cameras, options.cloud), ply);
+  }
+  {
+    // The joint landmarks, with how many passes and sessions see each.
+    io::PlyPointCloud cloud;
+    io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
+    io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
+    for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+      const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
+      std::set<int> seen_passes;
+      std::set<std::string> seen_sessions;
+      for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+        if (!result.observations_kept[l][o]) continue;
+        seen_passes.insert(landmark.observations[o].pass);
+        seen_sessions.insert(passes[landmark.observations[o].pass]->data.session);
+      }
+      cloud.points.push_back(result.landmarks_world[l]);
+      cloud.colors.push_back(landmark.color);
+      num_passes.values.push_back(static_cast<double>(seen_passes.size()));
+      num_sessions.values.push_back(static_cast<double>(seen_sessions.size()));
+    }
+    cloud.scalars = {num_passes, num_sessions};
+    io::PlyWriteOptions ply;
+    ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
+    io::WritePly((out_dir / "landmarks.ply").string(), cloud, ply);
+  }
+  if (options.write_colmap) {
+    io::ColmapModel model;
+    std::map<std::string, std::uint32_t> camera_of_session;
+    std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      const std::string& session = passes[p]->data.session;
+      if (!camera_of_session.count(session)) {
+        const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
+        camera_of_session[session] = id;
+        model.cameras.push_back({id, *passes[p]->input.camera});
+      }
+      const std::map<Timestamp, std::string> names = ImageNames(*passes[p]->streams);
+      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
+        io::ColmapImage image;
+        image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
+        image.camera_id = camera_of_session[session];
+        const auto it = names.find(passes[p]->data.times[k]);
+        std::string file =
+            it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
+        std::replace_if(
+            file.begin(), file.end(), [](char c) { return std::isspace(c); }, '_');
+        image.name = session + "/" + passes[p]->data.pass.id + "/" + file;
+        image.world_from_camera = cameras[p][k];
+        image_ids[p].push_back(image.image_id);
+        model.images.push_back(std::move(image));
+      }
+    }
+    for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+      const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
+      io::ColmapPoint3D point;
+      point.point3d_id = static_cast<std::int64_t>(l);
+      point.xyz = result.landmarks_world[l];
+      point.rgb = landmark.color;
+      double error_sum = 0;
+      for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+        if (!result.observations_kept[l][o]) continue;
+        const fusion::JointObservation& obs = landmark.observations[o];
+        io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
+        point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
+        image.points2d.push_back({obs.pixel, point.point3d_id});
+        const double e = slam::ReprojectionError(
+            *passes[obs.pass]->input.camera, passes[obs.pass]->input.body_from_camera,
+            result.states[obs.pass][obs.state].nav.world_from_body, point.xyz, obs.pixel);
+        error_sum += std::isfinite(e) ? e : 0.0;
+      }
+      point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
+      model.points.push_back(std::move(point));
+    }
+    io::WriteColmapText((out_dir / "colmap").string(), model);
+  }
+  report.seconds = SecondsSince(start);
+
+  const fusion::JointOptimiser::Summary& s = result.summary;
+  json summary;
+  summary["fingerprint"] = stamp;
+  summary["options"] = OptionsJson(options);
+  summary["sessions"] = sessions;
+  summary["associations"] = {{"files", report.num_association_files},
+                             {"cross_matches", report.num_cross_matches},
+                             {"thinned_matches", report.num_thinned_matches},
+                             {"conflicting_matches", report.num_conflicting_matches},
+                             {"invalid_matches", report.num_invalid_matches}};
+  summary["joint"] = {{"passes", s.num_passes},
+                      {"states", s.num_states},
+                      {"landmarks_given", s.num_landmarks_given},
+                      {"landmarks", s.num_landmarks},
+                      {"shared_landmarks", s.num_shared_landmarks},
+                      {"observations", s.num_observations},
+                      {"cross_observations", s.num_cross_observations},
+                      {"rejected_observations", s.num_rejected_observations},
+                      {"rejected_cross_observations", s.num_rejected_cross_observations},
+                      {"initial_cost", s.initial_cost},
+                      {"final_cost", s.final_cost},
+                      {"iterations", s.iterations},
+                      {"reprojection_rms_px", s.reprojection_rms_px},
+                      {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
+                      {"converged", s.converged}};
+  json pass_list = json::array();
+  for (const FusePassReport& pr : report.passes) {
+    pass_list.push_back(
+        {{"session", pr.session},
+         {"pass", pr.pass},
+         {"images", pr.images},
+         {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
+         {"rotation_change_deg", pr.rotation_change_deg}});
+  }
+  summary["passes"] = pass_list;
+  summary["seconds"] = {{"triangulation", s.triangulation_seconds},
+                        {"solve", s.solve_seconds},
+                        {"final_solve", s.final_solve_seconds},
+                        {"total", report.seconds}};
+  io::WriteFileAtomic((out_dir / "summary.json").string(), summary.dump(2) + "\n");
+  return report;
+}
+
+std::string FormatFuseReport(const FuseReport& report) {
+  std::ostringstream out;
+  if (report.skipped) {
+    out << "fuse: up to date (" << report.num_passes << " passes of " << report.num_sessions
+        << " sessions)\n";
+    return out.str();
+  }
+  const fusion::JointOptimiser::Summary& s = report.joint;
+  out << "fused " << report.num_passes << " passes of " << report.num_sessions << " sessions in "
+      << std::fixed << std::setprecision(1) << report.seconds << " s\n";
+  out << "  cross matches " << report.num_cross_matches << " from " << report.num_association_files
+      << " files (" << report.num_thinned_matches << " left out by the per-image-pair cap, "
+      << report.num_conflicting_matches << " inconsistent, " << report.num_invalid_matches
+      << " stale)\n";
+  out << "  landmarks " << s.num_landmarks << " (" << s.num_shared_landmarks
+      << " shared by passes), observations " << s.num_observations << " (cross "
+      << s.num_cross_observations << ", rejected cross " << s.num_rejected_cross_observations
+      << ")\n";
+  out << std::setprecision(2) << "  reprojection RMS " << s.reprojection_rms_px << " px (cross "
+      << s.cross_reprojection_rms_px << " px), cost " << std::setprecision(1) << s.initial_cost
+      << " -> " << s.final_cost << ", " << s.iterations << " iterations\n";
+  out << "  session      pass     shift east/north/up [cm]   rotation [deg]\n";
+  for (const FusePassReport& pr : report.passes) {
+    char line[160];
+    std::snprintf(line, sizeof(line), "  %-12s %-8s %7.2f %7.2f %7.2f          %6.3f\n",
+                  pr.session.c_str(), pr.pass.c_str(), 100 * pr.mean_shift.x(),
+                  100 * pr.mean_shift.y(), 100 * pr.mean_shift.z(), pr.rotation_change_deg);
+    out << line;
+  }
+  return out.str();
+}
+
+}  // namespace crop4d::pipeline

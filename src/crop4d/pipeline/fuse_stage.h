@@ -1,0 +1,90 @@
+#pragma once
+
+// The 4D fusion stage (`crop4d fuse`, DESIGN.md §2.4): every row pass of every session in one
+// joint problem (fusion/joint_optimiser.h), with the cross matches of `crop4d associate` as
+// shared landmarks.
+//
+// Landmarks: the observations (pass, image, feature) of each pass's optimised landmarks
+// (tracks.bin) are joined with the cross matches — each match joins the landmark (cloud track)
+// of pass a it came from with the feature of pass b and that feature's own track — by
+// union-find, replayed best first (smallest descriptor distance): a match that would put two
+// features of one image into a landmark is refused (counted as inconsistent).
+//
+// Outputs in WS/fused/:
+//   <session>/poses.tum   world_from_camera of every image of the session (all passes), TUM;
+//   <session>/sparse.ply  the session's cloud: every track of its passes' row-SLAM clouds
+//                         re-triangulated from the fused poses (colour, track length, error);
+//   landmarks.ply         the joint problem's landmarks, with the number of passes and
+//                         sessions that see each;
+//   colmap/               the whole 4D reconstruction as a COLMAP text model (one camera per
+//                         session, images named <session>/<pass>/<image file>, the joint
+//                         landmarks as 3D points);
+//   summary.json          counts, costs, times, per-pass corrections, and a fingerprint of the
+//                         inputs: an unchanged workspace is not fused again (unless `force`).
+
+#include <string>
+#include <vector>
+
+#include "crop4d/fusion/joint_optimiser.h"
+#include "crop4d/slam/triangulation.h"
+
+namespace crop4d::pipeline {
+
+struct FuseStageOptions {
+  // The associations to use: WS/associations/<method>/ ("robust" or "naive").
+  std::string method = "robust";
+  // At most this many cross matches of one image pair join the problem (0: all): the best by
+  // descriptor distance, spread over a 4×4 grid of image a. A few dozen per image pair register
+  // the passes as well as hundreds, and keep the joint problem small.
+  int max_matches_per_image_pair = 30;
+  fusion::JointOptimiser::Options optimiser = [] {
+    fusion::JointOptimiser::Options o;
+    o.row.max_iterations = 30;  // started at row SLAM's solution: few iterations needed
+    o.row.iterative_schur = true;
+    return o;
+  }();
+  // Re-triangulation of the per-session clouds from the fused poses.
+  slam::TriangulationOptions cloud;
+  bool write_colmap = true;
+  bool force = false;
+  bool show_progress = true;
+
+  bool Check() const;
+};
+
+struct FusePassReport {
+  std::string session;
+  std::string pass;
+  int images = 0;
+  // Camera positions after fusion minus row SLAM's: mean (m, east/north/up) and RMS of the
+  // change in rotation (degrees).
+  Eigen::Vector3d mean_shift = Eigen::Vector3d::Zero();
+  double rotation_change_deg = 0;
+};
+
+struct FuseReport {
+  bool skipped = false;  // up to date
+  int num_sessions = 0;
+  int num_passes = 0;
+  int num_association_files = 0;
+  std::int64_t num_cross_matches = 0;
+  // Cross matches left out by FuseStageOptions::max_matches_per_image_pair.
+  std::int64_t num_thinned_matches = 0;
+  // Cross matches dropped because they made a landmark inconsistent, or referred to images or
+  // features that do not exist (a stale association file).
+  std::int64_t num_conflicting_matches = 0;
+  std::int64_t num_invalid_matches = 0;
+  fusion::JointOptimiser::Summary joint;
+  std::vector<FusePassReport> passes;
+  double seconds = 0;
+};
+
+// Runs the stage on the passes of WS/sessions that have a camera. Throws InputError for a field or
+// workspace that cannot be read (no row SLAM results, damaged files).
+FuseReport RunFuseStage(const std::string& field_folder, const std::string& workspace,
+                        const FuseStageOptions& options);
+
+// A table of the report for the terminal.
+std::string FormatFuseReport(const FuseReport& report);
+
+}  // namespace crop4d::pipeline

@@ -1,0 +1,185 @@
+// End-to-end tests of association and 4D fusion on a small simulated field (the tiny preset with
+// three rows and two sessions without rain in between, so that every kind of pass pair exists):
+// row SLAM → associate (robust and naive) → fuse → eval, with outcome bounds of the same kind as
+// the demo targets, and the cam+imu+gps case in which association alone must register
+// the sessions.
+
+#include "crop4d/pipeline/fuse_stage.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "crop4d/eval/workspace_eval.h"
+#include "crop4d/io/colmap_text.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/pipeline/associate_stage.h"
+#include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/sim/sim_config.h"
+#include "crop4d/sim/simulator.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Simulated once per build tree (written to a temporary folder and renamed into place).
+const std::string& Field() {
+  static const std::string path = [] {
+    const fs::path folder = fs::path(CROP4D_BINARY_DIR) / "test_data" / "tiny_three_rows";
+    if (fs::exists(folder / "field.yaml")) return folder.string();
+    sim::SimConfig config = sim::PresetConfig("tiny");
+    config.world.num_rows = 3;
+    config.sessions.at(1).rain_before = false;
+    const fs::path tmp = folder.string() + ".tmp." + std::to_string(getpid());
+    fs::remove_all(tmp);
+    sim::Simulator(config).Write(tmp.string());
+    fs::create_directories(folder.parent_path());
+    std::error_code ec;
+    fs::rename(tmp, folder, ec);
+    fs::remove_all(tmp);
+    return folder.string();
+  }();
+  return path;
+}
+
+class FusionStagesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    workspace_ = (fs::path(::testing::TempDir()) /
+                  ("crop4d_fusion_" + std::to_string(getpid()) + "_" +
+                   ::testing::UnitTest::GetInstance()->current_test_info()->name()))
+                     .string();
+    fs::remove_all(workspace_);
+  }
+  void TearDown() override { fs::remove_all(workspace_); }
+
+  void Slam(const std::string& sensors) {
+    SlamStageOptions o;
+    o.show_progress = false;
+    o.sensors = slam::ParseSensorSet(sensors);
+    for (const PassReport& r : RunSlamStage(Field(), workspace_, o)) {
+      ASSERT_FALSE(r.failed) << r.session << "/" << r.pass.id << ": " << r.message;
+    }
+  }
+
+  static const eval::AssociationGroupEval* Group(const eval::WorkspaceEval& e, eval::PairType type,
+                                                 const std::string& method) {
+    for (const eval::AssociationGroupEval& g : e.association->eval.groups) {
+      if (g.type == type && g.method == method) return &g;
+    }
+    return nullptr;
+  }
+  static const eval::CloudSetEval* Clouds(const eval::WorkspaceEval& e, const std::string& label) {
+    for (const eval::CloudSetEval& c : e.clouds) {
+      if (c.label == label) return &c;
+    }
+    return nullptr;
+  }
+
+  std::string workspace_;
+};
+
+TEST_F(FusionStagesTest, RtkAssociationIsPreciseAndFusionKeepsTheAccuracy) {
+  Slam("cam+imu+rtk");
+  AssociateStageOptions ao;
+  ao.show_progress = false;
+  ao.method = "both";
+  ao.image_pairs.stride = 2;  // every other image: half the time, the same kind of result
+  const std::vector<PassPair> schedule = ScheduleAssociations(Field(), workspace_, ao);
+  // Per session: rows 0–2 are driven up, down, up: 0–2 same direction, 0–1 and 1–2 opposite;
+  // across the two sessions: each row with itself.
+  int same = 0, opposite = 0, sessions = 0;
+  for (const PassPair& p : schedule) {
+    same += p.type == PassPairType::kSameDirection;
+    opposite += p.type == PassPairType::kOppositeDirection;
+    sessions += p.type == PassPairType::kCrossSession;
+  }
+  EXPECT_EQ(same, 2);
+  EXPECT_EQ(opposite, 4);
+  EXPECT_EQ(sessions, 3);
+  const std::vector<PassPairReport> reports = RunAssociateStage(Field(), workspace_, ao);
+  ASSERT_EQ(reports.size(), 2 * schedule.size());
+  FuseStageOptions fo;
+  fo.show_progress = false;
+  const FuseReport fused = RunFuseStage(Field(), workspace_, fo);
+  EXPECT_GT(fused.joint.num_shared_landmarks, 100);
+
+  // The demo's criterion is 2 cm at 640×480 and fx = 280; the tiny field's pixels (320×240,
+  // fx = 140) cover twice the ground, so its counterpart is 4 cm.
+  eval::WorkspaceEvalOptions eo;
+  eo.association.max_distance_m = 0.04;
+  eo.association.coarse_distance_m = 0.08;
+  const eval::WorkspaceEval e = eval::EvaluateWorkspace(workspace_, Field(), eo);
+  ASSERT_TRUE(e.association.has_value());
+  ASSERT_TRUE(e.association->error.empty()) << e.association->error;
+  const eval::AssociationGroupEval* robust_rows =
+      Group(e, eval::PairType::kCrossRowSameDirection, "robust");
+  const eval::AssociationGroupEval* naive_rows =
+      Group(e, eval::PairType::kCrossRowSameDirection, "naive");
+  const eval::AssociationGroupEval* robust_sessions =
+      Group(e, eval::PairType::kCrossSession, "robust");
+  ASSERT_NE(robust_rows, nullptr);
+  ASSERT_NE(naive_rows, nullptr);
+  ASSERT_NE(robust_sessions, nullptr);
+  // The demo's bound is 95% (measured there: 96% across rows, 99% across sessions, see
+  // bench/RESULTS.md). The tiny field's cross-row pairs see each other's ground only at grazing
+  // angles through its coarser pixels (92% measured), so their bound here is 90%.
+  EXPECT_GT(robust_rows->counts.correct, 200);
+  EXPECT_GE(robust_rows->counts.Precision(), 0.90);
+  EXPECT_GT(robust_sessions->counts.correct, 200);
+  EXPECT_GE(robust_sessions->counts.Precision(), 0.95);
+  EXPECT_GT(robust_rows->counts.correct, naive_rows->counts.correct);
+
+  // Fusion keeps RTK-grade poses (no worse than row SLAM) and puts the sessions' ground on top of
+  // each other.
+  ASSERT_TRUE(e.fused.has_value());
+  EXPECT_LT(e.fused->ate_raw_m.rmse, 0.02);
+  EXPECT_LT(e.fused->ate_raw_m.rmse, e.overall.ate_raw_m.rmse * 1.15 + 0.002);
+  const eval::CloudSetEval* clouds = Clouds(e, "fused");
+  ASSERT_NE(clouds, nullptr);
+  EXPECT_LT(clouds->misalignment.pooled.median_m, 0.015);
+
+  // Outputs: a consistent COLMAP model of both sessions, and a rerun that does nothing.
+  const io::ColmapModel model = io::ReadColmapText(workspace_ + "/fused/colmap");
+  std::string why;
+  EXPECT_TRUE(model.Check(&why)) << why;
+  EXPECT_EQ(model.cameras.size(), 2u);
+  EXPECT_GT(model.points.size(), 1000u);
+  for (const PassPairReport& r : RunAssociateStage(Field(), workspace_, ao)) EXPECT_TRUE(r.skipped);
+  EXPECT_TRUE(RunFuseStage(Field(), workspace_, fo).skipped);
+}
+
+TEST_F(FusionStagesTest, LowAccuracyGpsSessionsAreRegisteredByAssociation) {
+  Slam("cam+imu+gps");
+  AssociateStageOptions ao;
+  ao.show_progress = false;
+  ao.image_pairs.stride = 2;
+  const std::vector<PassPairReport> reports = RunAssociateStage(Field(), workspace_, ao);
+  int prealigned = 0;
+  for (const PassPairReport& r : reports) prealigned += r.prealigned ? 1 : 0;
+  EXPECT_GE(prealigned, 3);  // at least the cross-session pairs
+  FuseStageOptions fo;
+  fo.show_progress = false;
+  const FuseReport fused = RunFuseStage(Field(), workspace_, fo);
+  EXPECT_GE(fused.joint.num_passes_aligned, 1);
+
+  eval::WorkspaceEvalOptions eo;
+  eo.associations = false;
+  const eval::WorkspaceEval e = eval::EvaluateWorkspace(workspace_, Field(), eo);
+  const eval::CloudSetEval* row_slam = Clouds(e, "row_slam");
+  const eval::CloudSetEval* after = Clouds(e, "fused");
+  ASSERT_NE(row_slam, nullptr);
+  ASSERT_NE(after, nullptr);
+  // Each session sits where its biased receiver put it; after fusion the ground of the two
+  // sessions agrees to the 5 cm.
+  EXPECT_GT(row_slam->misalignment.pooled.median_m, 0.1);
+  EXPECT_LT(after->misalignment.pooled.median_m, 0.05);
+}
+
+}  // namespace
+}  // namespace crop4d::pipeline

@@ -1,0 +1,52 @@
+#pragma once
+
+// What the stages after row SLAM read of a row pass from the workspace (slam_stage.h lists the
+// files): the pass list of a session, and per pass its poses, features, tracks and summary.
+// Missing or damaged files throw InputError naming the file and saying to rerun `crop4d slam`.
+
+#include <string>
+#include <vector>
+
+#include "crop4d/features/feature_extractor.h"
+#include "crop4d/geometry/rigid.h"
+#include "crop4d/pipeline/pass_files.h"
+#include "crop4d/slam/row_passes.h"
+
+namespace crop4d::pipeline {
+
+// The passes of a session from WS/sessions/<session>/passes.csv (empty when there is none).
+std::vector<slam::RowPass> ReadPassList(const std::string& workspace, const std::string& session);
+
+struct PassData {
+  std::string session;
+  slam::RowPass pass;
+  std::string folder;
+  // From summary.json: the sensor set, the camera's name (empty without), the fingerprint and
+  // the whole summary as JSON text.
+  std::string sensors;
+  std::string camera;
+  std::string fingerprint;
+  std::string summary_json;
+  // Row SLAM's world_from_camera at every image (poses.tum; world_from_body without camera).
+  std::vector<Timestamp> times;
+  std::vector<geometry::Rigid3> poses;
+  // Loaded on request: the features of every image (features.bin, in the order of `times`), the
+  // tracks (tracks.bin), the full states (states.csv).
+  std::vector<features::FeatureSet> features;
+  PassTracks tracks;
+  std::vector<slam::RowState> states;
+
+  bool has_camera() const { return !camera.empty(); }
+  std::string label() const { return session + "/" + pass.id; }
+};
+
+struct PassDataParts {
+  bool features = false;
+  bool tracks = false;
+  bool states = false;
+};
+
+PassData LoadPassData(const std::string& workspace, const std::string& session,
+                      const slam::RowPass& pass, const PassDataParts& parts);
+
+}  // namespace crop4d::pipeline

@@ -1,0 +1,414 @@
+#include "crop4d/report/cross_section.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "crop4d/core/error.h"
+#include "crop4d/io/atomic_file.h"
+
+namespace crop4d::report {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Hershey fonts render ASCII only; every text of the figure is ASCII.
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+constexpr double kTickFontScale = 0.45;
+constexpr double kLabelFontScale = 0.55;
+constexpr double kTitleFontScale = 0.7;
+constexpr int kTickLength = 5;
+// Grid lines (and ticks) are at least this many pixels apart.
+constexpr double kMinTickSpacingPx = 70.0;
+
+const cv::Scalar kBlack(0, 0, 0);
+const cv::Scalar kWhite(255, 255, 255);
+const cv::Scalar kGrid(225, 225, 225);
+const cv::Scalar kNoteGray(120, 120, 120);
+
+cv::Size TextSize(const std::string& text, double scale, int thickness, int* baseline = nullptr) {
+  int unused = 0;
+  return cv::getTextSize(text, kFont, scale, thickness, baseline ? baseline : &unused);
+}
+
+// Draws `text` with its left end at x and its vertical centre at y.
+void PutText(cv::Mat& image, const std::string& text, cv::Point left_middle, double scale,
+             const cv::Scalar& color, int thickness = 1) {
+  const cv::Size size = TextSize(text, scale, thickness);
+  cv::putText(image, text, {left_middle.x, left_middle.y + size.height / 2}, kFont, scale, color,
+              thickness, cv::LINE_AA);
+}
+
+// The smallest of 1, 2, 5 × 10^k that is ≥ min_step.
+double NiceStep(double min_step) {
+  const double magnitude = std::pow(10.0, std::floor(std::log10(min_step)));
+  for (double m : {1.0, 2.0, 5.0, 10.0}) {
+    if (m * magnitude >= min_step * (1 - 1e-9)) return m * magnitude;
+  }
+  return 10.0 * magnitude;
+}
+
+// Tick values k · step inside [lo, hi], and the decimals that print them exactly.
+std::vector<double> Ticks(double lo, double hi, double step) {
+  std::vector<double> ticks;
+  for (double k = std::ceil(lo / step - 1e-9); k * step <= hi + 1e-9 * step; k += 1.0) {
+    ticks.push_back(k == 0.0 ? 0.0 : k * step);  // no "-0"
+  }
+  return ticks;
+}
+
+int Decimals(double step) { return std::max(0, int(std::ceil(-std::log10(step) - 1e-9))); }
+
+}  // namespace
+
+bool CrossSectionSlice::Check() const {
+  return center.allFinite() && direction.allFinite() && direction.norm() > 1e-12 &&
+         std::isfinite(thickness_m) && thickness_m > 0 && std::isfinite(half_length_m) &&
+         half_length_m > 0;
+}
+
+bool CrossSectionOptions::Check() const {
+  const bool z_auto = std::isnan(z_min) && std::isnan(z_max);
+  const bool z_fixed = std::isfinite(z_min) && std::isfinite(z_max) && z_min < z_max;
+  return slice.Check() && plot_width_px >= 50 && plot_width_px <= 20000 &&
+         min_plot_height_px >= 50 && max_plot_height_px >= min_plot_height_px &&
+         max_plot_height_px <= 20000 && (z_auto || z_fixed) && point_radius_px >= 0 &&
+         point_radius_px <= 50;
+}
+
+std::vector<Eigen::Vector2d> PointsInSlice(const io::PlyPointCloud& cloud,
+                                           const CrossSectionSlice& slice) {
+  CROP4D_CHECK(slice.Check());
+  const Eigen::Vector2d along_axis = slice.direction.normalized();
+  const Eigen::Vector2d across_axis(-along_axis.y(), along_axis.x());
+  const double half_thickness = 0.5 * slice.thickness_m;
+  std::vector<Eigen::Vector2d> points;
+  for (const Eigen::Vector3d& p : cloud.points) {
+    const Eigen::Vector2d offset = p.head<2>() - slice.center;
+    const double along = offset.dot(along_axis);
+    if (std::abs(offset.dot(across_axis)) <= half_thickness &&
+        std::abs(along) <= slice.half_length_m && std::isfinite(p.z())) {
+      points.emplace_back(along, p.z());
+    }
+  }
+  return points;
+}
+
+cv::Point2d CrossSectionFigure::ToPixel(double along_m, double z_m) const {
+  return {plot_origin.x + pixels_per_metre * (along_m - along_min),
+          plot_origin.y + pixels_per_metre * (z_max - z_m)};
+}
+
+cv::Vec3b SessionColor(int index, int count) {
+  CROP4D_CHECK(count >= 1 && index >= 0 && index < count);
+  // Viridis from 0 to 220 of 255: values above are pale yellow, faint on white.
+  const int value = count == 1 ? 0 : int(std::lround(220.0 * index / (count - 1)));
+  const cv::Mat gray(1, 1, CV_8UC1, cv::Scalar(value));
+  cv::Mat color;
+  cv::applyColorMap(gray, color, cv::COLORMAP_VIRIDIS);
+  return color.at<cv::Vec3b>(0, 0);
+}
+
+CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds,
+                                    const std::vector<std::string>& labels,
+                                    const CrossSectionOptions& options) {
+  CROP4D_CHECK(clouds.size() == labels.size());
+  CROP4D_CHECK(options.Check());
+  const int n = static_cast<int>(clouds.size());
+  CrossSectionFigure figure;
+
+  // Slice coordinates of every session's points, and their height range.
+  std::vector<std::vector<Eigen::Vector2d>> layers(n);
+  double z_lo = std::numeric_limits<double>::infinity(), z_hi = -z_lo;
+  for (int i = 0; i < n; ++i) {
+    layers[i] = PointsInSlice(clouds[i], options.slice);
+    for (const Eigen::Vector2d& p : layers[i]) {
+      z_lo = std::min(z_lo, p.y());
+      z_hi = std::max(z_hi, p.y());
+    }
+    figure.series.push_back({labels[i], SessionColor(i, n), static_cast<int>(layers[i].size())});
+    figure.num_points += static_cast<int>(layers[i].size());
+  }
+  if (std::isfinite(options.z_min)) {
+    z_lo = options.z_min;
+    z_hi = options.z_max;
+  } else if (figure.num_points > 0) {
+    const double margin = std::max(0.08 * (z_hi - z_lo), 0.05);
+    z_lo -= margin;
+    z_hi += margin;
+  } else {
+    z_lo = 0.0;
+    z_hi = 1.0;
+  }
+
+  // Scale: the slice length fills plot_width_px, unless the height range would then be taller
+  // than max_plot_height_px; a height range shorter than min_plot_height_px grows about its
+  // middle. One scale for both axes.
+  const double length = 2.0 * options.slice.half_length_m;
+  double scale = options.plot_width_px / length;
+  if ((z_hi - z_lo) * scale > options.max_plot_height_px) {
+    scale = options.max_plot_height_px / (z_hi - z_lo);
+  }
+  if ((z_hi - z_lo) * scale < options.min_plot_height_px) {
+    const double middle = 0.5 * (z_lo + z_hi), half = 0.5 * options.min_plot_height_px / scale;
+    z_lo = middle - half;
+    z_hi = middle + half;
+  }
+  figure.pixels_per_metre = scale;
+  figure.along_min = -options.slice.half_length_m;
+  figure.z_min = z_lo;
+  figure.z_max = z_hi;
+  figure.plot_size = cv::Size(static_cast<int>(std::lround(length * scale)),
+                              static_cast<int>(std::lround((z_hi - z_lo) * scale)));
+
+  // Ticks on a square grid (equal aspect ratio: the same step on both axes).
+  const double step = NiceStep(kMinTickSpacingPx / scale);
+  const int decimals = Decimals(step);
+  const std::vector<double> along_ticks =
+      Ticks(-options.slice.half_length_m, options.slice.half_length_m, step);
+  const std::vector<double> z_ticks = Ticks(z_lo, z_hi, step);
+  auto tick_text = [decimals](double v) { return fmt::format("{:.{}f}", v, decimals); };
+
+  // Layout: title on top; height label and tick labels left; tick labels and along label below;
+  // legend right of the plot.
+  int max_z_tick_width = 0;
+  for (double z : z_ticks) {
+    max_z_tick_width = std::max(max_z_tick_width, TextSize(tick_text(z), kTickFontScale, 1).width);
+  }
+  const int tick_height = TextSize("0", kTickFontScale, 1).height;
+  const int label_height = TextSize("Hg", kLabelFontScale, 1).height + 6;
+  const int title_height = TextSize(options.title, kTitleFontScale, 2).height;
+  std::vector<std::string> legend_texts;
+  int legend_text_width = 0;
+  for (const CrossSectionSeries& s : figure.series) {
+    legend_texts.push_back(fmt::format("{} ({} points)", s.label, s.num_points));
+    legend_text_width =
+        std::max(legend_text_width, TextSize(legend_texts.back(), kLabelFontScale, 1).width);
+  }
+  constexpr int kLegendRow = 24, kSwatch = 14, kPad = 10;
+  const int legend_width = n > 0 ? kPad + kSwatch + 8 + legend_text_width + kPad : 0;
+  const int legend_height = n > 0 ? 2 * kPad + n * kLegendRow - (kLegendRow - kSwatch) : 0;
+
+  const int left = 12 + label_height + 10 + max_z_tick_width + 6 + kTickLength;
+  const int top = 16 + title_height + 20;
+  const int right = n > 0 ? 24 + legend_width + 16 : 24;
+  const int bottom = kTickLength + 8 + tick_height + 14 + label_height + 12;
+  figure.plot_origin = cv::Point(left, top);
+  const int width = std::max(left + figure.plot_size.width + right,
+                             TextSize(options.title, kTitleFontScale, 2).width + 32);
+  const int height = top + std::max(figure.plot_size.height, legend_height) + bottom;
+  figure.image = cv::Mat(height, width, CV_8UC3, kWhite);
+  cv::Mat& image = figure.image;
+  const cv::Rect plot_rect(figure.plot_origin, figure.plot_size);
+  cv::Mat plot = image(plot_rect);  // drawing into the view clips to the plot area
+
+  // Grid.
+  for (double a : along_ticks) {
+    const int x = cvRound(figure.ToPixel(a, z_lo).x) - left;
+    cv::line(plot, {x, 0}, {x, plot.rows - 1}, kGrid, 1, cv::LINE_8);
+  }
+  for (double z : z_ticks) {
+    const int y = cvRound(figure.ToPixel(0, z).y) - top;
+    cv::line(plot, {0, y}, {plot.cols - 1, y}, kGrid, 1, cv::LINE_8);
+  }
+
+  // Points, latest session first so that the earliest ends on top. Exact colours (no
+  // anti-aliasing): a pixel of a session's colour is one of its points.
+  for (int i = n - 1; i >= 0; --i) {
+    const cv::Vec3b c = figure.series[i].color_bgr;
+    const cv::Scalar color(c[0], c[1], c[2]);
+    for (const Eigen::Vector2d& p : layers[i]) {
+      const cv::Point2d pixel = figure.ToPixel(p.x(), p.y());
+      const cv::Point centre(cvRound(pixel.x) - left, cvRound(pixel.y) - top);
+      if (options.point_radius_px == 0) {
+        if (centre.x >= 0 && centre.y >= 0 && centre.x < plot.cols && centre.y < plot.rows) {
+          plot.at<cv::Vec3b>(centre) = c;
+        }
+      } else {
+        cv::circle(plot, centre, options.point_radius_px, color, cv::FILLED, cv::LINE_8);
+      }
+    }
+  }
+  if (figure.num_points == 0) {
+    const std::string note = "no points in the slice";
+    const cv::Size size = TextSize(note, kLabelFontScale, 1);
+    PutText(plot, note, {(plot.cols - size.width) / 2, plot.rows / 2}, kLabelFontScale, kNoteGray);
+  }
+
+  // Frame, ticks and tick labels.
+  cv::rectangle(image, {left - 1, top - 1},
+                {left + figure.plot_size.width, top + figure.plot_size.height}, kBlack, 1,
+                cv::LINE_8);
+  const int plot_bottom = top + figure.plot_size.height;
+  for (double a : along_ticks) {
+    const int x = cvRound(figure.ToPixel(a, z_lo).x);
+    cv::line(image, {x, plot_bottom}, {x, plot_bottom + kTickLength}, kBlack, 1, cv::LINE_8);
+    const std::string text = tick_text(a);
+    const int w = TextSize(text, kTickFontScale, 1).width;
+    PutText(image, text, {x - w / 2, plot_bottom + kTickLength + 6 + tick_height / 2},
+            kTickFontScale, kBlack);
+  }
+  for (double z : z_ticks) {
+    const int y = cvRound(figure.ToPixel(0, z).y);
+    cv::line(image, {left - 1 - kTickLength, y}, {left - 1, y}, kBlack, 1, cv::LINE_8);
+    const std::string text = tick_text(z);
+    const int w = TextSize(text, kTickFontScale, 1).width;
+    PutText(image, text, {left - kTickLength - 6 - w, y}, kTickFontScale, kBlack);
+  }
+
+  // Axis labels: the along label centred below, the height label rotated, centred on the left.
+  {
+    const cv::Size size = TextSize(options.along_label, kLabelFontScale, 1);
+    PutText(image, options.along_label,
+            {left + (figure.plot_size.width - size.width) / 2,
+             plot_bottom + kTickLength + 8 + tick_height + 14 + label_height / 2},
+            kLabelFontScale, kBlack);
+  }
+  {
+    const cv::Size size = TextSize(options.height_label, kLabelFontScale, 1);
+    cv::Mat text(label_height, size.width + 4, CV_8UC3, kWhite);
+    PutText(text, options.height_label, {2, label_height / 2}, kLabelFontScale, kBlack);
+    cv::Mat rotated;
+    cv::rotate(text, rotated, cv::ROTATE_90_COUNTERCLOCKWISE);
+    const int y = std::max(0, top + (figure.plot_size.height - rotated.rows) / 2);
+    const cv::Rect target(12, y, rotated.cols, std::min(rotated.rows, height - y));
+    rotated(cv::Rect(0, 0, target.width, target.height)).copyTo(image(target));
+  }
+
+  // Title, centred over the plot (within the image).
+  {
+    const cv::Size size = TextSize(options.title, kTitleFontScale, 2);
+    const int x = std::clamp(left + (figure.plot_size.width - size.width) / 2, 16,
+                             std::max(16, width - size.width - 16));
+    PutText(image, options.title, {x, 16 + title_height / 2}, kTitleFontScale, kBlack, 2);
+  }
+
+  // Legend: one swatch and "label (N points)" per session, earliest first.
+  if (n > 0) {
+    const int x0 = left + figure.plot_size.width + 24;
+    cv::rectangle(image, {x0, top}, {x0 + legend_width, top + legend_height}, kBlack, 1,
+                  cv::LINE_8);
+    for (int i = 0; i < n; ++i) {
+      const cv::Vec3b c = figure.series[i].color_bgr;
+      const int y = top + kPad + i * kLegendRow;
+      cv::rectangle(image, {x0 + kPad, y}, {x0 + kPad + kSwatch - 1, y + kSwatch - 1},
+                    cv::Scalar(c[0], c[1], c[2]), cv::FILLED, cv::LINE_8);
+      PutText(image, legend_texts[i], {x0 + kPad + kSwatch + 8, y + kSwatch / 2}, kLabelFontScale,
+              kBlack);
+    }
+  }
+  return figure;
+}
+
+void WriteCrossSectionPng(const std::string& path, const CrossSectionFigure& figure) {
+  CROP4D_CHECK(!figure.image.empty());
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", figure.image, png)) {
+    throw InputError(path, 0, "cannot encode the figure as PNG");
+  }
+  io::WriteFileAtomic(path, std::string(png.begin(), png.end()));
+}
+
+// ---- workspace inputs ---------------------------------------------------------------------
+
+std::vector<std::string> ListWorkspaceSessions(const std::string& workspace) {
+  const fs::path folder = fs::path(workspace) / "sessions";
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) {
+    throw InputError(folder.string(), 0,
+                     "the workspace has no sessions/ folder (run crop4d slam first)");
+  }
+  std::vector<std::string> sessions;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+    if (entry.is_directory()) sessions.push_back(entry.path().filename().string());
+  }
+  std::sort(sessions.begin(), sessions.end());
+  if (sessions.empty()) throw InputError(folder.string(), 0, "no session folder");
+  return sessions;
+}
+
+std::vector<SessionCloud> LoadSessionClouds(const std::string& workspace,
+                                            const std::vector<std::string>& sessions,
+                                            std::vector<std::string>* missing) {
+  std::vector<SessionCloud> result;
+  for (const std::string& session : sessions) {
+    SessionCloud item;
+    item.session = session;
+    const fs::path fused = fs::path(workspace) / "fused" / session / "sparse.ply";
+    std::error_code ec;
+    if (fs::is_regular_file(fused, ec)) {
+      item.cloud = io::ReadPly(fused.string());
+      item.source = fused.string();
+      item.files = {fused.string()};
+    } else {
+      const fs::path rows = fs::path(workspace) / "sessions" / session / "rows";
+      if (fs::is_directory(rows, ec)) {
+        for (const fs::directory_entry& entry : fs::directory_iterator(rows)) {
+          const fs::path ply = entry.path() / "landmarks.ply";
+          if (entry.is_directory() && fs::is_regular_file(ply, ec)) {
+            item.files.push_back(ply.string());
+          }
+        }
+      }
+      std::sort(item.files.begin(), item.files.end());
+      for (const std::string& file : item.files) {
+        io::PlyPointCloud pass = io::ReadPly(file);
+        // Union of the passes; colours kept only when every pass has them.
+        const bool colors = pass.colors.size() == pass.points.size() &&
+                            item.cloud.colors.size() == item.cloud.points.size();
+        item.cloud.points.insert(item.cloud.points.end(), pass.points.begin(), pass.points.end());
+        if (colors) {
+          item.cloud.colors.insert(item.cloud.colors.end(), pass.colors.begin(), pass.colors.end());
+        } else {
+          item.cloud.colors.clear();
+        }
+      }
+      item.source = (rows / "*" / "landmarks.ply").string();
+    }
+    if (item.files.empty()) {
+      if (missing != nullptr) missing->push_back(session);
+      continue;
+    }
+    result.push_back(std::move(item));
+  }
+  return result;
+}
+
+CrossSectionSlice SliceAcrossRow(const io::RowDeclaration& row, const std::optional<double>& y,
+                                 double thickness_m, double half_length_m) {
+  const Eigen::Vector2d delta = row.end_enu - row.start_enu;
+  CROP4D_CHECK(delta.norm() > 0);
+  CrossSectionSlice slice;
+  slice.thickness_m = thickness_m;
+  slice.half_length_m = half_length_m;
+  // Perpendicular to the row, pointing east (or, for an east–west row, north).
+  const Eigen::Vector2d along_row = delta.normalized();
+  slice.direction = Eigen::Vector2d(along_row.y(), -along_row.x());
+  if (slice.direction.x() < 0 || (slice.direction.x() == 0 && slice.direction.y() < 0)) {
+    slice.direction = -slice.direction;
+  }
+  if (!y) {
+    slice.center = 0.5 * (row.start_enu + row.end_enu);
+    return slice;
+  }
+  if (std::abs(delta.y()) < std::abs(delta.x())) {
+    throw InputError(fmt::format(
+        "row {} runs closer to east-west than to north-south: it crosses y = {} nowhere in "
+        "particular (leave --y out to slice it in its middle)",
+        row.index, *y));
+  }
+  const double t = (*y - row.start_enu.y()) / delta.y();
+  if (t < 0 || t > 1) {
+    spdlog::warn("y = {:.2f} m is beyond the ends of row {} (y {:.2f} to {:.2f} m)", *y, row.index,
+                 row.start_enu.y(), row.end_enu.y());
+  }
+  slice.center = row.start_enu + t * delta;
+  return slice;
+}
+
+}  // namespace crop4d::report

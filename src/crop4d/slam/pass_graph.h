@@ -1,0 +1,78 @@
+#pragma once
+
+// The factor graph of one row pass in pieces (row_optimiser.h describes the factors): the
+// parameter blocks of its states, the motion factors (IMU, bias walk, angular rate, GP prior,
+// GPS, non-holonomic constraint, priors) and the reprojection factors of its landmarks. The row
+// optimiser solves one pass with them; the joint 4D problem (fusion/joint_optimiser.h) puts the
+// graphs of every pass of every session into one Ceres problem.
+
+#include <ceres/ceres.h>
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "crop4d/slam/pose_manifold.h"
+#include "crop4d/slam/row_optimiser.h"
+#include "crop4d/slam/state_layout.h"
+
+namespace crop4d::slam {
+
+// The four parameter blocks of one state (state_layout.h).
+struct StateBlocks {
+  double pose[kPoseSize];
+  double vel[kVelocitySize];
+  double rate[kRateSize];
+  double bias[kBiasSize];
+};
+
+StateBlocks ToBlocks(const RowState& s);
+RowState FromBlocks(Timestamp t, const StateBlocks& b);
+
+// The graph of one pass over its state blocks. `options`, `input` and `blocks` must outlive it
+// (and `blocks` must not be resized: factors hold pointers into it).
+class PassGraph {
+ public:
+  PassGraph(const RowOptimiser::Options& options, const RowOptimiser::Input& input,
+            std::vector<StateBlocks>* blocks);
+
+  bool has_imu() const { return input_.imu_samples != nullptr && !input_.imu_samples->empty(); }
+  bool has_gps() const { return !input_.gps_fixes.empty(); }
+
+  // (Re)integrates the IMU between consecutive states at each state's current bias estimate.
+  void Preintegrate(RowOptimiser::Summary* summary);
+  // States, motion factors (IMU, bias walk, rate, GP prior), GPS and the priors.
+  void AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summary) const;
+  // Reprojection factors of the landmarks (landmark l is Input::tracks[tracks[l]]; observations
+  // with keep[l][o] true); returns their number.
+  std::int64_t AddLandmarks(ceres::Problem* problem, std::vector<Eigen::Vector3d>* landmarks,
+                            const std::vector<int>& tracks,
+                            const std::vector<std::vector<bool>>& keep) const;
+  // The robust loss of the reprojection factors (owned by the graph).
+  ceres::LossFunction* reprojection_loss() const { return reprojection_loss_.get(); }
+
+ private:
+  const RowOptimiser::Options& options_;
+  const RowOptimiser::Input& input_;
+  std::vector<StateBlocks>& blocks_;
+  std::vector<std::optional<ImuPreintegration>> preintegrations_;
+  std::unique_ptr<ceres::LossFunction> reprojection_loss_, gps_loss_;
+  mutable PoseManifold pose_manifold_;
+};
+
+// Problem options for graphs whose manifolds and losses the PassGraph owns.
+ceres::Problem::Options ProblemOptions();
+
+// Solves with Levenberg–Marquardt; `schur_blocks` (landmarks) are eliminated first by the
+// Schur complement (SPARSE_SCHUR), none: sparse normal Cholesky.
+ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
+                                 const std::vector<double*>& schur_blocks);
+ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
+                                 std::vector<Eigen::Vector3d>* landmarks);
+
+// world_from_camera of every state.
+std::vector<geometry::Rigid3> CameraPoses(const std::vector<StateBlocks>& blocks,
+                                          const geometry::Rigid3& body_from_camera);
+
+}  // namespace crop4d::slam

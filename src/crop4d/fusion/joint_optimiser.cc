@@ -90,18 +90,6 @@ class JointProblem {
     return slam::RunSolver(options_, &problem, landmarks);
   }
 
-  // Moves pass p rigidly: world' = correction · world.
-  void Transform(std::size_t p, const geometry::Rigid3& correction) {
-    for (slam::StateBlocks& b : blocks_[p]) {
-      const geometry::Rigid3 pose = correction * slam::BlockToPose(b.pose);
-      const slam::Vector7d block = slam::PoseToBlock(pose);
-      std::copy(block.data(), block.data() + 7, b.pose);
-      const Eigen::Vector3d v =
-          correction.rotation() * Eigen::Vector3d(b.vel[0], b.vel[1], b.vel[2]);
-      for (int k = 0; k < 3; ++k) b.vel[k] = v(k);
-    }
-  }
-
   std::vector<std::vector<slam::RowState>> States() const {
     std::vector<std::vector<slam::RowState>> states(passes_.size());
     for (std::size_t p = 0; p < passes_.size(); ++p) {
@@ -137,16 +125,21 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
 // are moved along a spanning tree of the best-supported alignments, grown from the precise
 // passes (or from the first pass of a group without any).
 void AlignPasses(const JointOptimiser::Options& options,
-                 const std::vector<JointOptimiser::Pass>& passes,
-                 const std::vector<JointLandmark>& landmarks, JointProblem* problem,
-                 JointOptimiser::Summary* summary) {
+                 const std::vector<JointLandmark>& landmarks,
+                 std::vector<JointOptimiser::Pass>* passes_io, JointOptimiser::Summary* summary) {
+  std::vector<JointOptimiser::Pass>& passes = *passes_io;
   const std::size_t n = passes.size();
   std::vector<bool> precise(n);
   for (std::size_t p = 0; p < n; ++p) {
     precise[p] = MedianGpsSigma(passes[p]) <= options.precise_gps_sigma_m;
   }
   if (std::all_of(precise.begin(), precise.end(), [](bool b) { return b; })) return;
-  const std::vector<std::vector<geometry::Rigid3>> cameras = problem->CameraPoses();
+  std::vector<std::vector<geometry::Rigid3>> cameras(n);
+  for (std::size_t p = 0; p < n; ++p) {
+    for (const slam::RowState& state : passes[p].initial_states) {
+      cameras[p].push_back(state.nav.world_from_body * passes[p].body_from_camera);
+    }
+  }
   // Per landmark, the point of each pass that sees it at least twice.
   std::vector<std::vector<std::pair<int, Eigen::Vector3d>>> per_pass(landmarks.size());
   tbb::parallel_for(std::size_t{0}, landmarks.size(), [&](std::size_t l) {
@@ -223,7 +216,12 @@ void AlignPasses(const JointOptimiser::Options& options,
     for (const geometry::Rigid3& c : cameras[p]) {
       shift = std::max(shift, ((*correction[p]) * c.translation() - c.translation()).norm());
     }
-    problem->Transform(p, *correction[p]);
+    // The initial states move, and with them the gauge prior of a pass without GPS
+    // (Input::anchor_state).
+    for (slam::RowState& state : passes[p].initial_states) {
+      state.nav.world_from_body = *correction[p] * state.nav.world_from_body;
+      state.nav.vel_world = correction[p]->rotation() * state.nav.vel_world;
+    }
     ++summary->num_passes_aligned;
     summary->max_alignment_shift_m = std::max(summary->max_alignment_shift_m, shift);
   }
@@ -270,9 +268,11 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
     }
   }
 
-  JointProblem problem(op, passes);
+  // (0) Pre-alignment, on a copy of the inputs whose initial states it moves.
+  std::vector<Pass> aligned = passes;
+  if (options_.align_passes) AlignPasses(options_, landmarks, &aligned, &summary);
+  JointProblem problem(op, aligned);
   problem.Preintegrate();
-  if (options_.align_passes) AlignPasses(options_, passes, landmarks, &problem, &summary);
 
   // (1) Landmarks from the row-SLAM poses. Pixels of a pass whose camera differs from the
   // landmark's first pass are mapped into that camera's pixels along the same ray, so one

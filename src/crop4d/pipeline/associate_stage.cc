@@ -13,6 +13,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <unordered_map>
 
 #include "crop4d/core/error.h"
@@ -200,44 +201,61 @@ fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
   return fusion::AlignPasses4Dof(points_a, points_b, options.alignment);
 }
 
+// The fingerprint of a pair's inputs: the stage revision, the options and the two passes'
+// row-SLAM fingerprints.
+std::string PairFingerprint(const std::string& method, const AssociateStageOptions& options,
+                            const PassData& a, const PassData& b) {
+  features::Fnv1aHasher hasher;
+  hasher.Add(kAssociateStageRevision);
+  hasher.AddString(kVersion);
+  hasher.AddString(OptionsJson(options, method).dump());
+  hasher.AddString(a.label() + " " + a.fingerprint);
+  hasher.AddString(b.label() + " " + b.fingerprint);
+  return std::to_string(hasher.hash());
+}
+
+// The report of a pair whose outputs are up to date (read from its summary), or nullopt.
+std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::string& method,
+                                             const std::string& fingerprint,
+                                             const fs::path& out_dir) {
+  const fs::path bin = out_dir / association::AssociationFileName(pair.a, pair.b);
+  const fs::path summary_path = fs::path(bin).replace_extension(".json");
+  if (!fs::exists(bin) || !fs::exists(summary_path)) return std::nullopt;
+  try {
+    std::ifstream in(summary_path);
+    const json s = json::parse(in);
+    if (s.value("fingerprint", "") != fingerprint) return std::nullopt;
+    PassPairReport report;
+    report.pair = pair;
+    report.method = method;
+    report.skipped = true;
+    report.image_pairs = s.value("image_pairs", 0);
+    report.landmarks = s.value("landmarks", 0);
+    report.projected = s.value("projected", 0);
+    report.candidates = s.value("candidates", 0);
+    report.warped = s.value("warped", 0);
+    report.putative = s.value("putative", 0);
+    report.matches = s.value("matches", 0);
+    report.prealigned = s.value("prealigned", false);
+    report.alignment_inliers = s.value("alignment_inliers", 0);
+    report.alignment_shift_m = s.value("alignment_shift_m", 0.0);
+    report.seconds = s.value("seconds", 0.0);
+    return report;
+  } catch (const std::exception&) {
+    return std::nullopt;  // a damaged summary: associate again
+  }
+}
+
 PassPairReport AssociatePair(const PassPair& pair, const std::string& method, PassContext& a,
                              PassContext& b, const AssociateStageOptions& options,
-                             const fs::path& out_dir) {
+                             const std::string& fingerprint, const fs::path& out_dir) {
   PassPairReport report;
   report.pair = pair;
   report.method = method;
   const auto start = Clock::now();
   const json options_json = OptionsJson(options, method);
-  features::Fnv1aHasher hasher;
-  hasher.Add(kAssociateStageRevision);
-  hasher.AddString(kVersion);
-  hasher.AddString(options_json.dump());
-  hasher.AddString(a.data.label() + " " + a.data.fingerprint);
-  hasher.AddString(b.data.label() + " " + b.data.fingerprint);
-  const std::string fingerprint = std::to_string(hasher.hash());
-  const std::string name = association::AssociationFileName(pair.a, pair.b);
-  const fs::path bin = out_dir / name;
+  const fs::path bin = out_dir / association::AssociationFileName(pair.a, pair.b);
   const fs::path summary_path = fs::path(bin).replace_extension(".json");
-  if (!options.force && fs::exists(bin) && fs::exists(summary_path)) {
-    try {
-      std::ifstream in(summary_path);
-      const json s = json::parse(in);
-      if (s.value("fingerprint", "") == fingerprint) {
-        report.skipped = true;
-        report.image_pairs = s.value("image_pairs", 0);
-        report.landmarks = s.value("landmarks", 0);
-        report.projected = s.value("projected", 0);
-        report.candidates = s.value("candidates", 0);
-        report.warped = s.value("warped", 0);
-        report.putative = s.value("putative", 0);
-        report.matches = s.value("matches", 0);
-        report.seconds = s.value("seconds", 0.0);
-        return report;
-      }
-    } catch (const std::exception&) {
-      // A damaged summary: associate again.
-    }
-  }
 
   // Pass b's poses in pass a's frame (changed only by the pre-alignment).
   std::vector<geometry::Rigid3> poses_b = b.data.poses;
@@ -511,12 +529,33 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
   std::vector<PassPairReport> reports;
   Progress progress("associate", pairs.size() * methods.size(), "pair",
                     Progress::Options{.silent = !options.show_progress});
+  // Light pass data (summary and poses) decides what is up to date; features, tracks and images
+  // are loaded only for the pairs that need work.
+  std::map<association::PassRef, PassData> light;
+  auto get_light = [&](const association::PassRef& ref) -> const PassData& {
+    auto it = light.find(ref);
+    if (it != light.end()) return it->second;
+    for (const slam::RowPass& p : ReadPassList(workspace, ref.session)) {
+      if (p.id == ref.pass) return light[ref] = LoadPassData(workspace, ref.session, p, {});
+    }
+    throw InputError(workspace, 0, "pass " + ref.session + "/" + ref.pass + " missing");
+  };
   for (const PassPair& pair : pairs) {
     for (const std::string& method : methods) {
       const fs::path out_dir = fs::path(workspace) / "associations" / method;
+      const std::string fingerprint =
+          PairFingerprint(method, options, get_light(pair.a), get_light(pair.b));
+      if (!options.force) {
+        if (std::optional<PassPairReport> done =
+                UpToDateReport(pair, method, fingerprint, out_dir)) {
+          reports.push_back(*done);
+          progress.Add();
+          continue;
+        }
+      }
       PassContext& a = get(pair.a);
       PassContext& b = get(pair.b);
-      reports.push_back(AssociatePair(pair, method, a, b, options, out_dir));
+      reports.push_back(AssociatePair(pair, method, a, b, options, fingerprint, out_dir));
       const PassPairReport& r = reports.back();
       spdlog::debug("{}/{} <-> {}/{} {}: {} image pairs, {} matches, {:.1f} s{}", pair.a.session,
                     pair.a.pass, pair.b.session, pair.b.pass, method, r.image_pairs, r.matches,

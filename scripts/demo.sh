@@ -32,8 +32,13 @@ timed() { local s; s=$(date +%s); "$@"; echo "demo: $2 took $(( $(date +%s) - s 
 timed "$crop4d" slam "$field" --workspace "$workspace"
 timed "$crop4d" associate "$field" --workspace "$workspace" --method both
 timed "$crop4d" fuse "$field" --workspace "$workspace"
+# Dense clouds of every session, then the crop analysis: canopy height per site and date (the
+# table is printed), growth, terrain and canopy height rasters, plots in WS/analysis/.
+timed "$crop4d" densify "$field" --workspace "$workspace"
+timed "$crop4d" analyze "$field" --workspace "$workspace"
 timed "$crop4d" eval --workspace "$workspace" --truth "$field"
 "$crop4d" section --workspace "$workspace" --field "$field" --row 1 --output "$demo_dir/cross_section.png"
 
 echo "demo: done in $(( $(date +%s) - start )) s; field in $field, workspace in $workspace,"
-echo "      cross-section figure in $demo_dir/cross_section.png"
+echo "      cross-section figure in $demo_dir/cross_section.png,"
+echo "      canopy height plots in $workspace/analysis/plots/heights.png"

@@ -26,5 +26,7 @@ RunFunction SetupAssociate(CLI::App& app);
 RunFunction SetupFuse(CLI::App& app);
 RunFunction SetupEval(CLI::App& app);
 RunFunction SetupSection(CLI::App& app);
+RunFunction SetupAnalyze(CLI::App& app);
+RunFunction SetupDensify(CLI::App& app);
 
 }  // namespace crop4d::cli

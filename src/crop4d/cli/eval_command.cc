@@ -1,6 +1,6 @@
 // crop4d eval --workspace WS --truth FIELD: compares a workspace with a synthetic field's ground
 // truth — row-pass trajectories, cross matches, fused trajectories, cross-session ground
-// misalignment — prints tables and writes WS/eval/metrics.json.
+// misalignment, canopy heights — prints tables and writes WS/eval/metrics.json.
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -60,6 +60,14 @@ int RunEval(const EvalArgs& args) {
         spdlog::warn("{} cloud of {} not used: {}", set.label, s.session, s.error);
     }
   }
+  if (result.canopy) {
+    for (const eval::CanopyMethodEval& m : result.canopy->methods) {
+      if (!m.ok()) {
+        spdlog::warn("canopy heights of {} not evaluated: {}", m.method, m.error);
+        ++failed;
+      }
+    }
+  }
   std::string also;
   if (result.association) {
     also += fmt::format(", {} association files", result.association->num_files);
@@ -67,6 +75,10 @@ int RunEval(const EvalArgs& args) {
   if (result.fused) also += fmt::format(", {} fused sessions", result.fused->sessions.size());
   for (const eval::CloudSetEval& set : result.clouds) {
     also += fmt::format(", {} clouds of {} sessions", set.label, set.sessions.size());
+  }
+  if (result.canopy) {
+    also += fmt::format(", canopy heights of {} method{}", result.canopy->methods.size(),
+                        result.canopy->methods.size() == 1 ? "" : "s");
   }
   std::fprintf(stderr, "eval: %d of %d passes evaluated%s, metrics in %s\n",
                result.overall.num_evaluated, result.overall.num_passes, also.c_str(),
@@ -105,13 +117,19 @@ RunFunction SetupEval(CLI::App& app) {
       "- clouds (WS/fused/<s>/sparse.ply, WS/sessions/<s>/rows/*/landmarks.ply): cross-session "
       "ground misalignment, the distance of each session's ground points to the local plane of "
       "another session's ground points (median, 90th percentile, signed median).\n"
+      "- canopy heights (WS/analysis/site_heights.csv, written by crop4d analyze, and "
+      "site_heights_single_plane.csv, the paper's single-plane method, when present) against "
+      "FIELD/ground_truth/site_truth.csv, joined on (site_id, session): pairs, missing "
+      "estimates, RMSE, bias (mean of estimate - truth), mean absolute error, the worst "
+      "site/session, the failures (|error| > --canopy-max-error, or no estimate) and the same "
+      "per session. Skipped with a note when either file is missing.\n"
       "Example:\n"
       "  crop4d simulate --preset tiny --out field\n"
       "  crop4d slam field --workspace ws\n"
       "  crop4d eval --workspace ws --truth field\n"
       "Exit code: 0 when metrics.json is written (2 with --strict when a pass, an association "
-      "file or a fused session could not be evaluated); 2 for a missing workspace, nothing to "
-      "evaluate, or a field without ground_truth/.");
+      "file, a fused session or a canopy-height file could not be evaluated); 2 for a missing "
+      "workspace, nothing to evaluate, or a field without ground_truth/.");
   app.add_option("--workspace", args->workspace, "The workspace (holds sessions/)")
       ->required()
       ->type_name("WS");
@@ -134,8 +152,8 @@ RunFunction SetupEval(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e3));
   app.add_flag("--strict", args->strict,
-               "Exit with code 2 when a pass, an association file or a fused session could not "
-               "be evaluated");
+               "Exit with code 2 when a pass, an association file, a fused session or a "
+               "canopy-height file could not be evaluated");
   // Associations.
   app.add_flag("!--no-associations", args->options.associations,
                "Skip the association precision (WS/associations/)");
@@ -167,6 +185,14 @@ RunFunction SetupEval(CLI::App& app) {
                  "radius and the point is skipped")
       ->capture_default_str()
       ->check(CLI::Range(3, 1000000));
+  // Canopy heights.
+  app.add_flag("!--no-canopy", args->options.canopy,
+               "Skip the canopy heights (WS/analysis/site_heights*.csv)");
+  app.add_option("--canopy-max-error", args->options.canopy_options.max_error_m,
+                 "Canopy heights: a site/session whose |estimate - truth| exceeds this many "
+                 "metres is a failure (as is a missing estimate)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e3));
   return [args] { return RunEval(*args); };
 }
 

@@ -301,6 +301,60 @@ std::string Value(const ErrorStats& s, const char* format) {
   return s.count == 0 ? std::string("-") : fmt::format(fmt::runtime(format), s.rmse);
 }
 
+// ---- Canopy heights ------------------------------------------------------------------------
+
+json CanopyStatsJson(const CanopyErrorStats& s, json j = json::object()) {
+  j["num_truth"] = s.num_truth;
+  j["num_pairs"] = s.num_pairs;
+  j["num_missing"] = s.num_missing;
+  j["rmse_m"] = NumberOrNull(s.rmse_m);
+  j["bias_m"] = NumberOrNull(s.bias_m);
+  j["mae_m"] = NumberOrNull(s.mae_m);
+  j["max_abs_error_m"] = NumberOrNull(s.max_abs_error_m);
+  j["num_failures"] = s.num_failures;
+  return j;
+}
+
+json CanopyPairJson(const CanopyPair& p) {
+  return {{"site_id", p.site_id},
+          {"session", p.session},
+          {"date", p.date},
+          {"truth_m", p.truth_m},
+          {"estimate_m", NumberOrNull(p.estimate_m)},
+          {"error_m", NumberOrNull(p.error_m)},
+          {"n_points", p.n_points >= 0 ? json(p.n_points) : json(nullptr)}};
+}
+
+json CanopyJson(const CanopyEval& canopy) {
+  json j;
+  j["truth_file"] = canopy.truth_file;
+  j["options"] = {{"max_error_m", canopy.options.max_error_m}};
+  for (const CanopyMethodEval& m : canopy.methods) {
+    json item;
+    item["file"] = m.file;
+    item["error"] = m.ok() ? json(nullptr) : json(m.error);
+    item = CanopyStatsJson(m.overall, std::move(item));
+    item["num_without_truth"] = m.num_without_truth;
+    item["worst"] = m.worst >= 0 ? CanopyPairJson(m.pairs[m.worst]) : json(nullptr);
+    json failures = json::array();
+    for (const int i : m.failures) failures.push_back(CanopyPairJson(m.pairs[i]));
+    item["failures"] = std::move(failures);
+    json sessions = json::array();
+    for (const CanopySessionEval& s : m.sessions) {
+      json session;
+      session["session"] = s.session;
+      session["date"] = s.date;
+      sessions.push_back(CanopyStatsJson(s.stats, std::move(session)));
+    }
+    item["sessions"] = std::move(sessions);
+    json pairs = json::array();
+    for (const CanopyPair& p : m.pairs) pairs.push_back(CanopyPairJson(p));
+    item["pairs"] = std::move(pairs);
+    j[m.method] = std::move(item);
+  }
+  return j;
+}
+
 // ---- Association files ---------------------------------------------------------------------
 
 // Every *.bin under WS/associations (any depth: robust/, naive/), relative to the workspace,
@@ -465,7 +519,7 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
 
 bool WorkspaceEvalOptions::Check() const {
   return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0 && association.Check() &&
-         clouds.selection.Check() && clouds.misalignment.Check();
+         clouds.selection.Check() && clouds.misalignment.Check() && canopy_options.Check();
 }
 
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
@@ -507,7 +561,10 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   for (const std::string& session : SubFolders(fs::path(workspace) / "fused")) {
     has_fused = has_fused || fs::exists(fs::path(workspace) / "fused" / session / "poses.tum", ec);
   }
-  if (eval.passes.empty() && association_files.empty() && !(options.fused && has_fused)) {
+  const bool has_canopy =
+      options.canopy && fs::is_regular_file(fs::path(workspace) / "analysis/site_heights.csv", ec);
+  if (eval.passes.empty() && association_files.empty() && !(options.fused && has_fused) &&
+      !has_canopy) {
     throw InputError(
         workspace, 0,
         options.sessions.empty()
@@ -608,6 +665,14 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
       }
     }
   }
+  if (options.canopy) {
+    CanopyEvalOptions canopy_options = options.canopy_options;
+    canopy_options.sessions = options.sessions;
+    CanopyEval canopy;
+    if (EvaluateWorkspaceCanopy(workspace, field, canopy_options, &canopy, &eval.canopy_skipped)) {
+      eval.canopy = std::move(canopy);
+    }
+  }
   return eval;
 }
 
@@ -678,6 +743,7 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
     for (const CloudSetEval& set : eval.clouds) ground[set.label] = CloudSetJson(set);
     root["ground_misalignment"] = std::move(ground);
   }
+  if (eval.canopy) root["canopy"] = CanopyJson(*eval.canopy);
   return root.dump(2) + "\n";
 }
 
@@ -694,6 +760,11 @@ std::string FormatWorkspaceEvalTable(const WorkspaceEval& eval) {
   const auto section = [&](const std::string& text) { out += (out.empty() ? "" : "\n") + text; };
   if (eval.association) section(FormatAssociationTable(*eval.association));
   if (eval.fused || !eval.clouds.empty()) section(FormatFusedTable(eval));
+  if (eval.canopy) {
+    section(FormatCanopyTable(*eval.canopy));
+  } else if (!eval.canopy_skipped.empty()) {
+    section("canopy height: not evaluated, " + eval.canopy_skipped + "\n");
+  }
   return out;
 }
 

@@ -23,12 +23,16 @@
 //   WS/sessions/<session>/rows/*/landmarks.ply      the row-SLAM clouds
 //   FIELD/ground_truth/<session>/plants.csv, FIELD/ground_truth/terrain.csv
 //       → fused trajectory accuracy and cross-session ground misalignment (fused_eval.h)
+//   WS/analysis/site_heights.csv, site_heights_single_plane.csv   canopy heights (analyze)
+//   FIELD/ground_truth/site_truth.csv
+//       → canopy height errors per method and session (canopy_eval.h)
 
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "crop4d/eval/association_eval.h"
+#include "crop4d/eval/canopy_eval.h"
 #include "crop4d/eval/fused_eval.h"
 #include "crop4d/eval/trajectory_metrics.h"
 
@@ -56,6 +60,11 @@ struct WorkspaceEvalOptions {
   // Fused trajectories and the ground misalignment of the fused and row-SLAM clouds.
   bool fused = true;
   CloudSetOptions clouds;
+  // Canopy heights per site and session, when the workspace has WS/analysis/site_heights.csv
+  // and the field ground_truth/site_truth.csv (`sessions` above applies; the one here is
+  // ignored).
+  bool canopy = true;
+  CanopyEvalOptions canopy_options;
 
   bool Check() const;
 };
@@ -115,13 +124,18 @@ struct WorkspaceEval {
   // Ground misalignment per cloud set, "row_slam" then "fused", each when at least two
   // sessions have clouds of that kind.
   std::vector<CloudSetEval> clouds;
+  // Canopy heights, when their files exist.
+  std::optional<CanopyEval> canopy;
+  // Why the canopy section was skipped (one line; empty when it was evaluated or disabled).
+  std::string canopy_skipped;
 };
 
 // Reads every pass of `workspace` and evaluates it against `field`'s ground truth, then the
 // association files, the fused trajectories and the clouds when they exist. A pass, a file or a
 // session whose files are missing or malformed, or without truth, is listed with its error.
 // Throws InputError when the workspace has nothing to evaluate (no sessions/*/rows/* folder, no
-// association file and no fused session) or the field has no ground_truth/ folder. When the
+// association file, no fused session and no WS/analysis/site_heights.csv) or the field has no
+// ground_truth/ folder. When the
 // true geometry is unavailable (no simulate.yaml, no EGL/OpenGL to render depth maps with) the
 // association section holds the error and the other sections are still evaluated.
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
@@ -137,7 +151,8 @@ std::string WriteWorkspaceEval(const WorkspaceEval& eval, const std::string& pat
 
 // A table for people: one line per pass (session, pass, sensors, N, ATE raw cm, ATE aligned cm,
 // RPE %, rotation deg), failed passes with their error, then the pooled line; then the tables
-// of the sections that are present (FormatAssociationTable, FormatFusedTable).
+// of the sections that are present (FormatAssociationTable, FormatFusedTable,
+// FormatCanopyTable; a skipped canopy section as one line).
 std::string FormatWorkspaceEvalTable(const WorkspaceEval& eval);
 
 // The row passes only (the first table of FormatWorkspaceEvalTable).

@@ -2,6 +2,7 @@
 
 #include <GeographicLib/Constants.hpp>
 #include <GeographicLib/LocalCartesian.hpp>
+#include <GeographicLib/TransverseMercator.hpp>
 #include <GeographicLib/UTMUPS.hpp>
 #include <cmath>
 #include <string>
@@ -18,6 +19,27 @@ void CheckGeodetic(const GeodeticPoint& p) {
                      std::to_string(p.lon_deg) + " deg, alt " + std::to_string(p.alt_m) + " m");
   }
 }
+
+// UTM parameters of a WGS 84 / UTM EPSG code (IsUtmEpsgCode), or throws InputError.
+struct UtmZone {
+  double central_meridian_deg = 0.0;
+  double false_northing_m = 0.0;
+};
+
+UtmZone ZoneOfEpsg(int epsg) {
+  if (!IsUtmEpsgCode(epsg)) {
+    throw InputError("EPSG:" + std::to_string(epsg) +
+                     " is not a WGS 84 / UTM zone (32601-32660 north, 32701-32760 south)");
+  }
+  const int zone = epsg % 100;
+  // Zone N spans longitudes [6N - 186, 6N - 180) degrees; its central meridian is 6N - 183.
+  return {6.0 * zone - 183.0, epsg >= 32701 ? 10'000'000.0 : 0.0};
+}
+
+// UTM: transverse Mercator with scale 0.9996 on the central meridian and a false easting of
+// 500 km (NGA.SIG.0012_2.0.0_UTMUPS); GeographicLib's TransverseMercator::UTM() is the
+// 6th-order Krüger series, accurate to 5 nm within 3900 km of the central meridian.
+constexpr double kUtmFalseEasting = 500'000.0;
 
 }  // namespace
 
@@ -70,6 +92,35 @@ int UtmEpsgCode(const GeodeticPoint& p) {
   const int zone =
       GeographicLib::UTMUPS::StandardZone(p.lat_deg, p.lon_deg, GeographicLib::UTMUPS::UTM);
   return (p.lat_deg >= 0.0 ? 32600 : 32700) + zone;
+}
+
+bool IsUtmEpsgCode(int epsg) {
+  return (epsg >= 32601 && epsg <= 32660) || (epsg >= 32701 && epsg <= 32760);
+}
+
+Eigen::Vector2d UtmFromGeodetic(const GeodeticPoint& p, int epsg) {
+  CheckGeodetic(p);
+  const UtmZone zone = ZoneOfEpsg(epsg);
+  double x = 0.0, y = 0.0;
+  GeographicLib::TransverseMercator::UTM().Forward(zone.central_meridian_deg, p.lat_deg, p.lon_deg,
+                                                   x, y);
+  return {x + kUtmFalseEasting, y + zone.false_northing_m};
+}
+
+GeodeticPoint GeodeticFromUtm(const Eigen::Vector2d& easting_northing, double ellipsoidal_height_m,
+                              int epsg) {
+  const UtmZone zone = ZoneOfEpsg(epsg);
+  if (!easting_northing.allFinite() || !std::isfinite(ellipsoidal_height_m)) {
+    throw InputError("invalid UTM coordinates: easting " + std::to_string(easting_northing.x()) +
+                     " m, northing " + std::to_string(easting_northing.y()) + " m, height " +
+                     std::to_string(ellipsoidal_height_m) + " m");
+  }
+  GeodeticPoint p;
+  GeographicLib::TransverseMercator::UTM().Reverse(
+      zone.central_meridian_deg, easting_northing.x() - kUtmFalseEasting,
+      easting_northing.y() - zone.false_northing_m, p.lat_deg, p.lon_deg);
+  p.alt_m = ellipsoidal_height_m;
+  return p;
 }
 
 }  // namespace crop4d::geometry

@@ -38,4 +38,20 @@ class LocalEnu {
 // or 327xx (south).
 int UtmEpsgCode(const GeodeticPoint& p);
 
+// True for the EPSG code of a WGS 84 / UTM zone: 32601..32660 (north), 32701..32760 (south).
+bool IsUtmEpsgCode(int epsg);
+
+// Projects `p` into the UTM zone of `epsg` (WGS 84 / UTM zone N north or south): x easting,
+// y northing, metres, with the false easting 500 km and, for a southern zone, the false northing
+// 10000 km. The zone is the one of `epsg`, not the point's standard zone, so that a whole field
+// stays in its origin's zone when it straddles a zone border (or the equator). Exact
+// (GeographicLib TransverseMercator, Karney 2011). alt_m is ignored. Throws InputError for an
+// invalid point or an epsg that is not a UTM zone.
+Eigen::Vector2d UtmFromGeodetic(const GeodeticPoint& p, int epsg);
+
+// The inverse of UtmFromGeodetic; alt_m of the result is `ellipsoidal_height_m`. Throws
+// InputError for non-finite coordinates or an epsg that is not a UTM zone.
+GeodeticPoint GeodeticFromUtm(const Eigen::Vector2d& easting_northing, double ellipsoidal_height_m,
+                              int epsg);
+
 }  // namespace crop4d::geometry

@@ -150,5 +150,70 @@ TEST(EnuTest, UtmEpsgCodesOfKnownPlaces) {
   EXPECT_THROW(UtmEpsgCode({-95.0, 0.0, 0.0}), InputError);
 }
 
+// Meridian arc length from the equator to latitude φ, ∫ M dφ by Simpson's rule.
+double MeridianArc(double lat_rad) {
+  constexpr int kIntervals = 2000;  // even
+  const double h = lat_rad / kIntervals;
+  double sum = MeridionalRadius(0.0) + MeridionalRadius(lat_rad);
+  for (int i = 1; i < kIntervals; ++i) sum += (i % 2 ? 4.0 : 2.0) * MeridionalRadius(i * h);
+  return sum * h / 3.0;
+}
+
+TEST(EnuTest, UtmOnTheCentralMeridianIsScaledMeridianArc) {
+  // Zone 17: central meridian 81° W. On it, easting = 500 km and northing = 0.9996 × the
+  // meridian arc (the transverse Mercator's scale on its central meridian).
+  const Eigen::Vector2d at_45 = UtmFromGeodetic({45.0, -81.0, 0.0}, 32617);
+  EXPECT_NEAR(at_45.x(), 500000.0, 1e-6);
+  EXPECT_NEAR(at_45.y(), 0.9996 * MeridianArc(Radians(45.0)), 1e-3);
+  const Eigen::Vector2d equator = UtmFromGeodetic({0.0, -81.0, 0.0}, 32617);
+  EXPECT_NEAR(equator.x(), 500000.0, 1e-6);
+  EXPECT_NEAR(equator.y(), 0.0, 1e-6);
+  // Southern zones add a false northing of 10000 km.
+  const Eigen::Vector2d south = UtmFromGeodetic({-30.0, -81.0, 0.0}, 32717);
+  EXPECT_NEAR(south.y(), 10'000'000.0 - 0.9996 * MeridianArc(Radians(30.0)), 1e-3);
+}
+
+TEST(EnuTest, UtmEastingNearTheCentralMeridianIsScaledParallelArc) {
+  // 0.001° east of the central meridian: easting − 500 km = 0.9996 N cos φ Δλ up to terms of
+  // third order in Δλ (micrometres here).
+  const double lat = 31.47;
+  const Eigen::Vector2d p = UtmFromGeodetic({lat, -81.0 + 0.001, 0.0}, 32617);
+  const double expected =
+      0.9996 * PrimeVerticalRadius(Radians(lat)) * std::cos(Radians(lat)) * Radians(0.001);
+  EXPECT_NEAR(p.x() - 500000.0, expected, 1e-4);
+}
+
+TEST(EnuTest, UtmRoundTripsAndKeepsTheRequestedZone) {
+  // Tifton is in zone 17; a point just inside zone 18 still projects into zone 17 on request
+  // (easting beyond the zone's usual range), and back.
+  for (const GeodeticPoint& p :
+       {kTifton, GeodeticPoint{31.47, -77.9, 0.0}, GeodeticPoint{0.2, -81.5, 0.0}}) {
+    const Eigen::Vector2d utm = UtmFromGeodetic(p, 32617);
+    const GeodeticPoint back = GeodeticFromUtm(utm, 12.5, 32617);
+    EXPECT_NEAR(back.lat_deg, p.lat_deg, 1e-10);
+    EXPECT_NEAR(back.lon_deg, p.lon_deg, 1e-10);
+    EXPECT_EQ(back.alt_m, 12.5);
+  }
+  // The zone border (78° W) lies near easting 785 km at this latitude.
+  EXPECT_GT(UtmFromGeodetic({31.47, -77.9, 0.0}, 32617).x(), 790000.0);
+  // The standard zone's projection agrees with the code of UtmEpsgCode.
+  const GeodeticPoint sydney{-33.87, 151.21, 0.0};
+  const Eigen::Vector2d utm = UtmFromGeodetic(sydney, UtmEpsgCode(sydney));
+  EXPECT_NEAR(utm.x(), 334000.0, 2000.0);  // zone 56S: central meridian 153° E
+  EXPECT_NEAR(utm.y(), 6250000.0, 10000.0);
+}
+
+TEST(EnuTest, UtmRejectsCodesThatAreNotUtmZones) {
+  EXPECT_TRUE(IsUtmEpsgCode(32617));
+  EXPECT_TRUE(IsUtmEpsgCode(32760));
+  EXPECT_FALSE(IsUtmEpsgCode(32600));
+  EXPECT_FALSE(IsUtmEpsgCode(32661));
+  EXPECT_FALSE(IsUtmEpsgCode(4326));
+  EXPECT_THROW(UtmFromGeodetic(kTifton, 4326), InputError);
+  EXPECT_THROW(GeodeticFromUtm({500000.0, 0.0}, 0.0, 32700), InputError);
+  EXPECT_THROW(GeodeticFromUtm({std::numeric_limits<double>::quiet_NaN(), 0.0}, 0.0, 32617),
+               InputError);
+}
+
 }  // namespace
 }  // namespace crop4d::geometry

@@ -29,6 +29,7 @@
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/session_streams.h"
 
@@ -176,14 +177,6 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     for (int k = 0; k < 6; ++k) s(k) = sigma.at(k);
     input.bias_prior_sigma = s;
   }
-}
-
-std::string FileHash(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  features::Fnv1aHasher hasher;
-  hasher.AddBytes(bytes.data(), bytes.size());
-  return std::to_string(hasher.hash());
 }
 
 json OptionsJson(const FuseStageOptions& o) {

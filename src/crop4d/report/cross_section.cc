@@ -11,58 +11,31 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/atomic_file.h"
+#include "crop4d/report/plot_canvas.h"
 
 namespace crop4d::report {
 namespace {
 
 namespace fs = std::filesystem;
 
-// Hershey fonts render ASCII only; every text of the figure is ASCII.
-constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
-constexpr double kTickFontScale = 0.45;
-constexpr double kLabelFontScale = 0.55;
-constexpr double kTitleFontScale = 0.7;
-constexpr int kTickLength = 5;
+// Text, colours and ticks shared with the other figures of the report (plot_canvas.h).
+using canvas::Decimals;
+using canvas::kBlack;
+using canvas::kGrid;
+using canvas::kLabelFontScale;
+using canvas::kNoteGray;
+using canvas::kTickFontScale;
+using canvas::kTickLength;
+using canvas::kTitleFontScale;
+using canvas::kWhite;
+using canvas::NiceStep;
+using canvas::PutText;
+using canvas::PutTextVertical;
+using canvas::TextSize;
+using canvas::Ticks;
+
 // Grid lines (and ticks) are at least this many pixels apart.
 constexpr double kMinTickSpacingPx = 70.0;
-
-const cv::Scalar kBlack(0, 0, 0);
-const cv::Scalar kWhite(255, 255, 255);
-const cv::Scalar kGrid(225, 225, 225);
-const cv::Scalar kNoteGray(120, 120, 120);
-
-cv::Size TextSize(const std::string& text, double scale, int thickness, int* baseline = nullptr) {
-  int unused = 0;
-  return cv::getTextSize(text, kFont, scale, thickness, baseline ? baseline : &unused);
-}
-
-// Draws `text` with its left end at x and its vertical centre at y.
-void PutText(cv::Mat& image, const std::string& text, cv::Point left_middle, double scale,
-             const cv::Scalar& color, int thickness = 1) {
-  const cv::Size size = TextSize(text, scale, thickness);
-  cv::putText(image, text, {left_middle.x, left_middle.y + size.height / 2}, kFont, scale, color,
-              thickness, cv::LINE_AA);
-}
-
-// The smallest of 1, 2, 5 × 10^k that is ≥ min_step.
-double NiceStep(double min_step) {
-  const double magnitude = std::pow(10.0, std::floor(std::log10(min_step)));
-  for (double m : {1.0, 2.0, 5.0, 10.0}) {
-    if (m * magnitude >= min_step * (1 - 1e-9)) return m * magnitude;
-  }
-  return 10.0 * magnitude;
-}
-
-// Tick values k · step inside [lo, hi], and the decimals that print them exactly.
-std::vector<double> Ticks(double lo, double hi, double step) {
-  std::vector<double> ticks;
-  for (double k = std::ceil(lo / step - 1e-9); k * step <= hi + 1e-9 * step; k += 1.0) {
-    ticks.push_back(k == 0.0 ? 0.0 : k * step);  // no "-0"
-  }
-  return ticks;
-}
-
-int Decimals(double step) { return std::max(0, int(std::ceil(-std::log10(step) - 1e-9))); }
 
 }  // namespace
 
@@ -269,16 +242,8 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
              plot_bottom + kTickLength + 8 + tick_height + 14 + label_height / 2},
             kLabelFontScale, kBlack);
   }
-  {
-    const cv::Size size = TextSize(options.height_label, kLabelFontScale, 1);
-    cv::Mat text(label_height, size.width + 4, CV_8UC3, kWhite);
-    PutText(text, options.height_label, {2, label_height / 2}, kLabelFontScale, kBlack);
-    cv::Mat rotated;
-    cv::rotate(text, rotated, cv::ROTATE_90_COUNTERCLOCKWISE);
-    const int y = std::max(0, top + (figure.plot_size.height - rotated.rows) / 2);
-    const cv::Rect target(12, y, rotated.cols, std::min(rotated.rows, height - y));
-    rotated(cv::Rect(0, 0, target.width, target.height)).copyTo(image(target));
-  }
+  PutTextVertical(image, options.height_label, 12, top, figure.plot_size.height, label_height,
+                  kLabelFontScale, kBlack);
 
   // Title, centred over the plot (within the image).
   {

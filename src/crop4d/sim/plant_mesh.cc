@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "crop4d/sim/random.h"
 
@@ -252,6 +253,7 @@ void AppendPlantMesh(const World& world, const Plant& plant, Timestamp date,
   const Vector3d base(plant.xy.x(), plant.xy.y(),
                       world.TerrainHeight(plant.xy.x(), plant.xy.y()) - 0.01);
   MeshWriter out(mesh, base, plant.yaw_rad);
+  const std::size_t first_vertex = mesh->vertices.size();
 
   Random plant_random(HashCombine(plant.seed, 0x9a17u));
   const float plant_tone = static_cast<float>(plant_random.Uniform(0.92, 1.08));
@@ -368,6 +370,29 @@ void AppendPlantMesh(const World& world, const Plant& plant, Timestamp date,
                    HashCombine(plant.seed, 100u + i, static_cast<std::uint64_t>(k), 1u + j, 1u),
                    wind_seed, lod, false, &out);
         }
+      }
+    }
+  }
+
+  // The parts above fall a little short of H (the stem is sunk 1 cm into the soil, and the top
+  // leaf rises less than its petiole's length): stretch the plant vertically about its base so
+  // that its highest point is exactly H above the ground at the stem, and tilt the normals
+  // accordingly (a vertical stretch by s maps a normal (nx, ny, nz) to (nx, ny, nz / s)).
+  float top = -std::numeric_limits<float>::infinity();
+  for (std::size_t v = first_vertex; v < mesh->vertices.size(); ++v) {
+    top = std::max(top, mesh->vertices[v].position[2]);
+  }
+  const double target = base.z() + 0.01 + H;
+  if (mesh->vertices.size() > first_vertex && top > base.z() + 1e-4) {
+    const double stretch = (target - base.z()) / (top - base.z());
+    for (std::size_t v = first_vertex; v < mesh->vertices.size(); ++v) {
+      PlantVertex& vertex = mesh->vertices[v];
+      vertex.position[2] = static_cast<float>(base.z() + stretch * (vertex.position[2] - base.z()));
+      Vector3d n(vertex.normal[0], vertex.normal[1], vertex.normal[2] / stretch);
+      n.normalize();
+      for (int i = 0; i < 3; ++i) {
+        vertex.normal[i] =
+            static_cast<std::int8_t>(std::lround(std::clamp(n[i], -1.0, 1.0) * 127.0));
       }
     }
   }

@@ -42,7 +42,10 @@ enum class PlantLod { kFull = 0, kMedium = 1, kCoarse = 2, kFar = 3, kDistant = 
 inline constexpr int kNumPlantLods = 5;
 
 // Appends the mesh of `plant` on `date` (nothing when it has not emerged) in world
-// coordinates, standing on the terrain of `world`.
+// coordinates, standing on the terrain of `world`. Its highest point lies exactly
+// World::StateAt(plant, date).height_m above the terrain at the stem (the plant is stretched
+// vertically by the few per cent its parts miss), so that the heights of the ground truth
+// (plants.csv, site_truth.csv) are those of the rendered canopy, at every level of detail.
 void AppendPlantMesh(const World& world, const Plant& plant, Timestamp date,
                      std::uint64_t wind_seed, PlantLod lod, PlantMesh* mesh);
 

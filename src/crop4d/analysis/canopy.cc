@@ -1,0 +1,232 @@
+#include "crop4d/analysis/canopy.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "crop4d/core/error.h"
+
+namespace crop4d::analysis {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr float kNoCanopy = -std::numeric_limits<float>::infinity();
+
+// Cells of `cell_m` on a square window centred on a site.
+struct SiteCells {
+  int half = 0;  // cells from the centre to an edge
+  int side = 0;
+  double cell_m = 0.0;
+  Eigen::Vector2d center;
+  std::vector<std::uint8_t> has_points;
+  std::vector<float> canopy;  // highest canopy height, kNoCanopy if none
+  std::vector<int> canopy_points;
+
+  SiteCells(const Eigen::Vector2d& c, double reach, double cell) : cell_m(cell), center(c) {
+    half = static_cast<int>(std::ceil(reach / cell)) + 1;
+    side = 2 * half;
+    has_points.assign(static_cast<std::size_t>(side) * side, 0);
+    canopy.assign(has_points.size(), kNoCanopy);
+    canopy_points.assign(has_points.size(), 0);
+  }
+  // Index of the cell holding (x, y), or −1 outside the window.
+  int Index(double x, double y) const {
+    const int i = static_cast<int>(std::floor((x - center.x()) / cell_m)) + half;
+    const int j = static_cast<int>(std::floor((y - center.y()) / cell_m)) + half;
+    if (i < 0 || j < 0 || i >= side || j >= side) return -1;
+    return j * side + i;
+  }
+  Eigen::Vector2d CellCenter(int k) const {
+    const int i = k % side, j = k / side;
+    return center + cell_m * Eigen::Vector2d(i - half + 0.5, j - half + 0.5);
+  }
+};
+
+}  // namespace
+
+const char* CanopyTopName(CanopyTop top) {
+  switch (top) {
+    case CanopyTop::kPlantTops:
+      return "plant-tops";
+    case CanopyTop::kCrownPeaks:
+      return "crown-peaks";
+    case CanopyTop::kQuantile:
+      return "quantile";
+  }
+  return "?";
+}
+
+bool CanopyOptions::Check() const {
+  return min_height_m >= 0.0 && cell_m > 0.0 && crown_radius_m >= 0.0 && top_radius_m >= 0.0 &&
+         plant_top_quantile >= 0.0 && plant_top_quantile <= 1.0 && min_peak_fraction >= 0.0 &&
+         min_peak_fraction <= 1.0 && top_quantile > 0.0 && top_quantile <= 1.0 &&
+         min_canopy_cells >= 1;
+}
+
+SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
+                       const io::Site& site, const CanopyOptions& o,
+                       const std::vector<Eigen::Vector2d>* stems) {
+  CROP4D_CHECK(o.Check());
+  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
+  SiteCanopy result;
+  const double radius = site.radius_m;
+  const double reach = radius + std::max(o.crown_radius_m, o.top_radius_m) + o.cell_m;
+  SiteCells cells(site.center_enu, reach, o.cell_m);
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    const Eigen::Vector3d& p = cloud.points[i];
+    const Eigen::Vector2d d = p.head<2>() - site.center_enu;
+    if (std::abs(d.x()) > reach || std::abs(d.y()) > reach) continue;
+    const int k = cells.Index(p.x(), p.y());
+    if (k < 0) continue;
+    const double g = ground(p.x(), p.y());
+    if (!std::isfinite(g)) continue;
+    cells.has_points[k] = 1;
+    const double h = p.z() - g;
+    if (cloud.is_vegetation[i] && h >= o.min_height_m) {
+      cells.canopy[k] = std::max(cells.canopy[k], static_cast<float>(h));
+      ++cells.canopy_points[k];
+    }
+  }
+
+  std::vector<int> inside;  // cells of the site with points
+  double site_max = 0.0, height_sum = 0.0;
+  std::vector<double> canopy_heights;
+  for (int k = 0; k < static_cast<int>(cells.has_points.size()); ++k) {
+    if (!cells.has_points[k] || (cells.CellCenter(k) - site.center_enu).norm() > radius) continue;
+    inside.push_back(k);
+    ++result.n_cells;
+    if (cells.canopy[k] != kNoCanopy) {
+      ++result.n_canopy_cells;
+      result.n_points += cells.canopy_points[k];
+      site_max = std::max(site_max, static_cast<double>(cells.canopy[k]));
+      canopy_heights.push_back(cells.canopy[k]);
+      height_sum += cells.canopy[k];
+    }
+  }
+  if (result.n_cells == 0) {
+    result.height_m = result.cover = result.volume_m3 = kNaN;
+    result.note = "no points within the site";
+    return result;
+  }
+  result.cover = static_cast<double>(result.n_canopy_cells) / result.n_cells;
+  result.volume_m3 = height_sum / result.n_cells * M_PI * radius * radius;
+  if (result.n_canopy_cells < o.min_canopy_cells) {
+    result.height_m = kNaN;
+    result.note = result.n_canopy_cells == 0 ? "no vegetation within the site"
+                                             : "too little vegetation within the site";
+    return result;
+  }
+
+  if (o.top == CanopyTop::kQuantile) {
+    const auto nth = canopy_heights.begin() +
+                     static_cast<std::ptrdiff_t>(std::min<double>(
+                         canopy_heights.size() - 1,
+                         std::floor(o.top_quantile * (canopy_heights.size() - 1) + 0.5)));
+    std::nth_element(canopy_heights.begin(), nth, canopy_heights.end());
+    result.height_m = *nth;
+    return result;
+  }
+
+  if (o.top == CanopyTop::kPlantTops && stems != nullptr) {
+    // Each plant's top: the highest canopy cell whose centre lies within top_radius_m of its
+    // stem (its own cell at least).
+    const int r_cells = static_cast<int>(std::ceil(o.top_radius_m / o.cell_m)) + 1;
+    double sum = 0.0;
+    std::vector<float> near;
+    for (const Eigen::Vector2d& stem : *stems) {
+      if ((stem - site.center_enu).norm() > radius) continue;
+      const int k0 = cells.Index(stem.x(), stem.y());
+      if (k0 < 0) continue;
+      const int i0 = k0 % cells.side, j0 = k0 / cells.side;
+      near.clear();
+      for (int dj = -r_cells; dj <= r_cells; ++dj) {
+        for (int di = -r_cells; di <= r_cells; ++di) {
+          const int i = i0 + di, j = j0 + dj;
+          if (i < 0 || j < 0 || i >= cells.side || j >= cells.side) continue;
+          const int k = j * cells.side + i;
+          if (k != k0 && (cells.CellCenter(k) - stem).norm() > o.top_radius_m) continue;
+          if (cells.canopy[k] != kNoCanopy) near.push_back(cells.canopy[k]);
+        }
+      }
+      if (near.empty()) continue;  // the plant is not seen in this cloud
+      const auto nth =
+          near.begin() +
+          static_cast<std::ptrdiff_t>(std::floor(o.plant_top_quantile * (near.size() - 1) + 0.5));
+      std::nth_element(near.begin(), nth, near.end());
+      sum += *nth;
+      ++result.n_peaks;
+    }
+    if (result.n_peaks > 0) {
+      result.height_m = sum / result.n_peaks;
+      return result;
+    }
+    // No plant of the site is seen: fall back to the crown tops.
+  }
+
+  // Crown tops: canopy cells of the site that are the highest canopy within crown_radius_m
+  // (ties go to the first cell in scan order, so a flat top counts once).
+  const int r_cells = static_cast<int>(std::floor(o.crown_radius_m / o.cell_m));
+  const double r2 = (o.crown_radius_m / o.cell_m) * (o.crown_radius_m / o.cell_m);
+  double peak_sum = 0.0;
+  for (int k : inside) {
+    const float v = cells.canopy[k];
+    if (v == kNoCanopy || v < o.min_peak_fraction * site_max) continue;
+    const int i = k % cells.side, j = k / cells.side;
+    bool is_peak = true;
+    for (int dj = -r_cells; dj <= r_cells && is_peak; ++dj) {
+      for (int di = -r_cells; di <= r_cells; ++di) {
+        if ((di == 0 && dj == 0) || di * di + dj * dj > r2) continue;
+        const int ii = i + di, jj = j + dj;
+        if (ii < 0 || jj < 0 || ii >= cells.side || jj >= cells.side) continue;
+        const int kk = jj * cells.side + ii;
+        const float u = cells.canopy[kk];
+        if (u > v || (u == v && kk < k)) {
+          is_peak = false;
+          break;
+        }
+      }
+    }
+    if (is_peak) {
+      peak_sum += v;
+      ++result.n_peaks;
+    }
+  }
+  result.height_m = result.n_peaks > 0 ? peak_sum / result.n_peaks : kNaN;
+  if (result.n_peaks == 0) result.note = "no crown top within the site";
+  return result;
+}
+
+std::vector<float> CanopyHeightModel(
+    const SessionCloud& cloud, const GroundFunction& ground, std::size_t num_cells,
+    const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of, const CanopyOptions& o) {
+  CROP4D_CHECK(o.Check());
+  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
+  std::vector<float> chm(num_cells, std::numeric_limits<float>::quiet_NaN());
+  for (std::size_t n = 0; n < cloud.points.size(); ++n) {
+    const Eigen::Vector3d& p = cloud.points[n];
+    const std::ptrdiff_t c = cell_of(p.head<2>());
+    if (c < 0 || static_cast<std::size_t>(c) >= num_cells) continue;
+    const double g = ground(p.x(), p.y());
+    if (!std::isfinite(g)) continue;
+    float& cell = chm[c];
+    if (!std::isfinite(cell)) cell = 0.0f;
+    const double h = p.z() - g;
+    if (cloud.is_vegetation[n] && h >= o.min_height_m) cell = std::max(cell, static_cast<float>(h));
+  }
+  return chm;
+}
+
+std::vector<float> CanopyHeightModel(const SessionCloud& cloud, const TerrainModel& terrain,
+                                     const GridSpec& grid, const CanopyOptions& o) {
+  CROP4D_CHECK(grid.Check());
+  const auto cell_of = [&](const Eigen::Vector2d& xy) -> std::ptrdiff_t {
+    const long i = std::lround((xy.x() - grid.origin.x()) / grid.cell_m);
+    const long j = std::lround((xy.y() - grid.origin.y()) / grid.cell_m);
+    if (i < 0 || j < 0 || i >= grid.width || j >= grid.height) return -1;
+    return static_cast<std::ptrdiff_t>(j) * grid.width + i;
+  };
+  const GroundFunction ground = [&](double x, double y) { return terrain.Height(x, y); };
+  return CanopyHeightModel(cloud, ground, grid.size(), cell_of, o);
+}
+
+}  // namespace crop4d::analysis

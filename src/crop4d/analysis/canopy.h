@@ -1,0 +1,113 @@
+#pragma once
+
+// Canopy measurements of one session's registered cloud (DESIGN.md §2.6): per measurement site
+// the canopy height, cover and volume, and a canopy height model (CHM) raster.
+//
+// Heights are above a ground function (the DTM of analysis/terrain.h, or the paper's plane of a
+// site). A point is canopy when the colour test calls it vegetation (analysis/vegetation.h) and
+// it lies at least `min_height_m` above the ground (green soil, moss and noise do not make a
+// canopy). Points are binned into square cells of `cell_m`; a cell's canopy height is the highest
+// canopy point in it (0 for a cell with only ground points), so the statistics below weigh the
+// area of the canopy, not the density of the cloud, which varies with texture and distance.
+//
+// At a site (centre, radius; io::Site):
+//   cover      canopy cells / cells with points, within the radius;
+//   volume_m3  mean canopy height of the cells with points × the site's area (holes of a sparse
+//              cloud count as their surroundings);
+//   height_m   the canopy top: with kPlantTops (default) and the site's plant stems
+//              (analysis/plants.h), the mean over the plants whose stems lie in the site of each
+//              plant's top, the highest canopy within `top_radius_m` of its stem — what a person
+//              with a ruler measures, plant by plant; without stems, or with kCrownPeaks, the
+//              mean height of the crown tops in the site — the cells that are the highest canopy
+//              within `crown_radius_m` around them, and not lower than `min_peak_fraction` of the
+//              site's highest canopy; with kQuantile, the `top_quantile` quantile of the canopy
+//              cells' heights.
+// A site without points, or with fewer than `min_canopy_cells` canopy cells, has no height (NaN)
+// and a note that says why; its cover is still reported when it has points.
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "crop4d/analysis/terrain.h"
+#include "crop4d/io/dataset.h"
+
+namespace crop4d::analysis {
+
+// One session's cloud, ready for analysis.
+struct SessionCloud {
+  std::string session;                              // session id
+  std::vector<Eigen::Vector3d> points;              // ENU metres
+  std::vector<std::array<std::uint8_t, 3>> colors;  // RGB, one per point
+  std::vector<std::uint8_t> is_vegetation;          // one per point (vegetation.h)
+
+  GroundCloud AsGround() const { return {&points, &is_vegetation}; }
+};
+
+// The ground height at (x, y), NaN where unknown.
+using GroundFunction = std::function<double(double x, double y)>;
+
+enum class CanopyTop { kPlantTops, kCrownPeaks, kQuantile };
+// "plant-tops", "crown-peaks", "quantile".
+const char* CanopyTopName(CanopyTop top);
+
+struct CanopyOptions {
+  // Canopy points lie at least this high above the ground, metres.
+  double min_height_m = 0.02;
+  // Side of the cells that points are binned into, metres.
+  double cell_m = 0.02;
+  // How the canopy top of a site is computed (see the header comment).
+  CanopyTop top = CanopyTop::kPlantTops;
+  // kPlantTops: a plant's top is the `plant_top_quantile` quantile of the canopy cells within
+  // this radius of its stem, metres.
+  double top_radius_m = 0.05;
+  // kPlantTops: below 1, one noisy cell does not set a plant's top (the highest of n noisy
+  // samples lies ~2σ above the surface for n ≈ 20).
+  double plant_top_quantile = 0.9;
+  // kCrownPeaks: a crown top is the highest canopy within this radius, metres (about half the
+  // distance between neighbouring plants' tops).
+  double crown_radius_m = 0.08;
+  // kCrownPeaks: crown tops lower than this fraction of the site's highest canopy are not
+  // counted (leaves of a neighbouring plant's skirt, noise near the ground).
+  double min_peak_fraction = 0.5;
+  // kQuantile: quantile of the canopy cells' heights.
+  double top_quantile = 0.95;
+  // A site needs this many canopy cells for a height.
+  int min_canopy_cells = 3;
+
+  bool Check() const;
+};
+
+struct SiteCanopy {
+  double height_m = 0.0;   // canopy top above the ground; NaN: no estimate (see note)
+  double cover = 0.0;      // canopy cells / cells with points; NaN without points
+  double volume_m3 = 0.0;  // NaN without points
+  int n_points = 0;        // canopy points within the site
+  int n_cells = 0;         // cells with points within the site
+  int n_canopy_cells = 0;  // of which canopy
+  int n_peaks = 0;         // plant tops (kPlantTops) or crown tops (kCrownPeaks) averaged
+  std::string note;        // why there is no height, empty otherwise
+};
+
+// Measures one site of one session's cloud above `ground`; `stems` (ENU xy, any extent; may be
+// null) are the plants' stems for kPlantTops.
+SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
+                       const io::Site& site, const CanopyOptions& options,
+                       const std::vector<Eigen::Vector2d>* stems = nullptr);
+
+// The canopy height model of a session over `num_cells` raster cells, `cell_of` giving the cell
+// of an ENU xy (−1 outside the raster): per cell the highest canopy point above `ground`, 0 where
+// the cell holds only ground points, NaN where it holds none (or the ground is unknown there).
+std::vector<float> CanopyHeightModel(
+    const SessionCloud& cloud, const GroundFunction& ground, std::size_t num_cells,
+    const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of,
+    const CanopyOptions& options);
+
+// The same on the nodes of `grid` (the cell of a node spans ± half a cell around it).
+std::vector<float> CanopyHeightModel(const SessionCloud& cloud, const TerrainModel& terrain,
+                                     const GridSpec& grid, const CanopyOptions& options);
+
+}  // namespace crop4d::analysis

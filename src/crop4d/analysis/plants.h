@@ -1,0 +1,50 @@
+#pragma once
+
+// Individual plants, "separated by colour" as in the paper (Dong et al. 2017, §V): early in the
+// season the plants are small islands of vegetation on bare soil. Each island of canopy cells
+// (vegetation at least CanopyOptions::min_height_m above the ground, binned into `cell_m` cells,
+// 8-connected after closing gaps of one cell) is one plant — two plants that touch count as one —
+// and its stem lies under its top: the centroid of the island's cells within `top_fraction` of
+// its highest. Later, when the canopy closes and islands merge, the stems found early keep
+// identifying the plants: a site's canopy height is then the mean over the plants whose stems lie
+// in the site of each plant's top (the highest canopy within `top_radius_m` of its stem) — what a
+// person with a ruler measures, plant by plant (analysis/canopy.h, CanopyTop::kPlantTops).
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "crop4d/analysis/canopy.h"
+
+namespace crop4d::analysis {
+
+struct PlantDetectionOptions {
+  // Cell size of the vegetation mask, metres.
+  double cell_m = 0.01;
+  // Smallest island that is a plant, in cells (noise and lone green points are not plants).
+  int min_cells = 3;
+  // Islands larger than this (m²) are a closed canopy, not one plant: not used for stems.
+  double max_area_m2 = 0.09;
+  // The stem is the centroid of the island's cells at least this fraction of its top height.
+  double top_fraction = 0.8;
+  // Stems closer than this are one plant (an island split in two by a gap in the cloud),
+  // metres.
+  double min_spacing_m = 0.08;
+
+  bool Check() const;
+};
+
+struct DetectedPlant {
+  Eigen::Vector2d stem = Eigen::Vector2d::Zero();  // ENU xy
+  double height_m = 0.0;                           // highest canopy of the island
+  double area_m2 = 0.0;                            // island area
+};
+
+// The plants of one session's cloud within `area`, heights above `ground`; plants closer than
+// `min_spacing_m` are merged (the larger island is kept).
+std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
+                                        const Eigen::AlignedBox2d& area,
+                                        const CanopyOptions& canopy,
+                                        const PlantDetectionOptions& options);
+
+}  // namespace crop4d::analysis

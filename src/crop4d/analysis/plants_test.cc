@@ -1,0 +1,106 @@
+#include "crop4d/analysis/plants.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "crop4d/analysis/analysis_test_util.h"
+
+namespace crop4d::analysis {
+namespace {
+
+using testing_util::BedHeight;
+using testing_util::SampleGround;
+
+// Young plants: green domes of `radius` and `height` on a tilted bed field, points every 5 mm.
+SessionCloud Domes(const std::vector<Eigen::Vector3d>& plants /* x, y, height */, double radius) {
+  SessionCloud cloud;
+  std::mt19937_64 rng(1);
+  std::vector<Eigen::Vector3d> ground;
+  std::vector<std::uint8_t> flags;
+  SampleGround(Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2)), 10000, 0.001,
+               &rng, &ground, &flags);
+  for (const Eigen::Vector3d& p : ground) {
+    cloud.points.push_back(p);
+    cloud.colors.push_back({150, 126, 104});
+    cloud.is_vegetation.push_back(0);
+  }
+  for (const Eigen::Vector3d& plant : plants) {
+    for (double dx = -radius; dx <= radius; dx += 0.005) {
+      for (double dy = -radius; dy <= radius; dy += 0.005) {
+        const double d2 = dx * dx + dy * dy;
+        if (d2 > radius * radius) continue;
+        const double x = plant.x() + dx, y = plant.y() + dy;
+        cloud.points.emplace_back(
+            x, y, BedHeight(x, y) + plant.z() * (1.0 - 0.5 * d2 / (radius * radius)));
+        cloud.colors.push_back({70, 100, 50});
+        cloud.is_vegetation.push_back(1);
+      }
+    }
+  }
+  return cloud;
+}
+
+GroundFunction Truth() {
+  return [](double x, double y) { return BedHeight(x, y); };
+}
+
+TEST(DetectPlantsTest, OneStemPerIslandAtItsTop) {
+  const std::vector<Eigen::Vector3d> plants = {
+      {0.91, 0.6, 0.08}, {0.91, 0.8, 0.10}, {0.93, 1.0, 0.07}, {0.90, 1.22, 0.09}};
+  const SessionCloud cloud = Domes(plants, 0.05);
+  const Eigen::AlignedBox2d area(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2));
+  const std::vector<DetectedPlant> found =
+      DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{});
+  ASSERT_EQ(found.size(), plants.size());
+  for (const Eigen::Vector3d& p : plants) {
+    double best = 1e9;
+    const DetectedPlant* match = nullptr;
+    for (const DetectedPlant& f : found) {
+      if ((f.stem - p.head<2>()).norm() < best) {
+        best = (f.stem - p.head<2>()).norm();
+        match = &f;
+      }
+    }
+    EXPECT_LT(best, 0.01);
+    EXPECT_NEAR(match->height_m, p.z(), 0.003);
+    EXPECT_NEAR(match->area_m2, M_PI * 0.05 * 0.05, 0.004);
+  }
+}
+
+TEST(DetectPlantsTest, NoiseAndClosedCanopiesAreNotPlants) {
+  // A lone green point is not a plant; a canopy of 0.5 × 0.5 m is not one plant either.
+  SessionCloud cloud = Domes({{0.5, 0.5, 0.1}}, 0.3);
+  cloud.points.emplace_back(1.5, 1.5, BedHeight(1.5, 1.5) + 0.05);
+  cloud.colors.push_back({70, 100, 50});
+  cloud.is_vegetation.push_back(1);
+  const Eigen::AlignedBox2d area(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2));
+  EXPECT_TRUE(DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{}).empty());
+}
+
+TEST(MeasureSiteTest, PlantTopsAreTheMeanOfThePlantsInTheSite) {
+  // Three plants in the site (0.08, 0.10, 0.12 m) and a taller one just outside it.
+  const SessionCloud cloud =
+      Domes({{0.91, 0.8, 0.08}, {0.91, 1.0, 0.10}, {0.91, 1.2, 0.12}, {0.91, 1.5, 0.3}}, 0.05);
+  io::Site site;
+  site.center_enu = {0.91, 1.0};
+  site.radius_m = 0.35;
+  const Eigen::AlignedBox2d area(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2));
+  std::vector<Eigen::Vector2d> stems;
+  for (const DetectedPlant& p :
+       DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{})) {
+    stems.push_back(p.stem);
+  }
+  ASSERT_EQ(stems.size(), 4u);
+  const SiteCanopy c = MeasureSite(cloud, Truth(), site, CanopyOptions{}, &stems);
+  EXPECT_EQ(c.n_peaks, 3);
+  EXPECT_NEAR(c.height_m, 0.10, 0.003);
+  // Without stems, the crown tops: the tall plant's canopy reaches into the site but its top
+  // does not.
+  const SiteCanopy peaks = MeasureSite(cloud, Truth(), site, CanopyOptions{}, nullptr);
+  EXPECT_NEAR(peaks.height_m, 0.10, 0.01);
+}
+
+}  // namespace
+}  // namespace crop4d::analysis

@@ -1,0 +1,170 @@
+#include "crop4d/analysis/terrain.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "crop4d/analysis/analysis_test_util.h"
+
+namespace crop4d::analysis {
+namespace {
+
+using testing_util::BedHeight;
+using testing_util::SampleGround;
+
+TEST(GridSpecTest, CoveringSnapsAndCovers) {
+  const Eigen::AlignedBox2d box(Eigen::Vector2d(-0.33, 1.02), Eigen::Vector2d(2.71, 3.49));
+  const GridSpec g = GridSpec::Covering(box, 0.05);
+  ASSERT_TRUE(g.Check());
+  EXPECT_NEAR(g.origin.x(), -0.35, 1e-12);
+  EXPECT_NEAR(g.origin.y(), 1.0, 1e-12);
+  EXPECT_GE(g.Node(g.width - 1, g.height - 1).x(), 2.71 - 1e-12);
+  EXPECT_GE(g.Node(g.width - 1, g.height - 1).y(), 3.49 - 1e-12);
+  EXPECT_LT(g.Node(g.width - 2, g.height - 2).x(), 2.71);
+}
+
+TEST(TerrainModelTest, BilinearBetweenNodesAndNanOutside) {
+  GridSpec g;
+  g.origin = {0, 0};
+  g.cell_m = 1.0;
+  g.width = 2;
+  g.height = 2;
+  const TerrainModel m(g, {0.0f, 1.0f, 2.0f, 3.0f});
+  EXPECT_NEAR(m.Height(0.5, 0.5), 1.5, 1e-6);
+  EXPECT_NEAR(m.Height(1.0, 1.0), 3.0, 1e-6);
+  EXPECT_TRUE(std::isnan(m.Height(1.1, 0.5)));
+  const TerrainModel holes(g, {0.0f, NAN, 2.0f, 3.0f});
+  EXPECT_TRUE(std::isnan(holes.Height(0.5, 0.5)));
+  EXPECT_NEAR(holes.Coverage(), 0.75, 1e-12);
+}
+
+// A tilted field with raised beds every 0.91 m, sampled with 2 mm noise; young plants (green
+// points up to 12 cm above the ground) and 5 % of unflagged clutter above the ground (leaves the
+// colour test missed). The DTM must follow the beds within a few millimetres, where one plane
+// per site is centimetres off.
+TEST(BuildTerrainTest, FollowsTiltedBedsAndIgnoresWhatIsAbove) {
+  std::mt19937_64 rng(7);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::uint8_t> veg;
+  SampleGround(Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(3, 3)), 1500, 0.002, &rng,
+               &points, &veg);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const std::size_t ground_count = points.size();
+  for (std::size_t i = 0; i < ground_count / 20; ++i) {  // unflagged clutter above the ground
+    const double x = 3 * u(rng), y = 3 * u(rng);
+    points.emplace_back(x, y, BedHeight(x, y) + 0.03 + 0.2 * u(rng));
+    veg.push_back(0);
+  }
+  for (int plant = 0; plant < 20; ++plant) {  // plants on the bed crests, flagged
+    const double x = 0.91 * (plant % 3), y = 0.2 + 0.15 * plant;
+    for (int k = 0; k < 60; ++k) {
+      const double a = 2 * M_PI * u(rng), r = 0.05 * std::sqrt(u(rng));
+      points.emplace_back(x + r * std::cos(a), y + r * std::sin(a),
+                          BedHeight(x, y) + 0.12 * (1 - r / 0.05));
+      veg.push_back(1);
+    }
+  }
+  TerrainSummary summary;
+  const Eigen::AlignedBox2d bounds(Eigen::Vector2d(0.3, 0.3), Eigen::Vector2d(2.7, 2.7));
+  const TerrainModel dtm = BuildTerrain({{&points, &veg}}, bounds, TerrainOptions{}, &summary);
+  EXPECT_EQ(summary.nodes_fitted, summary.nodes);
+  double sum2 = 0.0, worst = 0.0;
+  int n = 0;
+  for (int j = 0; j < dtm.grid().height; ++j) {
+    for (int i = 0; i < dtm.grid().width; ++i) {
+      const Eigen::Vector2d q = dtm.grid().Node(i, j);
+      const double e = dtm.At(i, j) - BedHeight(q.x(), q.y());
+      sum2 += e * e;
+      worst = std::max(worst, std::abs(e));
+      ++n;
+    }
+  }
+  EXPECT_LT(std::sqrt(sum2 / n), 0.0025);
+  EXPECT_LT(worst, 0.008);
+  EXPECT_NEAR(summary.residual_scale_m, 0.002, 0.0015);
+
+  // Between a crest and a furrow, one plane per 0.4 m site cannot follow the bed's curvature
+  // over the site; the DTM can.
+  double plane_worst = 0.0, dtm_worst = 0.0;
+  for (double x = 0.1; x < 0.85; x += 0.05) {
+    const std::optional<GroundPlane> plane =
+        FitSiteGroundPlane({&points, &veg}, Eigen::Vector2d(0.5 + x, 1.5), 0.4, PlaneOptions{});
+    ASSERT_TRUE(plane.has_value());
+    for (double d = -0.3; d <= 0.3; d += 0.1) {
+      const double truth = BedHeight(0.5 + x + d, 1.5);
+      plane_worst = std::max(plane_worst, std::abs(plane->Height(0.5 + x + d, 1.5) - truth));
+      dtm_worst = std::max(dtm_worst, std::abs(dtm.Height(0.5 + x + d, 1.5) - truth));
+    }
+  }
+  EXPECT_LT(dtm_worst, 0.008);
+  EXPECT_GT(plane_worst, 0.015);
+}
+
+// Later sessions fill what the first did not see, but only with soil clear of their plants.
+TEST(BuildTerrainTest, LaterSessionsFillHolesWithUncoveredSoil) {
+  std::mt19937_64 rng(3);
+  const Eigen::AlignedBox2d all(Eigen::Vector2d(0, 0), Eigen::Vector2d(3, 3));
+  std::vector<Eigen::Vector3d> first, later;
+  std::vector<std::uint8_t> first_veg, later_veg;
+  SampleGround(all, 1000, 0.002, &rng, &first, &first_veg);
+  // The first session did not see x > 2 m.
+  std::vector<Eigen::Vector3d> seen;
+  for (const Eigen::Vector3d& p : first) {
+    if (p.x() < 2.0) seen.push_back(p);
+  }
+  first = seen;
+  first_veg.assign(first.size(), 0);
+  SampleGround(all, 1000, 0.002, &rng, &later, &later_veg);
+  // A later canopy at (2.5, 1.5) with soil-coloured (unflagged) leaves under flagged ones is
+  // kept out by the clearance test.
+  for (int k = 0; k < 400; ++k) {
+    const double dx = 0.001 * (k % 20) - 0.01, dy = 0.001 * (k / 20) - 0.01;
+    later.emplace_back(2.5 + dx, 1.5 + dy, BedHeight(2.5, 1.5) + 0.25);
+    later_veg.push_back(1);
+    later.emplace_back(2.5 + dx, 1.5 + dy + 0.0005, BedHeight(2.5, 1.5) + 0.02);
+    later_veg.push_back(0);
+  }
+  const Eigen::AlignedBox2d bounds(Eigen::Vector2d(0.3, 0.3), Eigen::Vector2d(2.7, 2.7));
+  TerrainOptions options;
+  options.max_fill_distance_m = 0.0;
+  TerrainSummary only_first;
+  const TerrainModel a = BuildTerrain({{&first, &first_veg}}, bounds, options, &only_first);
+  EXPECT_TRUE(std::isnan(a.Height(2.5, 1.0)));
+  options.max_fill_distance_m = 1.0;
+  TerrainSummary both;
+  const TerrainModel b =
+      BuildTerrain({{&first, &first_veg}, {&later, &later_veg}}, bounds, options, &both);
+  EXPECT_GT(both.ground_points_later, 0u);
+  EXPECT_NEAR(b.Height(2.5, 1.0), BedHeight(2.5, 1.0), 0.005);
+  EXPECT_NEAR(b.Height(2.5, 1.5), BedHeight(2.5, 1.5), 0.005);
+}
+
+TEST(BuildTerrainTest, NoGroundPointsGiveAnEmptyModelNotACrash) {
+  std::vector<Eigen::Vector3d> points = {{0, 0, 0}, {1, 1, 0.1}};
+  std::vector<std::uint8_t> veg = {1, 1};
+  TerrainSummary summary;
+  const TerrainModel m = BuildTerrain(
+      {{&points, &veg}, {}}, Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 1)),
+      TerrainOptions{}, &summary);
+  EXPECT_EQ(summary.nodes_fitted, 0u);
+  EXPECT_EQ(m.Coverage(), 0.0);
+  EXPECT_TRUE(std::isnan(m.Height(0.5, 0.5)));
+  EXPECT_FALSE(FitSiteGroundPlane({&points, &veg}, {0.5, 0.5}, 1.0, PlaneOptions{}).has_value());
+}
+
+TEST(TerrainOptionsTest, CheckRejectsBadValues) {
+  TerrainOptions o;
+  EXPECT_TRUE(o.Check());
+  o.fit_radius_m = 0.01;  // smaller than a cell
+  EXPECT_FALSE(o.Check());
+  o = TerrainOptions{};
+  o.min_points = 3;
+  EXPECT_FALSE(o.Check());
+  PlaneOptions p;
+  p.inlier_threshold_m = 0.0;
+  EXPECT_FALSE(p.Check());
+}
+
+}  // namespace
+}  // namespace crop4d::analysis

@@ -1,0 +1,1113 @@
+#include "crop4d/dense/height_field_stereo.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <numeric>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "crop4d/core/error.h"
+#include "crop4d/core/progress.h"
+
+namespace crop4d::dense {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Why a cell has no point (kept in a byte per cell).
+enum CellState : std::uint8_t {
+  kOutside = 0,
+  kNoViews,
+  kLowTexture,
+  kLowScore,
+  kNotUnique,
+  kAtRangeEdge,
+  kIsolated,
+  kOccluding,
+  kKept,
+};
+
+// The undistorted pinhole camera that the images are resampled to once when they are loaded,
+// so that the inner loops project with a pinhole (a plane maps to an image by a homography)
+// instead of evaluating the lens polynomial for every sample. Its canvas is enlarged to hold the
+// whole image (barrel distortion pushes the corners and the bottom edge outwards).
+struct Rectification {
+  float fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+  cv::Mat map_x, map_y;  // undistorted pixel → original pixel (cv::remap)
+  // For a bilinear sample whose top-left pixel is (u0, v0): valid when v0 + 1 < height and
+  // lo[v0] <= u0 <= hi[v0] (rows v0 and v0 + 1 both inside the eroded image).
+  std::vector<int> lo, hi;
+};
+
+Rectification MakeRectification(const geometry::PinholeRadTan& camera, int erode_px) {
+  Rectification rect;
+  double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+  auto extend = [&](double u, double v) {
+    Eigen::Vector3d ray;
+    if (!camera.Unproject(Eigen::Vector2d(u, v), &ray)) return;
+    x0 = std::min(x0, ray.x());
+    x1 = std::max(x1, ray.x());
+    y0 = std::min(y0, ray.y());
+    y1 = std::max(y1, ray.y());
+  };
+  for (int u = 0; u < camera.width; u += 2) {
+    extend(u, 0);
+    extend(u, camera.height - 1);
+  }
+  for (int v = 0; v < camera.height; v += 2) {
+    extend(0, v);
+    extend(camera.width - 1, v);
+  }
+  // At most 1.5× the original size in each direction (a wide-angle lens keeps its centre).
+  const double max_w = 1.5 * camera.width / camera.fx, max_h = 1.5 * camera.height / camera.fy;
+  if (x1 - x0 > max_w) {
+    const double c = -(camera.cx / camera.fx) + 0.5 * camera.width / camera.fx;
+    x0 = c - 0.5 * max_w;
+    x1 = c + 0.5 * max_w;
+  }
+  if (y1 - y0 > max_h) {
+    const double c = -(camera.cy / camera.fy) + 0.5 * camera.height / camera.fy;
+    y0 = c - 0.5 * max_h;
+    y1 = c + 0.5 * max_h;
+  }
+  rect.fx = static_cast<float>(camera.fx);
+  rect.fy = static_cast<float>(camera.fy);
+  rect.cx = static_cast<float>(-x0 * camera.fx);
+  rect.cy = static_cast<float>(-y0 * camera.fy);
+  rect.width = static_cast<int>(std::ceil((x1 - x0) * camera.fx)) + 1;
+  rect.height = static_cast<int>(std::ceil((y1 - y0) * camera.fy)) + 1;
+  rect.map_x.create(rect.height, rect.width, CV_32F);
+  rect.map_y.create(rect.height, rect.width, CV_32F);
+  cv::Mat valid(rect.height, rect.width, CV_8U);
+  const Eigen::Matrix3d K = camera.K();
+  for (int v = 0; v < rect.height; ++v) {
+    for (int u = 0; u < rect.width; ++u) {
+      const Eigen::Vector2d xy((u - rect.cx) / rect.fx, (v - rect.cy) / rect.fy);
+      const Eigen::Vector2d d = camera.Distort(xy);
+      const double pu = K(0, 0) * d.x() + K(0, 2), pv = K(1, 1) * d.y() + K(1, 2);
+      rect.map_x.at<float>(v, u) = static_cast<float>(pu);
+      rect.map_y.at<float>(v, u) = static_cast<float>(pv);
+      valid.at<std::uint8_t>(v, u) = camera.IsRegularRoot(xy) && pu >= 0 && pv >= 0 &&
+                                             pu <= camera.width - 1 && pv <= camera.height - 1
+                                         ? 255
+                                         : 0;
+    }
+  }
+  if (erode_px > 0) {
+    cv::erode(
+        valid, valid,
+        cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * erode_px + 1, 2 * erode_px + 1)));
+  }
+  std::vector<int> row_lo(rect.height), row_hi(rect.height);
+  for (int v = 0; v < rect.height; ++v) {
+    row_lo[v] = rect.width;
+    row_hi[v] = -1;
+    for (int u = 0; u < rect.width; ++u) {
+      if (!valid.at<std::uint8_t>(v, u)) continue;
+      row_lo[v] = std::min(row_lo[v], u);
+      row_hi[v] = u;
+    }
+  }
+  rect.lo.assign(rect.height, rect.width);
+  rect.hi.assign(rect.height, -1);
+  for (int v = 0; v + 1 < rect.height; ++v) {
+    rect.lo[v] = std::max(row_lo[v], row_lo[v + 1]);
+    rect.hi[v] = std::min(row_hi[v], row_hi[v + 1]) - 1;
+  }
+  return rect;
+}
+
+// An image ready for matching: the high-passed grey levels on the rectified canvas (+128,
+// 8 bits), and the original colour image when it is some tile's reference.
+struct ViewImage {
+  bool ok = false;
+  std::vector<std::uint8_t> grey;
+  int width = 0, height = 0;  // of the original image
+  std::vector<std::uint8_t> rgb;
+
+  bool SampleRgb(float u, float v, std::array<std::uint8_t, 3>* out) const {
+    if (rgb.empty() || !(u >= 0.0f && v >= 0.0f && u < width - 1.0f && v < height - 1.0f)) {
+      return false;
+    }
+    const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+    const float a = u - u0, b = v - v0;
+    for (int c = 0; c < 3; ++c) {
+      const std::uint8_t* p = rgb.data() + (static_cast<std::size_t>(v0) * width + u0) * 3 + c;
+      const float top = p[0] + a * (p[3] - p[0]);
+      const float bottom = p[width * 3] + a * (p[width * 3 + 3] - p[width * 3]);
+      (*out)[c] =
+          static_cast<std::uint8_t>(std::clamp(top + b * (bottom - top) + 0.5f, 0.f, 255.f));
+    }
+    return true;
+  }
+};
+
+struct ViewGeometry {
+  Eigen::Matrix3d camera_from_world;
+  Eigen::Vector3d center;
+};
+
+// The views of one tile: the references first.
+struct TileViews {
+  std::vector<int> views;
+  int num_references = 0;
+};
+
+// A regular grid of samples for a sweep: sample (a, b) lies at origin + (a, b) * spacing; the
+// cells are the samples at least `r` from the border.
+struct SampleGrid {
+  Eigen::Vector2d origin;
+  double spacing = 0;
+  int nx = 0, ny = 0;
+  int r = 0;
+  int cells_x() const { return nx - 2 * r; }
+  int cells_y() const { return ny - 2 * r; }
+};
+
+// Sums over the (2r+1)² windows of an nx × ny array: out is (nx − 2r) × (ny − 2r).
+void BoxSum(const float* in, int nx, int ny, int r, float* tmp, float* out) {
+  const int w = 2 * r + 1, mx = nx - 2 * r, my = ny - 2 * r;
+  // Horizontal: direct sums of w values (vectorised across x).
+  for (int y = 0; y < ny; ++y) {
+    const float* row = in + static_cast<std::ptrdiff_t>(y) * nx;
+    float* __restrict t = tmp + static_cast<std::ptrdiff_t>(y) * mx;
+    for (int x = 0; x < mx; ++x) t[x] = row[x];
+    for (int d = 1; d < w; ++d) {
+      const float* shifted = row + d;
+      for (int x = 0; x < mx; ++x) t[x] += shifted[x];
+    }
+  }
+  // Vertical: running sums over rows.
+  for (int x = 0; x < mx; ++x) out[x] = 0;
+  for (int y = 0; y < w; ++y) {
+    const float* t = tmp + static_cast<std::ptrdiff_t>(y) * mx;
+    for (int x = 0; x < mx; ++x) out[x] += t[x];
+  }
+  for (int y = 1; y < my; ++y) {
+    const float* add = tmp + static_cast<std::ptrdiff_t>(y + w - 1) * mx;
+    const float* sub = tmp + static_cast<std::ptrdiff_t>(y - 1) * mx;
+    const float* prev = out + static_cast<std::ptrdiff_t>(y - 1) * mx;
+    float* __restrict o = out + static_cast<std::ptrdiff_t>(y) * mx;
+    for (int x = 0; x < mx; ++x) o[x] = prev[x] + add[x] - sub[x];
+  }
+}
+
+// The sweep of one tile at one resolution: for every level l and cell c, the aggregated score
+// (−2 when no reference could be scored), the reference that gave it and the views it used.
+struct SweepVolume {
+  int levels = 0, cells = 0;
+  std::vector<float> score;
+  // The score of each reference alone: [reference][level][cell].
+  std::vector<float> score_by_reference;
+  std::vector<std::uint8_t> reference;  // index into TileViews::views
+  std::vector<std::uint8_t> num_views;  // other views that were scored
+  // Cells that had a full reference patch but too little texture at every level.
+  std::vector<std::uint8_t> low_texture;
+};
+
+constexpr float kNoScore = -2.0f;
+// Added to an invalid sample in the sums that detect incomplete windows: a window sum above
+// kInvalidWindow holds one (valid sums stay below 49 · 128).
+constexpr float kInvalidSample = 1.0e5f;
+constexpr float kInvalidWindow = 5.0e4f;
+
+class Sweeper {
+ public:
+  Sweeper(const HeightFieldStereo::Options& options, const Rectification& rect,
+          const std::vector<ViewGeometry>& geometry, const std::vector<ViewImage>& images)
+      : options_(options), rect_(rect), geometry_(geometry), images_(images) {}
+
+  // Sweeps the grid's samples through heights base_z[sample] + offsets[l] in the views of `tv`.
+  SweepVolume Run(const SampleGrid& grid, const std::vector<float>& base_z,
+                  const std::vector<float>& offsets, const TileViews& tv) const {
+    const int nv = static_cast<int>(tv.views.size());
+    const int nr = tv.num_references;
+    const int ns = grid.nx * grid.ny;
+    const int mx = grid.cells_x(), my = grid.cells_y(), nc = mx * my;
+    const int r = grid.r;
+    const float n = static_cast<float>((2 * r + 1) * (2 * r + 1));
+    const float min_var = static_cast<float>(options_.min_texture * options_.min_texture) * n * n;
+
+    SweepVolume vol;
+    vol.levels = static_cast<int>(offsets.size());
+    vol.cells = nc;
+    vol.score.assign(static_cast<std::size_t>(vol.levels) * nc, kNoScore);
+    vol.reference.assign(vol.score.size(), 0);
+    vol.score_by_reference.assign(static_cast<std::size_t>(nr) * vol.levels * nc, kNoScore);
+    vol.num_views.assign(vol.score.size(), 0);
+    vol.low_texture.assign(nc, 1);
+    std::vector<std::uint8_t> any_reference(nc, 0);
+
+    // Homogeneous pixel (U, V, W) of sample (a, b) at height z on the rectified canvas: linear,
+    // p0 + a pa + b pb + z pz, with u = U / W, v = V / W.
+    struct Linear {
+      float p0[3], pa[3], pb[3], pz[3];
+    };
+    std::vector<Linear> linear(nv);
+    Eigen::Matrix3d K = Eigen::Matrix3d::Identity();
+    K(0, 0) = rect_.fx;
+    K(1, 1) = rect_.fy;
+    K(0, 2) = rect_.cx;
+    K(1, 2) = rect_.cy;
+    for (int k = 0; k < nv; ++k) {
+      const ViewGeometry& g = geometry_[tv.views[k]];
+      const Eigen::Matrix3d P = K * g.camera_from_world;
+      const Eigen::Vector3d p0 =
+          P * (Eigen::Vector3d(grid.origin.x(), grid.origin.y(), 0) - g.center);
+      const Eigen::Vector3d pa = P.col(0) * grid.spacing;
+      const Eigen::Vector3d pb = P.col(1) * grid.spacing;
+      const Eigen::Vector3d pz = P.col(2);
+      for (int i = 0; i < 3; ++i) {
+        linear[k].p0[i] = static_cast<float>(p0(i));
+        linear[k].pa[i] = static_cast<float>(pa(i));
+        linear[k].pb[i] = static_cast<float>(pb(i));
+        linear[k].pz[i] = static_cast<float>(pz(i));
+      }
+    }
+
+    std::vector<float> z(ns), warped(static_cast<std::size_t>(nv) * ns),
+        valid(static_cast<std::size_t>(nv) * ns), product(ns), tmp(static_cast<std::size_t>(ns));
+    std::vector<float> sum(static_cast<std::size_t>(nv) * nc), sum_sq(sum.size()),
+        inv_sd(sum.size()), pixel_u(ns), pixel_v(ns), pixel_w(ns),
+        cross(static_cast<std::size_t>(nr) * nv * nc);
+    std::vector<float> zncc(static_cast<std::size_t>(nv) * nc), agg_sum(nc), agg_count(nc),
+        level_best(nc);
+    std::vector<std::uint8_t> level_ref(nc), level_views(nc);
+    const int width = rect_.width, height = rect_.height;
+    const int* lo = rect_.lo.data();
+    const int* hi = rect_.hi.data();
+
+    for (int l = 0; l < vol.levels; ++l) {
+      for (int s = 0; s < ns; ++s) z[s] = base_z[s] + offsets[l];
+      for (int k = 0; k < nv; ++k) {
+        const Linear& A = linear[k];
+        const std::uint8_t* img = images_[tv.views[k]].grey.data();
+        float* __restrict w = warped.data() + static_cast<std::size_t>(k) * ns;
+        float* __restrict m = valid.data() + static_cast<std::size_t>(k) * ns;
+        // Pixel of every sample (vectorised), then the bilinear samples (gathers).
+        float* __restrict pu = pixel_u.data();
+        float* __restrict pv = pixel_v.data();
+        float* __restrict pw = pixel_w.data();
+        const float pa0 = A.pa[0], pa1 = A.pa[1], pa2 = A.pa[2];
+        const float pz0 = A.pz[0], pz1 = A.pz[1], pz2 = A.pz[2];
+        for (int b = 0; b < grid.ny; ++b) {
+          const float U0 = A.p0[0] + b * A.pb[0], V0 = A.p0[1] + b * A.pb[1],
+                      W0 = A.p0[2] + b * A.pb[2];
+          const float* __restrict zr = z.data() + static_cast<std::ptrdiff_t>(b) * grid.nx;
+          float* __restrict ur = pu + static_cast<std::ptrdiff_t>(b) * grid.nx;
+          float* __restrict vr = pv + static_cast<std::ptrdiff_t>(b) * grid.nx;
+          float* __restrict wr = pw + static_cast<std::ptrdiff_t>(b) * grid.nx;
+          const int nx = grid.nx;
+          for (int a = 0; a < nx; ++a) {
+            const float fa = static_cast<float>(a);
+            const float W = W0 + fa * pa2 + zr[a] * pz2;
+            const float iw = 1.0f / W;
+            wr[a] = W;
+            ur[a] = (U0 + fa * pa0 + zr[a] * pz0) * iw;
+            vr[a] = (V0 + fa * pa1 + zr[a] * pz1) * iw;
+          }
+        }
+        const float max_u = width - 1.0f, max_v = height - 1.0f;
+        for (int s = 0; s < ns; ++s) {
+          const float u = pu[s], v = pv[s];
+          float value = 0.0f, invalid = kInvalidSample;
+          // In front of the camera (not too close) and inside the image.
+          if (pw[s] > 0.05f && v >= 0.0f && v < max_v && u >= 0.0f && u < max_u) {
+            const int u0 = static_cast<int>(u), v0 = static_cast<int>(v);
+            if (u0 >= lo[v0] && u0 <= hi[v0]) {
+              const float fa = u - u0, fb = v - v0;
+              const std::uint8_t* p = img + static_cast<std::ptrdiff_t>(v0) * width + u0;
+              const float top = p[0] + fa * (p[1] - p[0]);
+              const float bottom = p[width] + fa * (p[width + 1] - p[width]);
+              value = top + fb * (bottom - top) - 128.0f;
+              invalid = 0.0f;
+            }
+          }
+          w[s] = value;
+          m[s] = value + invalid;  // a window's sum is large where it holds an invalid sample
+        }
+        float* sq = product.data();
+        for (int s = 0; s < ns; ++s) sq[s] = w[s] * w[s];
+        BoxSum(m, grid.nx, grid.ny, r, tmp.data(), sum.data() + static_cast<std::size_t>(k) * nc);
+        BoxSum(sq, grid.nx, grid.ny, r, tmp.data(),
+               sum_sq.data() + static_cast<std::size_t>(k) * nc);
+      }
+      for (int ref = 0; ref < nr; ++ref) {
+        const float* wr = warped.data() + static_cast<std::size_t>(ref) * ns;
+        for (int k = 0; k < nv; ++k) {
+          if (k == ref) continue;
+          const float* wk = warped.data() + static_cast<std::size_t>(k) * ns;
+          for (int s = 0; s < ns; ++s) product[s] = wr[s] * wk[s];
+          BoxSum(product.data(), grid.nx, grid.ny, r, tmp.data(),
+                 cross.data() + (static_cast<std::size_t>(ref) * nv + k) * nc);
+        }
+      }
+      for (std::size_t i = 0; i < inv_sd.size(); ++i) {
+        const float var = n * sum_sq[i] - sum[i] * sum[i];
+        const bool usable = (sum[i] < kInvalidWindow) & (var > 1.0f);
+        inv_sd[i] = usable ? 1.0f / std::sqrt(std::max(var, 1.0f)) : 0.0f;
+      }
+      float* best = level_best.data();
+      std::fill(best, best + nc, kNoScore);
+      std::fill(level_ref.begin(), level_ref.end(), std::uint8_t{0});
+      std::fill(level_views.begin(), level_views.end(), std::uint8_t{0});
+      for (int ref = 0; ref < nr; ++ref) {
+        const float* sr = sum.data() + static_cast<std::size_t>(ref) * nc;
+        const float* qr = sum_sq.data() + static_cast<std::size_t>(ref) * nc;
+
+        const float* ir = inv_sd.data() + static_cast<std::size_t>(ref) * nc;
+        // The ZNCC with every other view (−2 where either patch is incomplete), then sorted per
+        // cell, best first, by an odd-even transposition network over the arrays (branch-free,
+        // vectorised across cells).
+        int no = 0;
+        for (int k = 0; k < nv; ++k) {
+          if (k == ref) continue;
+          const float* sk = sum.data() + static_cast<std::size_t>(k) * nc;
+          const float* ik = inv_sd.data() + static_cast<std::size_t>(k) * nc;
+          const float* xk = cross.data() + (static_cast<std::size_t>(ref) * nv + k) * nc;
+          float* z = zncc.data() + static_cast<std::size_t>(no) * nc;
+          for (int c = 0; c < nc; ++c) {
+            const float value = (n * xk[c] - sr[c] * sk[c]) * ir[c] * ik[c];
+            z[c] = (ir[c] > 0.0f) & (ik[c] > 0.0f) ? value : kNoScore;
+          }
+          ++no;
+        }
+        for (int pass = 0; pass < no; ++pass) {
+          for (int i = pass % 2; i + 1 < no; i += 2) {
+            float* a = zncc.data() + static_cast<std::size_t>(i) * nc;
+            float* b = a + nc;
+            for (int c = 0; c < nc; ++c) {
+              const float hi = std::max(a[c], b[c]), lo = std::min(a[c], b[c]);
+              a[c] = hi;
+              b[c] = lo;
+            }
+          }
+        }
+        // The mean of the best half of the valid ZNCCs: views that see something else (a leaf
+        // in front) drop out.
+        float* valid_n = agg_count.data();
+        float* agg = agg_sum.data();
+        std::fill(valid_n, valid_n + nc, 0.0f);
+        for (int i = 0; i < no; ++i) {
+          const float* z = zncc.data() + static_cast<std::size_t>(i) * nc;
+          for (int c = 0; c < nc; ++c) valid_n[c] += z[c] > -1.5f ? 1.0f : 0.0f;
+        }
+        std::fill(agg, agg + nc, 0.0f);
+        for (int i = 0; i < no; ++i) {
+          const float* z = zncc.data() + static_cast<std::size_t>(i) * nc;
+          const float rank = static_cast<float>(i);
+          // Kept when rank < ceil(valid / 2), i.e. 2 rank < valid.
+          for (int c = 0; c < nc; ++c) agg[c] += 2.0f * rank < valid_n[c] ? z[c] : 0.0f;
+        }
+        float* by_ref =
+            vol.score_by_reference.data() + (static_cast<std::size_t>(ref) * vol.levels + l) * nc;
+        const float min_count = static_cast<float>(options_.min_views) - 0.5f;
+        for (int c = 0; c < nc; ++c) {
+          const bool complete = sr[c] < kInvalidWindow;
+          const float var_r = n * qr[c] - sr[c] * sr[c];
+          const bool textured = complete && var_r >= min_var;
+          any_reference[c] |= complete;
+          if (textured) vol.low_texture[c] = 0;
+          const float keep = std::floor(0.5f * (valid_n[c] + 1.0f));
+          const float value = textured && valid_n[c] > min_count ? agg[c] / keep : kNoScore;
+          by_ref[c] = value;
+          if (value > best[c]) {
+            best[c] = value;
+            level_ref[c] = static_cast<std::uint8_t>(ref);
+            level_views[c] = static_cast<std::uint8_t>(valid_n[c]);
+          }
+        }
+      }
+      const std::size_t offset = static_cast<std::size_t>(l) * nc;
+      std::copy(best, best + nc, vol.score.begin() + static_cast<std::ptrdiff_t>(offset));
+      std::copy(level_ref.begin(), level_ref.end(),
+                vol.reference.begin() + static_cast<std::ptrdiff_t>(offset));
+      std::copy(level_views.begin(), level_views.end(),
+                vol.num_views.begin() + static_cast<std::ptrdiff_t>(offset));
+    }
+    for (int c = 0; c < nc; ++c) {
+      if (!any_reference[c]) vol.low_texture[c] = 0;
+    }
+    return vol;
+  }
+
+ private:
+  const HeightFieldStereo::Options& options_;
+  const Rectification& rect_;
+  const std::vector<ViewGeometry>& geometry_;
+  const std::vector<ViewImage>& images_;
+};
+
+// Sub-step position of a peak from the scores before, at and after it (parabola through three
+// points), in [−0.5, 0.5].
+double ParabolicOffset(double before, double at, double after) {
+  const double d = before - 2 * at + after;
+  if (!(d < 0)) return 0;
+  return std::clamp(0.5 * (before - after) / d, -0.5, 0.5);
+}
+
+// Median of the valid values among `values`.
+float Median(std::vector<float>* values) {
+  if (values->empty()) return std::numeric_limits<float>::quiet_NaN();
+  const std::size_t m = values->size() / 2;
+  std::nth_element(values->begin(), values->begin() + static_cast<std::ptrdiff_t>(m),
+                   values->end());
+  return (*values)[m];
+}
+
+ViewImage PrepareImage(const RgbImage& source, const geometry::PinholeRadTan& camera,
+                       const Rectification& rect, bool keep_colour, double vegetation_weight,
+                       double highpass_sigma, double highpass_gain) {
+  ViewImage out;
+  if (source.width != camera.width || source.height != camera.height ||
+      source.rgb.size() != static_cast<std::size_t>(source.width) * source.height * 3) {
+    return out;
+  }
+  const cv::Mat rgb(source.height, source.width, CV_8UC3,
+                    const_cast<std::uint8_t*>(source.rgb.data()));
+  // The matched channel: grey + w · max(0, 2G − R − B) (excess green). Leaves have about the
+  // grey level of the soil; with their excess green they stand out from it, so that a small
+  // plant dominates the patches that hold it.
+  cv::Mat channel;
+  cv::cvtColor(rgb, channel, cv::COLOR_RGB2GRAY);
+  channel.convertTo(channel, CV_32F);
+  if (vegetation_weight > 0) {
+    std::vector<cv::Mat> c;
+    cv::split(rgb, c);
+    cv::Mat exg;
+    cv::addWeighted(c[1], 2.0, c[0], -1.0, 0.0, exg, CV_32F);
+    cv::subtract(exg, c[2], exg, cv::noArray(), CV_32F);
+    cv::max(exg, 0.0, exg);
+    cv::scaleAdd(exg, vegetation_weight, channel, channel);
+  }
+  cv::Mat rectified;
+  cv::remap(channel, rectified, rect.map_x, rect.map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  if (highpass_sigma > 0) {
+    cv::Mat blurred;
+    cv::GaussianBlur(rectified, blurred, cv::Size(0, 0), highpass_sigma);
+    rectified -= blurred;
+  }
+  rectified.convertTo(rectified, CV_8U, highpass_gain, highpass_sigma > 0 ? 128.0 : 0.0);
+  CROP4D_CHECK(rectified.isContinuous());
+  out.grey.assign(rectified.data,
+                  rectified.data + static_cast<std::size_t>(rectified.cols) * rectified.rows);
+  out.width = source.width;
+  out.height = source.height;
+  if (keep_colour) out.rgb = source.rgb;
+  out.ok = true;
+  return out;
+}
+
+}  // namespace
+
+bool DenseRegion::Contains(const Eigen::Vector2d& xy) const {
+  if (!bounds.contains(xy)) return false;
+  if (boxes.empty() && centers.empty()) return true;
+  for (const Eigen::AlignedBox2d& box : boxes) {
+    if (box.contains(xy)) return true;
+  }
+  for (const Eigen::Vector2d& c : centers) {
+    if ((xy - c).squaredNorm() <= radius_m * radius_m) return true;
+  }
+  return false;
+}
+
+bool HeightFieldStereo::Options::Check() const {
+  return cell_m > 0 && tile_cells >= 4 && patch_radius >= 1 && patch_radius <= 5 &&
+         fine_patch_radius >= 1 && fine_patch_radius <= 5 && below_ground_m >= 0 &&
+         max_canopy_height_m > 0 && coarse_step_m > 0 && fine_half_range_m > 0 && fine_step_m > 0 &&
+         fine_step_m < fine_half_range_m && max_views >= 2 && max_views <= 32 &&
+         max_view_distance_m > 0 && image_margin_px >= 0 && min_reference_separation_m >= 0 &&
+         min_views >= 1 && min_views < max_views && min_score > -1 && min_score < 1 &&
+         min_texture >= 0 && min_neighbours >= 0 && min_neighbours <= 8 &&
+         neighbour_tolerance_m > 0 && (max_canopy_height_m + below_ground_m) / coarse_step_m < 2000;
+}
+
+HeightFieldStereo::HeightFieldStereo(const Options& options) : options_(options) {
+  CROP4D_CHECK(options.Check());
+}
+
+HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& camera,
+                                                 const std::vector<DenseView>& views,
+                                                 const ImageLoader& load, const DenseRegion& region,
+                                                 const GroundLevels& ground) const {
+  const Clock::time_point start = Clock::now();
+  const Options& o = options_;
+  Result result;
+  Summary& summary = result.summary;
+  summary.num_views = static_cast<int>(views.size());
+  CROP4D_CHECK(camera.Check());
+  if (region.bounds.isEmpty() || !ground.valid() || views.empty()) {
+    summary.total_seconds = SecondsSince(start);
+    return result;
+  }
+
+  // The grid: cells of o.cell_m from a multiple of the cell size.
+  const double s = o.cell_m;
+  const Eigen::Vector2d grid_origin(std::floor(region.bounds.min().x() / s) * s,
+                                    std::floor(region.bounds.min().y() / s) * s);
+  const int gx = static_cast<int>(std::ceil((region.bounds.max().x() - grid_origin.x()) / s));
+  const int gy = static_cast<int>(std::ceil((region.bounds.max().y() - grid_origin.y()) / s));
+  const std::size_t num_grid = static_cast<std::size_t>(gx) * gy;
+  std::vector<std::uint8_t> state(num_grid, kOutside);
+  for (int j = 0; j < gy; ++j) {
+    for (int i = 0; i < gx; ++i) {
+      const Eigen::Vector2d xy = grid_origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
+      if (region.Contains(xy)) {
+        state[static_cast<std::size_t>(j) * gx + i] = kNoViews;
+        ++summary.num_cells;
+      }
+    }
+  }
+
+  // Tiles that hold cells of the region.
+  const int T = o.tile_cells;
+  struct Tile {
+    int i0, j0, nx, ny;
+    TileViews views;
+  };
+  std::vector<Tile> tiles;
+  for (int j0 = 0; j0 < gy; j0 += T) {
+    for (int i0 = 0; i0 < gx; i0 += T) {
+      Tile tile{i0, j0, std::min(T, gx - i0), std::min(T, gy - j0), {}};
+      bool any = false;
+      for (int j = j0; j < j0 + tile.ny && !any; ++j) {
+        for (int i = i0; i < i0 + tile.nx && !any; ++i) {
+          any = state[static_cast<std::size_t>(j) * gx + i] != kOutside;
+        }
+      }
+      if (any) tiles.push_back(tile);
+    }
+  }
+  summary.num_tiles = static_cast<int>(tiles.size());
+
+  std::vector<ViewGeometry> geometry(views.size());
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    geometry[v].camera_from_world = views[v].world_from_camera.RotationMatrix().transpose();
+    geometry[v].center = views[v].world_from_camera.translation();
+  }
+
+  // View selection per tile, from the poses alone.
+  const double margin = o.image_margin_px + o.patch_radius;
+  tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
+    Tile& tile = tiles[t];
+    const Eigen::Vector2d lo = grid_origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
+    const Eigen::Vector2d hi = lo + Eigen::Vector2d(tile.nx, tile.ny) * s;
+    const Eigen::Vector2d mid = 0.5 * (lo + hi);
+    const Eigen::Vector3d center(mid.x(), mid.y(), ground.At(mid.x(), mid.y()));
+    std::vector<Eigen::Vector3d> corners;
+    for (const Eigen::Vector2d& c :
+         {lo, Eigen::Vector2d(hi.x(), lo.y()), Eigen::Vector2d(lo.x(), hi.y()), hi}) {
+      corners.emplace_back(c.x(), c.y(), ground.At(c.x(), c.y()));
+    }
+    struct Candidate {
+      int view;
+      Eigen::Vector2d parallax;  // (camera xy − point xy) / (camera z − point z)
+    };
+    std::vector<Candidate> candidates;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+      const ViewGeometry& g = geometry[v];
+      const Eigen::Vector3d d = g.center - center;
+      if (d.norm() > o.max_view_distance_m || d.z() < 0.2) continue;
+      bool inside = true;
+      for (const Eigen::Vector3d& c : corners) {
+        Eigen::Vector2d pixel;
+        inside = inside && camera.Project(g.camera_from_world * (c - g.center), &pixel) &&
+                 camera.IsInImage(pixel, margin);
+      }
+      if (inside) candidates.push_back({static_cast<int>(v), d.head<2>() / d.z()});
+    }
+    if (candidates.size() < 2) return;
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+      const double na = a.parallax.squaredNorm(), nb = b.parallax.squaredNorm();
+      return na != nb ? na < nb : a.view < b.view;
+    });
+    std::vector<Candidate> chosen{candidates[0]};
+    std::vector<char> used(candidates.size(), 0);
+    used[0] = 1;
+    for (std::size_t k = 1; k < candidates.size(); ++k) {
+      if ((geometry[candidates[k].view].center - geometry[candidates[0].view].center).norm() >=
+          o.min_reference_separation_m) {
+        chosen.push_back(candidates[k]);
+        used[k] = 1;
+        break;
+      }
+    }
+    tile.views.num_references = static_cast<int>(chosen.size());
+    // The others: greedily the candidate farthest (in parallax) from those chosen, distances
+    // capped so that beyond a useful parallax the more top-down (sharper) view wins.
+    constexpr double kParallaxCap = 0.3;
+    constexpr double kTopDownWeight = 0.5;
+    while (static_cast<int>(chosen.size()) < o.max_views) {
+      double best = -1e9;
+      int best_k = -1;
+      for (std::size_t k = 0; k < candidates.size(); ++k) {
+        if (used[k]) continue;
+        double nearest = 1e9;
+        for (const Candidate& c : chosen) {
+          nearest = std::min(nearest, (candidates[k].parallax - c.parallax).norm());
+        }
+        const double score =
+            std::min(nearest, kParallaxCap) - kTopDownWeight * candidates[k].parallax.norm();
+        if (score > best) {
+          best = score;
+          best_k = static_cast<int>(k);
+        }
+      }
+      if (best_k < 0) break;
+      used[best_k] = 1;
+      chosen.push_back(candidates[best_k]);
+    }
+    for (const Candidate& c : chosen) tile.views.views.push_back(c.view);
+    if (static_cast<int>(tile.views.views.size()) - 1 < o.min_views) tile.views = {};
+  });
+
+  // Load the selected images.
+  const Clock::time_point load_start = Clock::now();
+  std::vector<char> needed(views.size(), 0), colour(views.size(), 0);
+  double view_sum = 0;
+  for (const Tile& tile : tiles) {
+    for (std::size_t k = 0; k < tile.views.views.size(); ++k) {
+      needed[tile.views.views[k]] = 1;
+      if (static_cast<int>(k) < tile.views.num_references) colour[tile.views.views[k]] = 1;
+    }
+    view_sum += static_cast<double>(tile.views.views.size());
+  }
+  summary.mean_views_per_tile = tiles.empty() ? 0 : view_sum / static_cast<double>(tiles.size());
+  std::vector<int> to_load;
+  for (std::size_t v = 0; v < views.size(); ++v) {
+    if (needed[v]) to_load.push_back(static_cast<int>(v));
+  }
+  std::vector<ViewImage> images(views.size());
+  const Rectification rect = MakeRectification(
+      camera, static_cast<int>(std::ceil(2 * std::max(0.0, o.highpass_sigma_px))) + 1);
+  {
+    std::unique_ptr<Progress> progress;
+    if (o.show_progress)
+      progress = std::make_unique<Progress>("densify: load", to_load.size(), "img");
+    tbb::parallel_for(std::size_t{0}, to_load.size(), [&](std::size_t k) {
+      const int v = to_load[k];
+      images[v] = PrepareImage(load(v), camera, rect, colour[v] != 0, o.vegetation_weight,
+                               o.highpass_sigma_px, o.highpass_gain);
+      if (progress) progress->Add();
+    });
+  }
+  summary.num_images_used = static_cast<int>(to_load.size());
+  for (int v : to_load) {
+    if (!images[v].ok) {
+      ++summary.num_images_failed;
+      spdlog::warn("densify: image {} could not be read or has the wrong size; not used",
+                   views[v].name);
+    }
+  }
+  for (Tile& tile : tiles) {
+    TileViews kept;
+    for (std::size_t k = 0; k < tile.views.views.size(); ++k) {
+      if (!images[tile.views.views[k]].ok) continue;
+      kept.views.push_back(tile.views.views[k]);
+      if (static_cast<int>(k) < tile.views.num_references) ++kept.num_references;
+    }
+    if (kept.num_references == 0 || static_cast<int>(kept.views.size()) - 1 < o.min_views) {
+      kept = {};
+    }
+    tile.views = kept;
+  }
+  summary.load_seconds = SecondsSince(load_start);
+
+  // The sweeps, tile by tile.
+  const Clock::time_point match_start = Clock::now();
+  const Sweeper sweeper(o, rect, geometry, images);
+  std::vector<float> height(num_grid, std::numeric_limits<float>::quiet_NaN());
+  std::vector<float> score(num_grid, 0.0f), unique(num_grid, 0.0f);
+  std::vector<std::uint8_t> num_views(num_grid, 0);
+  std::vector<std::array<std::uint8_t, 3>> rgb(num_grid, {0, 0, 0});
+  std::vector<int> reference_of(num_grid, -1);
+  // |height of reference 1 alone − height of reference 2 alone| (−1: one of them did not score).
+  std::vector<float> disagreement(num_grid, -1.0f);
+  const int r = o.patch_radius;
+  std::unique_ptr<Progress> progress;
+  if (o.show_progress)
+    progress = std::make_unique<Progress>("densify: match", tiles.size(), "tile");
+  tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
+    const Tile& tile = tiles[t];
+    if (tile.views.views.empty()) {
+      if (progress) progress->Add();
+      return;
+    }
+    const Eigen::Vector2d lo = grid_origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
+    double ground_lo, ground_hi;
+    ground.Range(Eigen::AlignedBox2d(lo, lo + Eigen::Vector2d(tile.nx, tile.ny) * s), &ground_lo,
+                 &ground_hi);
+    const double z_lo = ground_lo - o.below_ground_m, z_hi = ground_hi + o.max_canopy_height_m;
+
+    // Coarse: every height of the range in steps of coarse_step_m, horizontal patches.
+    SampleGrid grid;
+    grid.spacing = s;
+    grid.r = r;
+    grid.nx = tile.nx + 2 * r;
+    grid.ny = tile.ny + 2 * r;
+    grid.origin = lo + Eigen::Vector2d::Constant((0.5 - r) * s);
+    const int ns = grid.nx * grid.ny;
+    std::vector<float> coarse_levels;
+    for (double z = z_lo; z <= z_hi + 1e-9; z += o.coarse_step_m) {
+      coarse_levels.push_back(static_cast<float>(z));
+    }
+    const SweepVolume cv =
+        sweeper.Run(grid, std::vector<float>(ns, 0.0f), coarse_levels, tile.views);
+    const int fcells_c = tile.nx * tile.ny;
+    std::vector<float> coarse_z(fcells_c, std::numeric_limits<float>::quiet_NaN());
+    std::vector<float> coarse_score(fcells_c, kNoScore);
+    std::vector<float> uniqueness(fcells_c, 0.0f);
+    std::vector<char> inconsistent(fcells_c, 0);
+    std::vector<float> refdiff(fcells_c, -1.0f);
+    const int exclusion = std::max(1, static_cast<int>(std::lround(0.02 / o.coarse_step_m)));
+    for (int c = 0; c < fcells_c; ++c) {
+      auto at = [&](int l) { return cv.score[static_cast<std::size_t>(l) * fcells_c + c]; };
+      int best = -1;
+      for (int l = 0; l < cv.levels; ++l) {
+        if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
+      }
+      if (best < 0) continue;
+      float second = -1.0f;
+      for (int l = 0; l < cv.levels; ++l) {
+        if (std::abs(l - best) > exclusion) second = std::max(second, at(l));
+      }
+      uniqueness[c] = at(best) - second;
+      coarse_score[c] = at(best);
+      if (tile.views.num_references > 1) {
+        // Each reference alone must find the same height (where both see the cell).
+        int arg[2] = {-1, -1};
+        for (int ref = 0; ref < 2; ++ref) {
+          const float* sr =
+              cv.score_by_reference.data() + static_cast<std::size_t>(ref) * cv.levels * fcells_c;
+          for (int l = 0; l < cv.levels; ++l) {
+            const float v = sr[static_cast<std::size_t>(l) * fcells_c + c];
+            if (v > kNoScore &&
+                (arg[ref] < 0 || v > sr[static_cast<std::size_t>(arg[ref]) * fcells_c + c]))
+              arg[ref] = l;
+          }
+        }
+        if (arg[0] >= 0 && arg[1] >= 0)
+          refdiff[c] = static_cast<float>(std::abs(arg[0] - arg[1]) * o.coarse_step_m);
+        if (o.cross_check_m > 0 && arg[0] >= 0 && arg[1] >= 0 &&
+            std::abs(arg[0] - arg[1]) * o.coarse_step_m > o.cross_check_m) {
+          inconsistent[c] = 1;
+        }
+      }
+      double offset = 0;
+      if (best > 0 && best + 1 < cv.levels && at(best - 1) > kNoScore && at(best + 1) > kNoScore) {
+        offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
+      }
+      coarse_z[c] = static_cast<float>(coarse_levels[best] + offset * o.coarse_step_m);
+    }
+    // The surface the fine sweep follows: 3 × 3 median of the confident coarse heights (holes
+    // take their neighbours' median, or the tile's).
+    std::vector<float> all, window;
+    for (int c = 0; c < fcells_c; ++c) {
+      if (coarse_score[c] >= o.min_score) all.push_back(coarse_z[c]);
+    }
+    if (all.empty()) {
+      for (int c = 0; c < fcells_c; ++c) {
+        if (!std::isnan(coarse_z[c])) all.push_back(coarse_z[c]);
+      }
+    }
+    if (all.empty()) {
+      for (int j = 0; j < tile.ny; ++j) {
+        for (int i = 0; i < tile.nx; ++i) {
+          const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * gx + tile.i0 + i;
+          if (state[g] != kOutside) {
+            state[g] = cv.low_texture[j * tile.nx + i] ? kLowTexture : kNoViews;
+          }
+        }
+      }
+      if (progress) progress->Add();
+      return;
+    }
+    const float tile_median = Median(&all);
+    SampleGrid fine = grid;
+    const int rf = o.fine_patch_radius;
+    fine.r = rf;
+    fine.nx = tile.nx + 2 * rf;
+    fine.ny = tile.ny + 2 * rf;
+    fine.origin = lo + Eigen::Vector2d::Constant((0.5 - rf) * s);
+    std::vector<float> base(static_cast<std::size_t>(fine.nx) * fine.ny);
+    for (int b = 0; b < fine.ny; ++b) {
+      for (int a = 0; a < fine.nx; ++a) {
+        const int i = std::clamp(a - rf, 0, tile.nx - 1), j = std::clamp(b - rf, 0, tile.ny - 1);
+        float& out = base[static_cast<std::size_t>(b) * fine.nx + a];
+        window.clear();
+        for (int dj = -1; dj <= 1; ++dj) {
+          for (int di = -1; di <= 1; ++di) {
+            const int ii = i + di, jj = j + dj;
+            if (ii < 0 || jj < 0 || ii >= tile.nx || jj >= tile.ny) continue;
+            const int c = jj * tile.nx + ii;
+            if (coarse_score[c] >= o.min_score) window.push_back(coarse_z[c]);
+          }
+        }
+        out = window.empty() ? tile_median : Median(&window);
+      }
+    }
+    // Fine: ± fine_half_range_m around that surface.
+    std::vector<float> fine_offsets;
+    const int half_levels = static_cast<int>(std::lround(o.fine_half_range_m / o.fine_step_m));
+    for (int k = -half_levels; k <= half_levels; ++k) {
+      fine_offsets.push_back(static_cast<float>(k * o.fine_step_m));
+    }
+    const SweepVolume fv = sweeper.Run(fine, base, fine_offsets, tile.views);
+    const int fcells = tile.nx * tile.ny;
+    for (int j = 0; j < tile.ny; ++j) {
+      for (int i = 0; i < tile.nx; ++i) {
+        const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * gx + tile.i0 + i;
+        if (state[g] == kOutside) continue;
+        const int c = j * tile.nx + i;
+        const int cc = c;
+        auto at = [&](int l) { return fv.score[static_cast<std::size_t>(l) * fcells + c]; };
+        int best = -1;
+        for (int l = 0; l < fv.levels; ++l) {
+          if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
+        }
+        if (best < 0) {
+          state[g] = (fv.low_texture[c] || cv.low_texture[cc]) ? kLowTexture : kNoViews;
+          continue;
+        }
+        if (at(best) < o.min_score) {
+          state[g] = kLowScore;
+          continue;
+        }
+        if (uniqueness[cc] < o.min_uniqueness || inconsistent[cc]) {
+          state[g] = kNotUnique;
+          continue;
+        }
+        if (best == 0 || best + 1 == fv.levels || at(best - 1) <= kNoScore ||
+            at(best + 1) <= kNoScore) {
+          state[g] = kAtRangeEdge;
+          continue;
+        }
+        const double offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
+        const double zc = base[static_cast<std::size_t>(j + rf) * fine.nx + i + rf] +
+                          fine_offsets[best] + offset * o.fine_step_m;
+        state[g] = kKept;
+        height[g] = static_cast<float>(zc);
+        score[g] = at(best);
+        unique[g] = uniqueness[cc];
+        disagreement[g] = refdiff[cc];
+        const std::size_t ib = static_cast<std::size_t>(best) * fcells + c;
+        num_views[g] = static_cast<std::uint8_t>(fv.num_views[ib] + 1);
+        const int ref = tile.views.views[fv.reference[ib]];
+        reference_of[g] = ref;
+        const Eigen::Vector2d xy =
+            grid_origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
+        Eigen::Vector2d pixel;
+        if (camera.Project(geometry[ref].camera_from_world *
+                               (Eigen::Vector3d(xy.x(), xy.y(), zc) - geometry[ref].center),
+                           &pixel)) {
+          images[ref].SampleRgb(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()),
+                                &rgb[g]);
+        }
+      }
+    }
+    if (progress) progress->Add();
+  });
+  progress.reset();
+
+  // Visibility: a point must not hide other points from the views they were matched in. Walk
+  // from every kept point towards its reference camera; a kept cell on the way that lies above
+  // the ray blocks it. A false match floating above the soil blocks the reference rays of many
+  // soil points behind it; a real leaf blocks none, since the points behind it were matched in a
+  // reference that sees them.
+  std::vector<std::uint8_t> occluding(num_grid, 0);
+  std::vector<int> blocked_count(num_grid, 0);
+  if (o.max_blocked_rays > 0) {
+    std::vector<std::atomic<int>> blocked(num_grid);
+    for (auto& b : blocked) b.store(0, std::memory_order_relaxed);
+    const double z_top_span = o.max_canopy_height_m + o.below_ground_m + 0.5;
+    tbb::parallel_for(0, gy, [&](int j) {
+      for (int i = 0; i < gx; ++i) {
+        const std::size_t g = static_cast<std::size_t>(j) * gx + i;
+        if (state[g] != kKept || reference_of[g] < 0) continue;
+        const Eigen::Vector3d p(grid_origin.x() + (i + 0.5) * s, grid_origin.y() + (j + 0.5) * s,
+                                height[g]);
+        const Eigen::Vector3d d = geometry[reference_of[g]].center - p;
+        if (d.z() <= 0) continue;
+        // Up to where the ray is above anything that can have been matched.
+        const double t_max = std::min(1.0, z_top_span / d.z());
+        const double horizontal = d.head<2>().norm() * t_max;
+        const int steps = static_cast<int>(horizontal / (0.5 * s));
+        int last = -1;
+        for (int k = 3; k <= steps; ++k) {  // from 1.5 cells away (not the point's own patch)
+          const double t = t_max * k / std::max(1, steps);
+          const Eigen::Vector3d q = p + t * d;
+          const int ci = static_cast<int>(std::floor((q.x() - grid_origin.x()) / s));
+          const int cj = static_cast<int>(std::floor((q.y() - grid_origin.y()) / s));
+          if (ci < 0 || cj < 0 || ci >= gx || cj >= gy) break;
+          const int c = cj * gx + ci;
+          if (c == last) continue;
+          last = c;
+          if (state[c] == kKept && height[c] > q.z() + o.visibility_tolerance_m) {
+            blocked[c].fetch_add(1, std::memory_order_relaxed);
+          }
+        }
+      }
+    });
+    for (std::size_t g = 0; g < num_grid; ++g) {
+      blocked_count[g] = blocked[g].load(std::memory_order_relaxed);
+      if (blocked_count[g] > o.max_blocked_rays) occluding[g] = 1;
+    }
+    for (std::size_t g = 0; g < num_grid; ++g) {
+      if (occluding[g]) state[g] = kOccluding;
+    }
+  }
+
+  // Isolated points: fewer than min_neighbours of the 8 neighbours within the tolerance.
+  std::vector<std::uint8_t> isolated(num_grid, 0);
+  tbb::parallel_for(0, gy, [&](int j) {
+    for (int i = 0; i < gx; ++i) {
+      const std::size_t g = static_cast<std::size_t>(j) * gx + i;
+      if (state[g] != kKept) continue;
+      int agree = 0;
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const int ii = i + di, jj = j + dj;
+          if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= gx || jj >= gy) continue;
+          const std::size_t n = static_cast<std::size_t>(jj) * gx + ii;
+          if (state[n] == kKept && std::abs(height[n] - height[g]) <= o.neighbour_tolerance_m) {
+            ++agree;
+          }
+        }
+      }
+      if (agree < o.min_neighbours) isolated[g] = 1;
+    }
+  });
+  // Islands: connected sets of kept cells (8-neighbours within neighbour_tolerance_m) smaller
+  // than island_area_m2. A plant's top leaf is often one; so is a false match (the size of a
+  // matching window). The false ones float where the two references, each alone, disagree:
+  // island points whose references' heights differ by more than island_max_disagreement_m go.
+  std::vector<std::vector<std::size_t>> islands;
+  if (o.island_area_m2 > 0) {
+    const int min_cells = static_cast<int>(std::ceil(o.island_area_m2 / (s * s)));
+    std::vector<int> label(num_grid, -1);
+    std::vector<std::size_t> stack, members;
+    for (std::size_t start_cell = 0; start_cell < num_grid; ++start_cell) {
+      if (state[start_cell] != kKept || isolated[start_cell] || label[start_cell] >= 0) continue;
+      members.clear();
+      stack.assign(1, start_cell);
+      label[start_cell] = 1;
+      while (!stack.empty()) {
+        const std::size_t g = stack.back();
+        stack.pop_back();
+        members.push_back(g);
+        const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
+        for (int dj = -1; dj <= 1; ++dj) {
+          for (int di = -1; di <= 1; ++di) {
+            const int ii = i + di, jj = j + dj;
+            if (ii < 0 || jj < 0 || ii >= gx || jj >= gy) continue;
+            const std::size_t n = static_cast<std::size_t>(jj) * gx + ii;
+            if (label[n] >= 0 || state[n] != kKept || isolated[n] ||
+                std::abs(height[n] - height[g]) > o.neighbour_tolerance_m) {
+              continue;
+            }
+            label[n] = 1;
+            stack.push_back(n);
+          }
+        }
+      }
+      if (static_cast<int>(members.size()) < min_cells) {
+        islands.push_back(members);
+      }
+    }
+  }
+  // Each island: its points where the references disagree go; the whole island goes when it
+  // rises more than island_max_rise_m above every other point within island_radius_m (a leaf
+  // does not float high above everything around it; its plant grows from below).
+  {
+    std::vector<std::uint8_t> in_island(num_grid, 0);
+    for (std::size_t k = 0; k < islands.size(); ++k) {
+      for (const std::size_t g : islands[k]) in_island[g] = 1;
+    }
+    const int reach = static_cast<int>(std::ceil(o.island_radius_m / s));
+    for (const std::vector<std::size_t>& island : islands) {
+      float top = -INFINITY;
+      int i0 = gx, i1 = -1, j0 = gy, j1 = -1;
+      for (const std::size_t g : island) {
+        top = std::max(top, height[g]);
+        const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
+        i0 = std::min(i0, i);
+        i1 = std::max(i1, i);
+        j0 = std::min(j0, j);
+        j1 = std::max(j1, j);
+      }
+      float around = -INFINITY;
+      for (int j = std::max(0, j0 - reach); j <= std::min(gy - 1, j1 + reach); ++j) {
+        for (int i = std::max(0, i0 - reach); i <= std::min(gx - 1, i1 + reach); ++i) {
+          const std::size_t g = static_cast<std::size_t>(j) * gx + i;
+          if (state[g] == kKept && !isolated[g] && !in_island[g])
+            around = std::max(around, height[g]);
+        }
+      }
+      const bool floating = top > around + o.island_max_rise_m;
+      for (const std::size_t g : island) {
+        if (floating || disagreement[g] > o.island_max_disagreement_m) isolated[g] = 1;
+      }
+    }
+  }
+  io::PlyScalarField score_field{"score", io::PlyType::kFloat32, {}};
+  io::PlyScalarField views_field{"num_views", io::PlyType::kUint8, {}};
+  io::PlyScalarField unique_field{"uniqueness", io::PlyType::kFloat32, {}};
+  for (int j = 0; j < gy; ++j) {
+    for (int i = 0; i < gx; ++i) {
+      const std::size_t g = static_cast<std::size_t>(j) * gx + i;
+      if (state[g] == kOutside) continue;
+      if (state[g] != kNoViews) ++summary.num_cells_with_views;
+      if (state[g] == kKept && isolated[g]) state[g] = kIsolated;
+      switch (state[g]) {
+        case kLowTexture:
+          ++summary.num_low_texture;
+          break;
+        case kLowScore:
+          ++summary.num_low_score;
+          break;
+        case kNotUnique:
+          ++summary.num_not_unique;
+          break;
+        case kAtRangeEdge:
+          ++summary.num_at_range_edge;
+          break;
+        case kIsolated:
+          ++summary.num_isolated;
+          break;
+        case kOccluding:
+          ++summary.num_occluding;
+          break;
+        default:
+          break;
+      }
+      if (state[g] != kKept) continue;
+      const Eigen::Vector2d xy = grid_origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
+      result.cloud.points.emplace_back(xy.x(), xy.y(), height[g]);
+      result.cloud.colors.push_back(rgb[g]);
+      score_field.values.push_back(score[g]);
+      views_field.values.push_back(num_views[g]);
+      unique_field.values.push_back(unique[g]);
+    }
+  }
+  result.cloud.scalars = {std::move(score_field), std::move(views_field), std::move(unique_field)};
+  summary.num_points = static_cast<std::int64_t>(result.cloud.points.size());
+  summary.match_seconds = SecondsSince(match_start);
+  summary.total_seconds = SecondsSince(start);
+  return result;
+}
+
+}  // namespace crop4d::dense

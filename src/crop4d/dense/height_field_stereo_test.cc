@@ -1,0 +1,234 @@
+// Height-field stereo on a rendered field with the simulator's true camera poses: the soil far
+// from plants must lie on the true terrain within a few millimetres, the top of each plant (the
+// highest dense point within its canopy) at its true height within 2 cm.
+
+#include "crop4d/dense/height_field_stereo.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "crop4d/dense/dense_test_util.h"
+#include "crop4d/dense/ground_levels.h"
+
+namespace crop4d::dense {
+namespace {
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  const std::size_t k = static_cast<std::size_t>(q * (v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+  return v[k];
+}
+
+TEST(GroundLevelsTest, LowQuantilePerTileAndFilledHoles) {
+  std::vector<Eigen::Vector3d> points;
+  // Ground z = 0.1 x over [0, 2] × [0, 1], with a plant point cluster at 0.3 m above it in one
+  // tile, and no point at all in x > 1.5.
+  for (int i = 0; i < 150; ++i) {
+    for (int j = 0; j < 100; j += 2) {
+      const double x = 0.01 * i + 0.005, y = 0.01 * j + 0.005;
+      points.emplace_back(x, y, 0.1 * x);
+      if (x < 0.5 && y < 0.5 && (i + j) % 3 == 0) points.emplace_back(x, y, 0.1 * x + 0.3);
+    }
+  }
+  GroundLevels::Options options;
+  options.tile_m = 0.5;
+  const GroundLevels ground(
+      points, Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 1)), options);
+  ASSERT_TRUE(ground.valid());
+  EXPECT_EQ(ground.cols(), 4);
+  EXPECT_EQ(ground.rows(), 2);
+  EXPECT_EQ(ground.num_measured_tiles(), 6);
+  // Tile levels: the 10% quantile of z in the tile ≈ 0.1 × (tile's x min + 0.05).
+  EXPECT_NEAR(ground.At(0.25, 0.25), 0.1 * 0.05, 0.005);
+  EXPECT_NEAR(ground.At(0.75, 0.75), 0.1 * 0.55, 0.005);
+  // The empty tiles (x > 1.5) take their neighbours' level.
+  EXPECT_NEAR(ground.At(1.75, 0.25), ground.At(1.25, 0.25), 1e-9);
+  double lo, hi;
+  ground.Range(Eigen::AlignedBox2d(Eigen::Vector2d(0.1, 0.1), Eigen::Vector2d(0.2, 0.2)), &lo, &hi);
+  EXPECT_LE(lo, ground.At(0.25, 0.25) + 1e-12);
+  EXPECT_GE(hi, ground.At(0.75, 0.75) - 1e-12);
+  EXPECT_FALSE(
+      GroundLevels({}, Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 1)), options)
+          .valid());
+}
+
+TEST(DenseRegionTest, BoxesAndDiscs) {
+  DenseRegion region;
+  region.bounds = Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 10));
+  EXPECT_TRUE(region.Contains({5, 5}));
+  EXPECT_FALSE(region.Contains({11, 5}));
+  region.centers = {{2, 2}};
+  region.radius_m = 0.5;
+  EXPECT_TRUE(region.Contains({2.3, 2.3}));
+  EXPECT_FALSE(region.Contains({5, 5}));
+  region.boxes = {Eigen::AlignedBox2d(Eigen::Vector2d(4, 4), Eigen::Vector2d(6, 6))};
+  EXPECT_TRUE(region.Contains({5, 5}));
+}
+
+struct Evaluation {
+  std::size_t points = 0;
+  std::vector<double> soil_dz;      // dense z − true terrain, away from every plant's canopy
+  std::vector<double> top_error;    // top of the plant − its true height, per plant in the box
+  std::size_t coloured = 0;         // points with a colour
+  std::size_t high = 0, green = 0;  // points > 3 cm above the terrain, and those that are green
+  std::size_t soil_green = 0;       // green points among the soil points
+};
+
+// Compares a dense cloud of `box` with the world's truth on `date`: the soil away from plants
+// with the terrain, and each plant's top — the highest point within its canopy radius, above the
+// terrain at its stem — with its height (for the plants whose canopy lies inside the box).
+Evaluation Evaluate(const sim::World& world, Timestamp date, const io::PlyPointCloud& cloud,
+                    const Eigen::AlignedBox2d& box) {
+  Evaluation e;
+  e.points = cloud.size();
+  std::vector<std::pair<const sim::Plant*, sim::PlantState>> plants;
+  for (const sim::Plant& p : world.plants()) {
+    const sim::PlantState st = world.StateAt(p, date);
+    if (st.emerged) plants.emplace_back(&p, st);
+  }
+  std::vector<double> top(plants.size(), -INFINITY);
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d& q = cloud.points[i];
+    const double terrain = world.TerrainHeight(q.x(), q.y());
+    const auto& c = cloud.colors[i];
+    e.coloured += (c[0] + c[1] + c[2]) > 0;
+    if (q.z() - terrain > 0.03) {
+      ++e.high;
+      e.green += c[1] > c[0] && c[1] > c[2];
+    }
+    bool near_plant = false;
+    for (std::size_t k = 0; k < plants.size(); ++k) {
+      const double d = (q.head<2>() - plants[k].first->xy).norm();
+      if (d < plants[k].second.canopy_radius_m + 0.05) near_plant = true;
+      if (d < plants[k].second.canopy_radius_m) top[k] = std::max(top[k], q.z());
+    }
+    if (!near_plant) {
+      e.soil_dz.push_back(q.z() - terrain);
+      e.soil_green += c[1] > c[0] && c[1] > c[2];
+    }
+  }
+  for (std::size_t k = 0; k < plants.size(); ++k) {
+    const Eigen::Vector2d xy = plants[k].first->xy;
+    Eigen::AlignedBox2d inner = box;
+    inner.min() += Eigen::Vector2d::Constant(plants[k].second.canopy_radius_m);
+    inner.max() -= Eigen::Vector2d::Constant(plants[k].second.canopy_radius_m);
+    if (!inner.contains(xy)) continue;
+    const double measured = top[k] - world.TerrainHeight(xy.x(), xy.y());
+    e.top_error.push_back(std::isfinite(measured) ? measured - plants[k].second.height_m : -1.0);
+  }
+  return e;
+}
+
+// Two sessions of a rendered field (the demo's camera, the simulator's true poses): early, with
+// plants of 7–13 cm whose leaves are a few pixels wide, and mid-season (20–30 cm).
+class HeightFieldStereoTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    simulator_ = new sim::Simulator(testing::StripConfig({"2016-06-05", "2016-06-24"}));
+    sim::RenderOptions ro;
+    ro.camera = simulator_->config().camera.Intrinsics();
+    ro.msaa_samples = simulator_->config().camera.msaa_samples;
+    try {
+      renderer_ = new sim::Renderer(simulator_->world(), ro);
+    } catch (const std::runtime_error& e) {
+      renderer_ = nullptr;
+    }
+  }
+  static void TearDownTestSuite() {
+    delete renderer_;
+    delete simulator_;
+    renderer_ = nullptr;
+    simulator_ = nullptr;
+  }
+
+  // Reconstructs `box` (both rows, 1 m along them) in session `session`.
+  Evaluation Reconstruct(int session, const Eigen::AlignedBox2d& box,
+                         HeightFieldStereo::Summary* summary) {
+    const testing::RenderedSession rs =
+        testing::RenderAround(*simulator_, renderer_, session, box.center(), 4.0);
+    std::vector<DenseView> views;
+    for (const testing::RenderedImage& im : rs.images) {
+      views.push_back({im.world_from_camera, std::to_string(im.t)});
+    }
+    const sim::World& world = simulator_->world();
+    Eigen::AlignedBox2d wide = box;
+    wide.min() -= Eigen::Vector2d::Constant(1.0);
+    wide.max() += Eigen::Vector2d::Constant(1.0);
+    const GroundLevels ground(testing::SoilCloud(world, wide), wide, GroundLevels::Options{});
+    DenseRegion region;
+    region.bounds = box;
+    HeightFieldStereo::Options options;
+    options.show_progress = false;
+    const HeightFieldStereo stereo(options);
+    const HeightFieldStereo::Result result = stereo.Run(
+        rs.camera, views, [&](int i) { return testing::ToRgbImage(rs.images[i].bgr); }, region,
+        ground);
+    *summary = result.summary;
+    return Evaluate(world, rs.date, result.cloud, box);
+  }
+
+  static sim::Simulator* simulator_;
+  static sim::Renderer* renderer_;
+};
+
+sim::Simulator* HeightFieldStereoTest::simulator_ = nullptr;
+sim::Renderer* HeightFieldStereoTest::renderer_ = nullptr;
+
+std::string Describe(const Evaluation& e) {
+  std::string text = "top errors [cm]:";
+  for (double t : e.top_error) text += " " + std::to_string(static_cast<int>(std::lround(100 * t)));
+  return text;
+}
+
+void ExpectAccurate(const Evaluation& e, const HeightFieldStereo::Summary& s,
+                    double min_fraction_kept) {
+  EXPECT_GT(s.num_points, min_fraction_kept * s.num_cells);
+  // Soil: a few millimetres from the true terrain.
+  ASSERT_GT(e.soil_dz.size(), 1000u);
+  std::vector<double> abs_dz;
+  for (double d : e.soil_dz) abs_dz.push_back(std::abs(d));
+  EXPECT_LT(std::abs(Quantile(e.soil_dz, 0.5)), 0.002);
+  EXPECT_LT(Quantile(abs_dz, 0.5), 0.003);
+  EXPECT_LT(Quantile(abs_dz, 0.9), 0.008);
+  // Plant tops within 2 cm of the truth for most plants, within 8 cm for all (the highest point
+  // within a canopy radius may be a neighbour's leaf where canopies overlap).
+  ASSERT_GE(e.top_error.size(), 5u);
+  int within = 0;
+  for (double t : e.top_error) {
+    within += std::abs(t) <= 0.02;
+    EXPECT_LT(std::abs(t), 0.08) << Describe(e);
+  }
+  EXPECT_GE(within, 0.7 * e.top_error.size()) << Describe(e);
+  // Colours: every point has one; what stands above the soil is mostly green (points between
+  // leaves take their height from the window and the colour of the soil seen through the gap),
+  // the soil is not.
+  EXPECT_EQ(e.coloured, e.points);
+  ASSERT_GT(e.high, 50u);
+  EXPECT_GT(e.green, 0.3 * e.high);
+  EXPECT_LT(e.soil_green, 0.02 * e.soil_dz.size());
+}
+
+TEST_F(HeightFieldStereoTest, EarlySeasonSoilAndSmallPlantTops) {
+  if (renderer_ == nullptr) GTEST_SKIP() << "no headless OpenGL";
+  const Eigen::AlignedBox2d box(Eigen::Vector2d(-0.35, 3.5), Eigen::Vector2d(1.26, 4.5));
+  HeightFieldStereo::Summary summary;
+  const Evaluation e = Reconstruct(0, box, &summary);
+  ExpectAccurate(e, summary, 0.9);
+}
+
+TEST_F(HeightFieldStereoTest, MidSeasonSoilAndPlantTops) {
+  if (renderer_ == nullptr) GTEST_SKIP() << "no headless OpenGL";
+  const Eigen::AlignedBox2d box(Eigen::Vector2d(-0.35, 3.5), Eigen::Vector2d(1.26, 4.5));
+  HeightFieldStereo::Summary summary;
+  const Evaluation e = Reconstruct(1, box, &summary);
+  ExpectAccurate(e, summary, 0.7);
+}
+
+}  // namespace
+}  // namespace crop4d::dense

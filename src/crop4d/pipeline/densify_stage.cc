@@ -1,0 +1,347 @@
+#include "crop4d/pipeline/densify_stage.h"
+
+#include <spdlog/spdlog.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iterator>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+
+#include "crop4d/core/error.h"
+#include "crop4d/features/hash.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/io/image_sequence.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// Changes whenever the stage's outputs for the same inputs change.
+constexpr int kDensifyStageRevision = 1;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// FNV-1a of a file's bytes ("missing" when it cannot be read).
+std::string FileHash(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "missing";
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  features::Fnv1aHasher hasher;
+  hasher.AddBytes(bytes.data(), bytes.size());
+  return std::to_string(hasher.hash());
+}
+
+json BoxJson(const Eigen::AlignedBox2d& box) {
+  if (box.isEmpty()) return json::array();
+  return {box.min().x(), box.min().y(), box.max().x(), box.max().y()};
+}
+
+json OptionsJson(const DensifyStageOptions& o, const std::vector<Eigen::Vector2d>& centers) {
+  const dense::HeightFieldStereo::Options& s = o.stereo;
+  json boxes = json::array();
+  for (const Eigen::AlignedBox2d& b : o.boxes) boxes.push_back(BoxJson(b));
+  json points = json::array();
+  for (const Eigen::Vector2d& c : centers) points.push_back({c.x(), c.y()});
+  return {{"camera", o.camera},
+          {"margin_m", o.margin_m},
+          {"boxes", boxes},
+          {"centers", points},
+          {"radius_m", centers.empty() ? 0.0 : o.radius_m},
+          {"cell_m", s.cell_m},
+          {"tile_cells", s.tile_cells},
+          {"patch_radius", s.patch_radius},
+          {"below_ground_m", s.below_ground_m},
+          {"max_canopy_height_m", s.max_canopy_height_m},
+          {"coarse_step_m", s.coarse_step_m},
+          {"fine_half_range_m", s.fine_half_range_m},
+          {"fine_step_m", s.fine_step_m},
+          {"max_views", s.max_views},
+          {"max_view_distance_m", s.max_view_distance_m},
+          {"image_margin_px", s.image_margin_px},
+          {"min_reference_separation_m", s.min_reference_separation_m},
+          {"min_views", s.min_views},
+          {"min_score", s.min_score},
+          {"min_texture", s.min_texture},
+          {"min_uniqueness", s.min_uniqueness},
+          {"min_neighbours", s.min_neighbours},
+          {"neighbour_tolerance_m", s.neighbour_tolerance_m},
+          {"cross_check_m", s.cross_check_m},
+          {"vegetation_weight", s.vegetation_weight},
+          {"highpass_sigma_px", s.highpass_sigma_px},
+          {"highpass_gain", s.highpass_gain},
+          {"ground_tile_m", o.ground.tile_m},
+          {"ground_quantile", o.ground.quantile},
+          {"ground_min_points", o.ground.min_points}};
+}
+
+// The crop rows widened by the margin, or the sparse cloud's extent.
+Eigen::AlignedBox2d FieldRegion(const io::FieldInfo& field, const io::PlyPointCloud& sparse,
+                                double margin) {
+  Eigen::AlignedBox2d box;
+  for (const io::RowDeclaration& row : field.rows) {
+    box.extend(row.start_enu);
+    box.extend(row.end_enu);
+  }
+  if (box.isEmpty()) {
+    for (const Eigen::Vector3d& p : sparse.points) {
+      if (p.allFinite()) box.extend(p.head<2>());
+    }
+    return box;
+  }
+  box.min() -= Eigen::Vector2d::Constant(margin);
+  box.max() += Eigen::Vector2d::Constant(margin);
+  return box;
+}
+
+}  // namespace
+
+bool DensifyStageOptions::Check() const {
+  for (const Eigen::AlignedBox2d& b : boxes) {
+    if (b.isEmpty() || !b.min().allFinite() || !b.max().allFinite()) return false;
+  }
+  for (const Eigen::Vector2d& c : centers) {
+    if (!c.allFinite()) return false;
+  }
+  return !camera.empty() && margin_m >= 0 && radius_m > 0 && num_threads >= 0 && stereo.Check() &&
+         ground.Check();
+}
+
+std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folder,
+                                                  const std::string& workspace,
+                                                  const DensifyStageOptions& options) {
+  CROP4D_CHECK(options.Check());
+  const io::Field field(field_folder);
+  const fs::path fused_dir = fs::path(workspace) / "fused";
+  const fs::path out_dir = fs::path(workspace) / "dense";
+
+  std::vector<std::string> sessions = options.sessions;
+  if (sessions.empty()) {
+    for (const std::string& id : field.session_ids()) {
+      if (fs::exists(fused_dir / id / "poses.tum")) sessions.push_back(id);
+    }
+    if (sessions.empty()) {
+      throw InputError(fused_dir.string(), 0,
+                       "no fused poses of any session (run `crop4d fuse` first)");
+    }
+  } else {
+    for (const std::string& id : sessions) {
+      const auto& ids = field.session_ids();
+      if (std::find(ids.begin(), ids.end(), id) == ids.end()) {
+        throw InputError(field_folder, 0, "no session '" + id + "' in the field");
+      }
+    }
+  }
+  for (const std::string& id : sessions) {
+    for (const char* file : {"poses.tum", "sparse.ply"}) {
+      if (!fs::exists(fused_dir / id / file)) {
+        throw InputError(
+            (fused_dir / id / file).string(), 0,
+            "missing: session " + id + " has not been fused (run `crop4d fuse` first)");
+      }
+    }
+  }
+  std::vector<Eigen::Vector2d> centers = options.centers;
+  if (options.around_sites) {
+    if (field.info().sites.empty()) {
+      spdlog::warn("densify: field.yaml declares no sites; --around-sites has no effect");
+    }
+    for (const io::Site& site : field.info().sites) centers.push_back(site.center_enu);
+  }
+
+  tbb::task_arena arena(options.num_threads > 0 ? options.num_threads : tbb::task_arena::automatic);
+  std::vector<DensifySessionReport> reports;
+  for (const std::string& id : sessions) {
+    const Clock::time_point start = Clock::now();
+    DensifySessionReport report;
+    report.session = id;
+    const fs::path poses_path = fused_dir / id / "poses.tum";
+    const fs::path sparse_path = fused_dir / id / "sparse.ply";
+    const fs::path ply_path = out_dir / (id + ".ply");
+    const fs::path json_path = out_dir / (id + ".json");
+    report.ply_path = ply_path.string();
+    const io::Session session = field.OpenSession(id);
+    if (session.FindCamera(options.camera) == nullptr) {
+      throw InputError(session.folder(), 0, "no camera '" + options.camera + "' in session " + id);
+    }
+
+    // Fingerprint of the inputs and options.
+    const json options_json = OptionsJson(options, centers);
+    features::Fnv1aHasher fingerprint;
+    fingerprint.Add(kDensifyStageRevision);
+    fingerprint.AddString(options_json.dump());
+    for (const fs::path& p :
+         {poses_path, sparse_path, fs::path(session.folder()) / options.camera / "sensor.yaml",
+          fs::path(session.DataCsvPath(options.camera)), fs::path(field_folder) / "field.yaml"}) {
+      fingerprint.AddString(FileHash(p));
+    }
+    const std::string stamp = std::to_string(fingerprint.hash());
+    if (!options.force && fs::exists(json_path) && fs::exists(ply_path)) {
+      try {
+        std::ifstream in(json_path);
+        const json previous = json::parse(in);
+        if (previous.value("fingerprint", "") == stamp) {
+          spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
+          report.skipped = true;
+          report.num_poses = previous.value("poses", 0);
+          report.num_views = previous.value("views", 0);
+          report.stereo.num_points = previous.value("points", std::int64_t{0});
+          reports.push_back(report);
+          continue;
+        }
+      } catch (const std::exception&) {
+        // A damaged summary: densify again.
+      }
+    }
+
+    // Poses, images, sparse cloud.
+    const std::vector<io::StampedPose> poses = io::ReadTum(poses_path.string());
+    report.num_poses = static_cast<int>(poses.size());
+    const io::ImageSequence images(session, options.camera);
+    std::map<Timestamp, std::size_t> image_of;
+    for (std::size_t i = 0; i < images.size(); ++i) image_of[images.time(i)] = i;
+    std::vector<dense::DenseView> views;
+    std::vector<std::size_t> view_image;
+    for (const io::StampedPose& p : poses) {
+      const auto it = image_of.find(p.t);
+      if (it == image_of.end()) continue;
+      views.push_back({p.pose, images.Path(it->second)});
+      view_image.push_back(it->second);
+    }
+    report.num_views = static_cast<int>(views.size());
+    if (views.empty()) {
+      throw InputError(poses_path.string(), 0,
+                       "no pose matches an image of " + session.DataCsvPath(options.camera) +
+                           " (stale fused poses? run `crop4d fuse` again)");
+    }
+    if (views.size() < poses.size()) {
+      spdlog::warn("densify {}: {} of {} fused poses have no image; they are not used", id,
+                   poses.size() - views.size(), poses.size());
+    }
+    const io::PlyPointCloud sparse = io::ReadPly(sparse_path.string());
+    dense::DenseRegion region;
+    region.bounds = FieldRegion(field.info(), sparse, options.margin_m);
+    region.boxes = options.boxes;
+    region.centers = centers;
+    region.radius_m = options.radius_m;
+    if (!options.boxes.empty() || !centers.empty()) {
+      // Shrink the bounds to what the boxes and discs cover.
+      Eigen::AlignedBox2d cover;
+      for (const Eigen::AlignedBox2d& b : options.boxes) cover.extend(b);
+      for (const Eigen::Vector2d& c : centers) {
+        cover.extend(c - Eigen::Vector2d::Constant(options.radius_m));
+        cover.extend(c + Eigen::Vector2d::Constant(options.radius_m));
+      }
+      region.bounds = region.bounds.intersection(cover);
+    }
+    report.region = region.bounds;
+    Eigen::AlignedBox2d ground_box = region.bounds;
+    ground_box.min() -= Eigen::Vector2d::Constant(options.ground.tile_m);
+    ground_box.max() += Eigen::Vector2d::Constant(options.ground.tile_m);
+    const dense::GroundLevels ground(sparse.points, ground_box, options.ground);
+    if (!ground.valid()) {
+      throw InputError(sparse_path.string(), 0,
+                       "no point of the sparse cloud lies in the region to densify");
+    }
+    const geometry::PinholeRadTan& camera = images.camera().camera;
+    spdlog::info("densify {}: {} views, region [{:.2f}, {:.2f}] x [{:.2f}, {:.2f}] m", id,
+                 views.size(), region.bounds.min().x(), region.bounds.max().x(),
+                 region.bounds.min().y(), region.bounds.max().y());
+
+    dense::HeightFieldStereo::Options stereo_options = options.stereo;
+    stereo_options.show_progress = options.show_progress;
+    const dense::HeightFieldStereo stereo(stereo_options);
+    dense::HeightFieldStereo::Result result;
+    arena.execute([&] {
+      result = stereo.Run(
+          camera, views,
+          [&](int v) {
+            dense::RgbImage out;
+            const cv::Mat bgr = images.LoadImage(view_image[v]);
+            if (bgr.empty()) return out;
+            cv::Mat rgb;
+            cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+            out.width = rgb.cols;
+            out.height = rgb.rows;
+            out.rgb.assign(rgb.data, rgb.data + static_cast<std::size_t>(rgb.total()) * 3);
+            return out;
+          },
+          region, ground);
+    });
+    report.stereo = result.summary;
+
+    io::PlyWriteOptions ply;
+    ply.comment =
+        "crop4d dense cloud of session " + id + " (height-field stereo), field ENU frame (metres)";
+    io::WritePly(ply_path.string(), result.cloud, ply);
+    report.seconds = SecondsSince(start);
+
+    const dense::HeightFieldStereo::Summary& s = result.summary;
+    json summary;
+    summary["fingerprint"] = stamp;
+    summary["session"] = id;
+    summary["options"] = options_json;
+    summary["region"] = BoxJson(region.bounds);
+    summary["poses"] = report.num_poses;
+    summary["views"] = report.num_views;
+    summary["points"] = s.num_points;
+    summary["cells"] = {{"region", s.num_cells},
+                        {"with_views", s.num_cells_with_views},
+                        {"low_texture", s.num_low_texture},
+                        {"low_score", s.num_low_score},
+                        {"not_unique", s.num_not_unique},
+                        {"at_range_edge", s.num_at_range_edge},
+                        {"isolated", s.num_isolated}};
+    summary["tiles"] = s.num_tiles;
+    summary["images"] = {{"used", s.num_images_used},
+                         {"failed", s.num_images_failed},
+                         {"mean_views_per_tile", s.mean_views_per_tile}};
+    summary["ground_tiles_measured"] = ground.num_measured_tiles();
+    summary["seconds"] = {{"load", s.load_seconds},
+                          {"match", s.match_seconds},
+                          {"stereo", s.total_seconds},
+                          {"total", report.seconds}};
+    io::WriteFileAtomic(json_path.string(), summary.dump(2) + "\n");
+    spdlog::info("densify {}: {} points in {:.1f} s", id, s.num_points, report.seconds);
+    reports.push_back(report);
+  }
+  return reports;
+}
+
+std::string FormatDensifyReport(const std::vector<DensifySessionReport>& reports) {
+  std::ostringstream out;
+  out << "  session      points     cells    kept%  views/tile  images   time [s]\n";
+  for (const DensifySessionReport& r : reports) {
+    char line[200];
+    if (r.skipped) {
+      std::snprintf(line, sizeof(line), "  %-12s %8lld   (up to date)\n", r.session.c_str(),
+                    static_cast<long long>(r.stereo.num_points));
+    } else {
+      const dense::HeightFieldStereo::Summary& s = r.stereo;
+      std::snprintf(line, sizeof(line), "  %-12s %8lld %9lld  %6.1f  %10.1f  %6d  %9.1f\n",
+                    r.session.c_str(), static_cast<long long>(s.num_points),
+                    static_cast<long long>(s.num_cells),
+                    s.num_cells > 0 ? 100.0 * s.num_points / s.num_cells : 0.0,
+                    s.mean_views_per_tile, s.num_images_used, r.seconds);
+    }
+    out << line;
+  }
+  return out.str();
+}
+
+}  // namespace crop4d::pipeline

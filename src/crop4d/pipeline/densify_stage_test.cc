@@ -1,0 +1,163 @@
+// The densify stage on a small rendered field with the simulator's true poses standing in for
+// `crop4d fuse`'s: outputs and their accuracy, skipping when up to date, --force, a changed input,
+// and the error for a workspace that has not been fused.
+
+#include "crop4d/pipeline/densify_stage.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "crop4d/core/error.h"
+#include "crop4d/dense/dense_test_util.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
+#include "crop4d/sim/renderer.h"
+#include "crop4d/sim/simulator.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+class DensifyStageTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    root_ =
+        (fs::path(::testing::TempDir()) / ("crop4d_densify_" + std::to_string(getpid()))).string();
+    fs::remove_all(root_);
+    field_ = root_ + "/field";
+    workspace_ = root_ + "/ws";
+    fs::create_directories(workspace_);
+  }
+  void TearDown() override { fs::remove_all(root_); }
+
+  // Renders the views of a small box on row 0 with the tiny preset's 320×240 camera and writes
+  // the field and the "fused" workspace. False when there is no headless OpenGL.
+  bool MakeField() {
+    simulator_ = std::make_unique<sim::Simulator>(
+        dense::testing::StripConfig({"2016-06-20"}, 3, /*small_camera=*/true));
+    sim::RenderOptions ro;
+    ro.camera = simulator_->config().camera.Intrinsics();
+    std::unique_ptr<sim::Renderer> renderer;
+    try {
+      renderer = std::make_unique<sim::Renderer>(simulator_->world(), ro);
+    } catch (const std::runtime_error&) {
+      return false;
+    }
+    const dense::testing::RenderedSession rs =
+        dense::testing::RenderAround(*simulator_, renderer.get(), 0, box_.center(), 4.0);
+    session_ = rs.id;
+    Eigen::AlignedBox2d wide = box_;
+    wide.min() -= Eigen::Vector2d::Constant(1.5);
+    wide.max() += Eigen::Vector2d::Constant(1.5);
+    dense::testing::WriteFieldAndWorkspace(*simulator_, rs, wide, field_, workspace_);
+    return true;
+  }
+
+  DensifyStageOptions Options() const {
+    DensifyStageOptions o;
+    o.show_progress = false;
+    o.boxes = {box_};
+    o.stereo.cell_m = 0.015;  // the 320×240 camera's pixels cover twice the demo camera's ground
+    return o;
+  }
+
+  std::string root_, field_, workspace_, session_;
+  std::unique_ptr<sim::Simulator> simulator_;
+  const Eigen::AlignedBox2d box_{Eigen::Vector2d(-0.3, 3.7), Eigen::Vector2d(0.5, 4.3)};
+};
+
+TEST_F(DensifyStageTest, WritesAnAccurateCloudAndSkipsWhenUpToDate) {
+  if (!MakeField()) GTEST_SKIP() << "no headless OpenGL";
+  const std::vector<DensifySessionReport> first = RunDensifyStage(field_, workspace_, Options());
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_FALSE(first[0].skipped);
+  EXPECT_EQ(first[0].session, session_);
+  EXPECT_GT(first[0].num_views, 20);
+  const std::string ply = workspace_ + "/dense/" + session_ + ".ply";
+  const std::string summary = workspace_ + "/dense/" + session_ + ".json";
+  ASSERT_TRUE(fs::exists(ply));
+  ASSERT_TRUE(fs::exists(summary));
+
+  // The cloud: points inside the box, coloured, with the scalars; the soil on the terrain.
+  const io::PlyPointCloud cloud = io::ReadPly(ply);
+  EXPECT_EQ(static_cast<std::int64_t>(cloud.size()), first[0].stereo.num_points);
+  EXPECT_GT(cloud.size(), 0.5 * first[0].stereo.num_cells);
+  ASSERT_EQ(cloud.colors.size(), cloud.size());
+  ASSERT_NE(cloud.FindScalar("score"), nullptr);
+  ASSERT_NE(cloud.FindScalar("num_views"), nullptr);
+  const sim::World& world = simulator_->world();
+  const Timestamp date = simulator_->config().SessionDates()[0];
+  std::vector<double> soil;
+  for (const Eigen::Vector3d& p : cloud.points) {
+    EXPECT_TRUE(box_.contains(p.head<2>()));
+    bool near_plant = false;
+    for (const sim::Plant& plant : world.plants()) {
+      const sim::PlantState s = world.StateAt(plant, date);
+      near_plant |= s.emerged && (p.head<2>() - plant.xy).norm() < s.canopy_radius_m + 0.05;
+    }
+    if (!near_plant) soil.push_back(std::abs(p.z() - world.TerrainHeight(p.x(), p.y())));
+  }
+  ASSERT_GT(soil.size(), 1000u);
+  std::nth_element(soil.begin(), soil.begin() + soil.size() / 2, soil.end());
+  // 320×240 pixels cover 2 cm of ground at 2.5 m: the soil is still within a few millimetres.
+  EXPECT_LT(soil[soil.size() / 2], 0.005);
+  {
+    std::ifstream in(summary);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_FALSE(j.value("fingerprint", "").empty());
+    EXPECT_EQ(j.value("points", std::int64_t{0}), first[0].stereo.num_points);
+  }
+
+  // Unchanged: skipped; --force: densified again.
+  const std::vector<DensifySessionReport> second = RunDensifyStage(field_, workspace_, Options());
+  ASSERT_EQ(second.size(), 1u);
+  EXPECT_TRUE(second[0].skipped);
+  EXPECT_EQ(second[0].stereo.num_points, first[0].stereo.num_points);
+  DensifyStageOptions force = Options();
+  force.force = true;
+  EXPECT_FALSE(RunDensifyStage(field_, workspace_, force)[0].skipped);
+
+  // New fused poses (here: the same poses, one dropped) or other options: densified again.
+  const std::string poses_path = workspace_ + "/fused/" + session_ + "/poses.tum";
+  std::vector<io::StampedPose> poses = io::ReadTum(poses_path);
+  poses.pop_back();
+  io::WriteTum(poses_path, poses);
+  EXPECT_FALSE(RunDensifyStage(field_, workspace_, Options())[0].skipped);
+  EXPECT_TRUE(RunDensifyStage(field_, workspace_, Options())[0].skipped);
+  DensifyStageOptions other = Options();
+  other.stereo.min_score = 0.6;
+  EXPECT_FALSE(RunDensifyStage(field_, workspace_, other)[0].skipped);
+}
+
+TEST_F(DensifyStageTest, MissingFusedOutputSaysToRunFuse) {
+  // A field with a session but no images (nothing is rendered: the error comes first).
+  simulator_ = std::make_unique<sim::Simulator>(
+      dense::testing::StripConfig({"2016-06-20"}, 3, /*small_camera=*/true));
+  dense::testing::RenderedSession rs;
+  rs.id = session_ = "2016-06-20";
+  rs.camera = simulator_->config().camera.Intrinsics();
+  dense::testing::WriteFieldAndWorkspace(*simulator_, rs, box_, field_, workspace_);
+  fs::remove(workspace_ + "/fused/" + session_ + "/poses.tum");
+  try {
+    RunDensifyStage(field_, workspace_, Options());
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("crop4d fuse"), std::string::npos) << e.what();
+  }
+  DensifyStageOptions named = Options();
+  named.sessions = {session_};
+  EXPECT_THROW(RunDensifyStage(field_, workspace_, named), InputError);
+  named.sessions = {"1999-01-01"};
+  EXPECT_THROW(RunDensifyStage(field_, workspace_, named), InputError);
+}
+
+}  // namespace
+}  // namespace crop4d::pipeline

@@ -57,10 +57,10 @@ const char* CanopyTopName(CanopyTop top) {
 }
 
 bool CanopyOptions::Check() const {
-  return min_height_m >= 0.0 && cell_m > 0.0 && crown_radius_m >= 0.0 && top_radius_m >= 0.0 &&
-         plant_top_quantile >= 0.0 && plant_top_quantile <= 1.0 && min_peak_fraction >= 0.0 &&
-         min_peak_fraction <= 1.0 && top_quantile > 0.0 && top_quantile <= 1.0 &&
-         min_canopy_cells >= 1;
+  return min_height_m >= 0.0 && min_height_any_colour_m >= min_height_m && cell_m > 0.0 &&
+         crown_radius_m >= 0.0 && top_radius_m >= 0.0 && plant_top_quantile >= 0.0 &&
+         plant_top_quantile <= 1.0 && min_peak_fraction >= 0.0 && min_peak_fraction <= 1.0 &&
+         top_quantile > 0.0 && top_quantile <= 1.0 && min_canopy_cells >= 1;
 }
 
 SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
@@ -82,7 +82,7 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
     if (!std::isfinite(g)) continue;
     cells.has_points[k] = 1;
     const double h = p.z() - g;
-    if (cloud.is_vegetation[i] && h >= o.min_height_m) {
+    if (o.IsCanopy(cloud.is_vegetation[i], h)) {
       cells.canopy[k] = std::max(cells.canopy[k], static_cast<float>(h));
       ++cells.canopy_points[k];
     }
@@ -211,7 +211,7 @@ std::vector<float> CanopyHeightModel(
     float& cell = chm[c];
     if (!std::isfinite(cell)) cell = 0.0f;
     const double h = p.z() - g;
-    if (cloud.is_vegetation[n] && h >= o.min_height_m) cell = std::max(cell, static_cast<float>(h));
+    if (o.IsCanopy(cloud.is_vegetation[n], h)) cell = std::max(cell, static_cast<float>(h));
   }
   return chm;
 }

@@ -26,7 +26,6 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
   // The canopy height of each cell (0: none).
   cv::Mat height(rows, cols, CV_32F, cv::Scalar(0));
   for (std::size_t i = 0; i < cloud.points.size(); ++i) {
-    if (!cloud.is_vegetation[i]) continue;
     const Eigen::Vector3d& p = cloud.points[i];
     const int c = static_cast<int>((p.x() - area.min().x()) / o.cell_m);
     const int r = static_cast<int>((p.y() - area.min().y()) / o.cell_m);
@@ -34,7 +33,7 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
     const double g = ground(p.x(), p.y());
     if (!std::isfinite(g)) continue;
     const double h = p.z() - g;
-    if (h < canopy.min_height_m) continue;
+    if (!canopy.IsCanopy(cloud.is_vegetation[i], h)) continue;
     float& cell = height.at<float>(r, c);
     cell = std::max(cell, static_cast<float>(h));
   }

@@ -104,6 +104,9 @@ RunFunction SetupAnalyze(CLI::App& app) {
   app.add_option("--min-canopy-height", o.canopy.min_height_m,
                  "Vegetation lower than this above the terrain is not canopy, m")
       ->capture_default_str();
+  app.add_option("--min-canopy-height-any-colour", o.canopy.min_height_any_colour_m,
+                 "Points this high above the terrain are canopy whatever their colour, m")
+      ->capture_default_str();
   app.add_option("--canopy-top", args->top,
                  "Canopy top statistic of a site: plant-tops (mean of the tops of the plants "
                  "found at the site), crown-peaks (mean of the crown tops) or quantile")

@@ -54,6 +54,7 @@ json OptionsJson(const AnalyzeStageOptions& o) {
             {"max_fill_distance_m", o.terrain.max_fill_distance_m}}},
           {"canopy",
            {{"min_height_m", o.canopy.min_height_m},
+            {"min_height_any_colour_m", o.canopy.min_height_any_colour_m},
             {"cell_m", o.canopy.cell_m},
             {"top", analysis::CanopyTopName(o.canopy.top)},
             {"top_radius_m", o.canopy.top_radius_m},

@@ -192,10 +192,11 @@ TEST_F(AnalyzeStageTest, HeightsMatchTheTruthOnTwoWorlds) {
       EXPECT_LE(r.ours.cover, 1.0);
     }
     const double rmse = std::sqrt(sum2 / n);
-    // Measured: 4.8 and 8.2 mm RMSE, worst 13 and 21 mm (the clouds' 2 mm noise, and neighbours'
-    // leaves reaching over a plant's stem late in the season).
-    EXPECT_LT(rmse, 0.015);
-    EXPECT_LT(worst, 0.03);
+    // The targets (2 cm RMSE, no site above 4 cm) on the true geometry. Measured: 9.9
+    // and 13.2 mm RMSE, worst 28 and 26 mm (the clouds' 2 mm noise, and neighbours' leaves
+    // reaching within 8 cm of a plant's stem late in the season).
+    EXPECT_LT(rmse, 0.02);
+    EXPECT_LT(worst, 0.04);
     RecordProperty("rmse_mm_seed_" + std::to_string(seed), std::to_string(1000 * rmse));
     std::printf(
         "seed %llu: canopy height RMSE %.1f mm (bias %+.1f mm, worst %.1f mm), single plane %.1f "

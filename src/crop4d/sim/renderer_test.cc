@@ -162,9 +162,9 @@ TEST_F(RendererTest, DeterministicAndDepthConsistent) {
       // ground seen at a grazing angle next to a leaf's edge).
       const int u0 = static_cast<int>(std::floor(pixel.x())),
                 v0 = static_cast<int>(std::floor(pixel.y()));
-      const float nearest4 = std::min({depth1.at<float>(v0, u0), depth1.at<float>(v0, u0 + 1),
-                                       depth1.at<float>(v0 + 1, u0),
-                                       depth1.at<float>(v0 + 1, u0 + 1)});
+      const float nearest4 =
+          std::min({depth1.at<float>(v0, u0), depth1.at<float>(v0, u0 + 1),
+                    depth1.at<float>(v0 + 1, u0), depth1.at<float>(v0 + 1, u0 + 1)});
       EXPECT_LT(nearest4, in_camera.z() + 0.015) << x << " " << y;
       if (std::abs(d - in_camera.z()) < 0.015) ++checked;
     }

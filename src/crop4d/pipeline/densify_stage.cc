@@ -22,6 +22,7 @@
 #include "crop4d/io/image_sequence.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/pipeline/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -35,16 +36,6 @@ constexpr int kDensifyStageRevision = 1;
 
 double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-// FNV-1a of a file's bytes ("missing" when it cannot be read).
-std::string FileHash(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "missing";
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  features::Fnv1aHasher hasher;
-  hasher.AddBytes(bytes.data(), bytes.size());
-  return std::to_string(hasher.hash());
 }
 
 json BoxJson(const Eigen::AlignedBox2d& box) {
@@ -191,22 +182,17 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
       fingerprint.AddString(FileHash(p));
     }
     const std::string stamp = std::to_string(fingerprint.hash());
-    if (!options.force && fs::exists(json_path) && fs::exists(ply_path)) {
-      try {
-        std::ifstream in(json_path);
-        const json previous = json::parse(in);
-        if (previous.value("fingerprint", "") == stamp) {
-          spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
-          report.skipped = true;
-          report.num_poses = previous.value("poses", 0);
-          report.num_views = previous.value("views", 0);
-          report.stereo.num_points = previous.value("points", std::int64_t{0});
-          reports.push_back(report);
-          continue;
-        }
-      } catch (const std::exception&) {
-        // A damaged summary: densify again.
-      }
+    // A damaged or stale summary: densify again.
+    if (!options.force && fs::exists(ply_path) && SummaryFingerprint(json_path) == stamp) {
+      std::ifstream in(json_path);
+      const json previous = json::parse(in);
+      spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
+      report.skipped = true;
+      report.num_poses = previous.value("poses", 0);
+      report.num_views = previous.value("views", 0);
+      report.stereo.num_points = previous.value("points", std::int64_t{0});
+      reports.push_back(report);
+      continue;
     }
 
     // Poses, images, sparse cloud.

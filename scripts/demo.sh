@@ -21,24 +21,16 @@ else
   printf '%s' "$stamp" > "$demo_dir/.simulated"
 fi
 
-"$crop4d" validate "$field"
-
-# Row SLAM of every pass of every session, cross matches between neighbouring passes (the robust
-# method and the naive baseline), the joint 4D optimisation, then every error against the
-# simulator's ground truth (trajectories, association precision, cross-session misalignment).
-# Work already done is skipped.
+# The whole season in one command (docs/run.md): validate, row SLAM of every pass, cross matches
+# between neighbouring passes, the joint 4D optimisation, dense clouds, the crop analysis, the
+# errors against the simulator's ground truth and the report. Work already done is skipped, so a
+# second `make demo` takes seconds; an interrupted one finishes where it stopped.
 workspace="$demo_dir/workspace"
-timed() { local s; s=$(date +%s); "$@"; echo "demo: $2 took $(( $(date +%s) - s )) s"; }
-timed "$crop4d" slam "$field" --workspace "$workspace"
-timed "$crop4d" associate "$field" --workspace "$workspace" --method both
-timed "$crop4d" fuse "$field" --workspace "$workspace"
-# Dense clouds of every session, then the crop analysis: canopy height per site and date (the
-# table is printed), growth, terrain and canopy height rasters, plots in WS/analysis/.
-timed "$crop4d" densify "$field" --workspace "$workspace"
-timed "$crop4d" analyze "$field" --workspace "$workspace"
-timed "$crop4d" eval --workspace "$workspace" --truth "$field"
+run_start=$(date +%s)
+"$crop4d" run "$field" --workspace "$workspace"
+run_s=$(( $(date +%s) - run_start ))
 "$crop4d" section --workspace "$workspace" --field "$field" --row 1 --output "$demo_dir/cross_section.png"
 
-echo "demo: done in $(( $(date +%s) - start )) s; field in $field, workspace in $workspace,"
-echo "      cross-section figure in $demo_dir/cross_section.png,"
-echo "      canopy height plots in $workspace/analysis/plots/heights.png"
+echo "demo: done in $(( $(date +%s) - start )) s (crop4d run: $run_s s); field in $field,"
+echo "      workspace in $workspace, report in $workspace/report.html,"
+echo "      cross-section figure in $demo_dir/cross_section.png"

@@ -18,7 +18,7 @@ PACKAGES=(
   # parallelism and spatial search
   libtbb-dev libnanoflann-dev
   # tests and benchmarks
-  libgtest-dev libgmock-dev libbenchmark-dev
+  libgtest-dev libgmock-dev libbenchmark-dev chromium
   # headless OpenGL 3.3 through EGL (Mesa llvmpipe, surfaceless platform)
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libgbm1
 )

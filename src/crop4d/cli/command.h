@@ -28,5 +28,8 @@ RunFunction SetupEval(CLI::App& app);
 RunFunction SetupSection(CLI::App& app);
 RunFunction SetupAnalyze(CLI::App& app);
 RunFunction SetupDensify(CLI::App& app);
+RunFunction SetupRun(CLI::App& app);
+RunFunction SetupExport(CLI::App& app);
+RunFunction SetupReport(CLI::App& app);
 
 }  // namespace crop4d::cli

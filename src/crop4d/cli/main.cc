@@ -16,6 +16,10 @@ namespace {
 using crop4d::cli::Command;
 
 constexpr Command kCommands[] = {
+    {"run",
+     "The whole season in one command: validate, slam, associate, fuse, densify, analyze, eval, "
+     "report (resumable)",
+     crop4d::cli::SetupRun},
     {"validate", "Check a field folder: every session, sensor, file and line",
      crop4d::cli::SetupValidate},
     {"simulate", "Make a synthetic field: rendered images, IMU, GPS and ground truth",
@@ -37,6 +41,10 @@ constexpr Command kCommands[] = {
      crop4d::cli::SetupEval},
     {"section", "Draw the cross-section figure: a slice across a row, points coloured by date",
      crop4d::cli::SetupSection},
+    {"export", "Export a workspace: PLY, LAS, COLMAP text, TUM trajectories, GeoTIFF and CSV",
+     crop4d::cli::SetupExport},
+    {"report", "Write WS/report.html: one self-contained page with the season's results",
+     crop4d::cli::SetupReport},
 };
 
 }  // namespace

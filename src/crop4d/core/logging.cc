@@ -1,5 +1,7 @@
 #include "crop4d/core/logging.h"
 
+#include <algorithm>
+
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 
@@ -35,17 +37,24 @@ void InitLogging(Verbosity verbosity) {
   logger->flush_on(spdlog::level::warn);
 }
 
-bool AddLogFile(const std::string& path) {
+spdlog::sink_ptr AddLogFile(const std::string& path) {
   try {
     auto sink = std::make_shared<spdlog::sinks::basic_file_sink_mt>(path, /*truncate=*/false);
     sink->set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
     sink->set_level(spdlog::level::debug);
     spdlog::default_logger()->sinks().push_back(sink);
-    return true;
+    return sink;
   } catch (const spdlog::spdlog_ex& e) {
     spdlog::warn("cannot open log file {}: {}", path, e.what());
-    return false;
+    return nullptr;
   }
+}
+
+void RemoveLogSink(const spdlog::sink_ptr& sink) {
+  if (!sink) return;
+  sink->flush();
+  auto& sinks = spdlog::default_logger()->sinks();
+  sinks.erase(std::remove(sinks.begin(), sinks.end(), sink), sinks.end());
 }
 
 Verbosity VerbosityFromFlags(int verbose_count, bool quiet) {

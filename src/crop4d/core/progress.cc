@@ -11,9 +11,16 @@ namespace crop4d {
 
 namespace {
 std::atomic<bool> g_silent{false};
-}
+std::mutex g_prefix_mutex;
+std::string g_prefix;
+}  // namespace
 
 void Progress::SetGloballySilent(bool silent) { g_silent = silent; }
+
+void Progress::SetGlobalPrefix(const std::string& prefix) {
+  std::lock_guard lock(g_prefix_mutex);
+  g_prefix = prefix;
+}
 
 Progress::Progress(std::string label, std::uint64_t total, std::string unit)
     : Progress(std::move(label), total, std::move(unit), Options()) {}
@@ -69,6 +76,15 @@ void Progress::Finish() {
 }
 
 std::string Progress::Line(bool final_line) const {
+  std::string prefix;
+  {
+    std::lock_guard lock(g_prefix_mutex);
+    prefix = g_prefix;
+  }
+  return prefix + LineWithoutPrefix(final_line);
+}
+
+std::string Progress::LineWithoutPrefix(bool final_line) const {
   const std::uint64_t done = done_.load();
   const double rate = Rate();
   char buf[256];

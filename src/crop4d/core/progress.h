@@ -50,10 +50,14 @@ class Progress {
 
   // Silences every Progress created after this call (the CLI's --quiet).
   static void SetGloballySilent(bool silent);
+  // Puts `prefix` before the label of every line ("[3/8 fuse] "), so that the bars of a
+  // multi-stage run read as one display of the whole run (`crop4d run`); "" removes it.
+  static void SetGlobalPrefix(const std::string& prefix);
 
  private:
   void Report(bool final_line);
   std::string Line(bool final_line) const;
+  std::string LineWithoutPrefix(bool final_line) const;
 
   std::string label_, unit_;
   std::uint64_t total_;

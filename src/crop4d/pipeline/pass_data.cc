@@ -88,18 +88,25 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
       throw InputError(path.string() + ": " + std::string(features::ToString(status)) + " (" +
                        detail + "); rerun `crop4d slam --force`");
     }
-    if (cache.image_keys.size() != data.times.size()) {
+    // The cache holds every image of poses.tum that could be read, in the same order; an
+    // unreadable image (left out of the cache so that a rerun tries it again) is a pose without
+    // features.
+    if (cache.image_keys.size() > data.times.size()) {
       throw InputError(path.string() + ": " + std::to_string(cache.image_keys.size()) +
                        " images but poses.tum has " + std::to_string(data.times.size()) +
                        " (rerun `crop4d slam --force`)");
     }
-    for (std::size_t i = 0; i < data.times.size(); ++i) {
-      if (cache.image_keys[i] != std::to_string(data.times[i])) {
-        throw InputError(path.string() + ": image " + std::to_string(i) +
-                         " does not match poses.tum (rerun `crop4d slam --force`)");
-      }
+    data.features.assign(data.times.size(), features::FeatureSet{});
+    std::size_t next = 0;
+    for (std::size_t i = 0; i < data.times.size() && next < cache.image_keys.size(); ++i) {
+      if (cache.image_keys[next] != std::to_string(data.times[i])) continue;
+      data.features[i] = std::move(cache.features[next]);
+      ++next;
     }
-    data.features = std::move(cache.features);
+    if (next != cache.image_keys.size()) {
+      throw InputError(path.string() + ": image " + cache.image_keys[next] +
+                       " is not in poses.tum, or not in its order (rerun `crop4d slam --force`)");
+    }
   }
   if (parts.tracks && data.has_camera()) {
     data.tracks = ReadPassTracks((folder / "tracks.bin").string());

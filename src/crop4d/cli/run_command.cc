@@ -1,0 +1,94 @@
+// crop4d run: the whole season in one command — validate, slam, associate, fuse, densify,
+// analyze, eval (with ground truth), report — resumable and incremental
+// (pipeline/season_run.h, docs/run.md).
+
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "crop4d/cli/command.h"
+#include "crop4d/core/error.h"
+#include "crop4d/pipeline/season_run.h"
+
+namespace crop4d::cli {
+namespace {
+
+struct RunArgs {
+  std::string field;
+  std::string workspace;
+  std::string config_file;
+  std::optional<int> threads;
+  std::string eval;
+  bool no_densify = false;
+  bool no_report = false;
+  bool force = false;
+  bool print_config = false;
+};
+
+int RunRun(const RunArgs& args) {
+  pipeline::RunOptions options;
+  if (!args.config_file.empty()) {
+    options.config = pipeline::ReadRunConfig(args.config_file);
+    options.config_source = args.config_file;
+  }
+  pipeline::RunConfig& c = options.config;
+  // Command-line options override the file.
+  if (args.threads) c.threads = *args.threads;
+  if (!args.eval.empty()) c.eval = args.eval;
+  if (args.no_densify) c.densify = false;
+  if (args.no_report) c.report = false;
+  if (args.print_config) {
+    std::fputs(pipeline::FormatRunConfig(c).c_str(), stdout);
+    return 0;
+  }
+  if (args.field.empty() || args.workspace.empty()) {
+    throw InputError("crop4d run", 0, "FIELD and --workspace are required");
+  }
+  options.force = args.force;
+  const pipeline::RunResult result = pipeline::RunSeason(args.field, args.workspace, options);
+  std::fputs(("\n" + pipeline::FormatRunSummary(result)).c_str(), stdout);
+  std::fflush(stdout);
+  return result.any_stage_failed() || !result.complete() ? 1 : 0;
+}
+
+}  // namespace
+
+RunFunction SetupRun(CLI::App& app) {
+  auto args = std::make_shared<RunArgs>();
+  app.description(
+      "The whole season in one command (docs/run.md): validate → slam → associate → fuse → "
+      "densify → analyze → eval (when FIELD/ground_truth/ exists) → report, into one workspace. "
+      "Work whose inputs and options have not changed is skipped, so a run that was interrupted "
+      "(even by kill -9) finishes where it stopped, and a session added to the field costs only "
+      "its own passes, its association pairs and the stages that depend on every session. Bad "
+      "data in one session is recorded (WS/run.json, the report) and the rest of the season is "
+      "still processed. Writes WS/crop4d.yaml (the effective configuration), WS/run.json, "
+      "WS/run_log.jsonl, WS/crop4d.log and WS/report.html. Exit code 0 when every stage ran, 1 "
+      "when a stage failed, 2 for bad input.\n\nExamples:\n  crop4d run demo/field "
+      "--workspace demo/workspace\n  crop4d run --print-config > season.yaml   # edit, then:\n"
+      "  crop4d run field --workspace ws --config season.yaml --threads 2");
+  app.add_option("field", args->field, "Field folder (docs/format.md)")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("-w,--workspace", args->workspace, "Workspace folder (created if missing)");
+  app.add_option("-c,--config", args->config_file,
+                 "Configuration file (YAML, docs/run.md; default: every stage's defaults)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--threads", args->threads, "Worker threads (0: all cores; overrides the file)");
+  app.add_option("--eval", args->eval,
+                 "Evaluation against ground truth: auto, always, never (overrides the file)")
+      ->check(CLI::IsMember({"auto", "always", "never"}));
+  app.add_flag("--no-densify", args->no_densify,
+               "No dense clouds: the analysis uses the fused sparse clouds (faster, much less "
+               "accurate canopy heights)");
+  app.add_flag("--no-report", args->no_report, "Do not write WS/report.html");
+  app.add_flag("--force", args->force, "Redo every stage even when its outputs are up to date");
+  app.add_flag("--print-config", args->print_config,
+               "Print the effective configuration (defaults, the file, the options above) as "
+               "YAML and exit");
+  return [args] { return RunRun(*args); };
+}
+
+}  // namespace crop4d::cli

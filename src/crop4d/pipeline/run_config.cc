@@ -1,0 +1,444 @@
+#include "crop4d/pipeline/run_config.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <functional>
+#include <map>
+#include <set>
+#include <sstream>
+#include <vector>
+
+#include "crop4d/core/error.h"
+#include "crop4d/io/yaml_util.h"
+
+namespace crop4d::pipeline {
+
+namespace {
+
+// One key of the file. Parsing and formatting both go through this table, so the file written
+// to WS/crop4d.yaml always reads back to the same configuration.
+struct Key {
+  const char* section;  // "" for the top level
+  const char* name;
+  const char* comment;
+  // The value as YAML text.
+  std::function<std::string(RunConfig&)> get;
+  // Sets the value from a YAML scalar; returns an error message, "" when valid.
+  std::function<std::string(RunConfig&, const std::string&)> set;
+};
+
+std::string FormatDouble(double v) {
+  std::string s = fmt::format("{:.10g}", v);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+template <typename Ref>
+Key Double(const char* section, const char* name, const char* comment, Ref ref, double min,
+           double max) {
+  return {section, name, comment, [ref](RunConfig& c) { return FormatDouble(ref(c)); },
+          [ref, min, max](RunConfig& c, const std::string& text) -> std::string {
+            double v = 0;
+            if (!io::ParseYamlDouble(text, &v) || !std::isfinite(v)) return "expected a number";
+            if (v < min || v > max) return fmt::format("expected a value in [{}, {}]", min, max);
+            ref(c) = v;
+            return "";
+          }};
+}
+
+template <typename Ref>
+Key Int(const char* section, const char* name, const char* comment, Ref ref, int min, int max) {
+  return {section, name, comment, [ref](RunConfig& c) { return std::to_string(ref(c)); },
+          [ref, min, max](RunConfig& c, const std::string& text) -> std::string {
+            std::size_t used = 0;
+            long v = 0;
+            try {
+              v = std::stol(text, &used);
+            } catch (const std::exception&) {
+              used = 0;
+            }
+            if (used == 0 || used != text.size()) return "expected an integer";
+            if (v < min || v > max) return fmt::format("expected an integer in [{}, {}]", min, max);
+            ref(c) = static_cast<int>(v);
+            return "";
+          }};
+}
+
+template <typename Ref>
+Key Bool(const char* section, const char* name, const char* comment, Ref ref) {
+  return {section, name, comment, [ref](RunConfig& c) { return ref(c) ? "true" : "false"; },
+          [ref](RunConfig& c, const std::string& text) -> std::string {
+            if (text == "true") {
+              ref(c) = true;
+            } else if (text == "false") {
+              ref(c) = false;
+            } else {
+              return "expected true or false";
+            }
+            return "";
+          }};
+}
+
+std::string Quote(const std::string& s) {
+  std::string out = "\"";
+  for (char ch : s) {
+    if (ch == '"' || ch == '\\') out += '\\';
+    out += ch;
+  }
+  return out + "\"";
+}
+
+// A free string (a path).
+template <typename Ref>
+Key String(const char* section, const char* name, const char* comment, Ref ref) {
+  return {section, name, comment, [ref](RunConfig& c) { return Quote(ref(c)); },
+          [ref](RunConfig& c, const std::string& text) -> std::string {
+            ref(c) = text;
+            return "";
+          }};
+}
+
+// One of a few words; `get`/`set` convert between the word and the option.
+Key Choice(const char* section, const char* name, const char* comment,
+           std::vector<std::string> words, std::function<std::string(RunConfig&)> get,
+           std::function<void(RunConfig&, const std::string&)> set) {
+  return {section, name, comment, get,
+          [words, set](RunConfig& c, const std::string& text) -> std::string {
+            for (const std::string& w : words) {
+              if (w == text) {
+                set(c, text);
+                return "";
+              }
+            }
+            std::string list;
+            for (const std::string& w : words) list += (list.empty() ? "" : ", ") + w;
+            return "expected one of " + list;
+          }};
+}
+
+// A string option that takes one of `words` as is.
+template <typename Ref>
+Key Word(const char* section, const char* name, const char* comment, std::vector<std::string> words,
+         Ref ref) {
+  return Choice(
+      section, name, comment, std::move(words), [ref](RunConfig& c) { return ref(c); },
+      [ref](RunConfig& c, const std::string& w) { ref(c) = w; });
+}
+
+const std::vector<Key>& Keys() {
+  static const std::vector<Key> keys = [] {
+    std::vector<Key> k;
+    constexpr double kHuge = 1e9;
+    k.push_back(Int(
+        "", "threads", "worker threads for every stage (0: all cores)",
+        [](RunConfig& c) -> int& { return c.threads; }, 0, 1024));
+
+    k.push_back(Bool("stages", "densify",
+                     "dense clouds before the analysis (else the analysis uses the sparse clouds)",
+                     [](RunConfig& c) -> bool& { return c.densify; }));
+    k.push_back(Word("stages", "eval",
+                     "evaluation against ground truth: auto (when FIELD/ground_truth/ exists), "
+                     "always, never",
+                     {"auto", "always", "never"},
+                     [](RunConfig& c) -> std::string& { return c.eval; }));
+    k.push_back(Bool("stages", "report", "write WS/report.html at the end",
+                     [](RunConfig& c) -> bool& { return c.report; }));
+
+    std::vector<std::string> sensors = {"auto"};
+    for (const std::string& s : slam::SensorSetNames()) sensors.push_back(s);
+    k.push_back(Choice(
+        "slam", "sensors",
+        "sensor set: auto (cam+imu+rtk with an RTK receiver, else cam+imu+gps, else cam+imu), "
+        "cam+imu+rtk, cam+imu+gps, cam+imu, imu+rtk",
+        sensors,
+        [](RunConfig& c) -> std::string {
+          return c.slam.sensors ? slam::ToString(*c.slam.sensors) : "auto";
+        },
+        [](RunConfig& c, const std::string& w) {
+          c.slam.sensors = w == "auto" ? std::nullopt : slam::ParseSensorSet(w);
+        }));
+    k.push_back(Int(
+        "slam", "neighbors", "each image is matched with this many following images",
+        [](RunConfig& c) -> int& { return c.slam.front_end.num_neighbors; }, 1, 50));
+    k.push_back(Int(
+        "slam", "min_track_length", "a landmark is seen in at least this many images",
+        [](RunConfig& c) -> int& { return c.slam.front_end.tracks.min_track_length; }, 2, 1000));
+    k.push_back(Double(
+        "slam", "max_reprojection_error_px",
+        "observations above this error are removed before the final solve",
+        [](RunConfig& c) -> double& { return c.slam.optimiser.max_reprojection_error_px; }, 0.1,
+        1000));
+    k.push_back(Double(
+        "slam", "state_rate_hz", "states per second of a camera-less pass",
+        [](RunConfig& c) -> double& { return c.slam.state_rate_hz; }, 0.1, 1000));
+    k.push_back(Bool("slam", "motion_constraint",
+                     "the non-holonomic constraint of a vehicle on row passes",
+                     [](RunConfig& c) -> bool& { return c.slam.motion_constraint; }));
+
+    k.push_back(Word("associate", "method",
+                     "robust (the paper's), naive (whole-image baseline) or both",
+                     {"robust", "naive", "both"},
+                     [](RunConfig& c) -> std::string& { return c.associate.method; }));
+    k.push_back(Int(
+        "associate", "session_gap",
+        "a row is matched with the same row in this many later sessions",
+        [](RunConfig& c) -> int& { return c.associate.session_gap; }, 1, 1000));
+    k.push_back(Double(
+        "associate", "min_overlap", "image pairs need this ground-footprint overlap (0..1)",
+        [](RunConfig& c) -> double& { return c.associate.image_pairs.min_overlap; }, 0.0, 1.0));
+    k.push_back(Int(
+        "associate", "pairs_per_image", "image pairs per image of the first pass",
+        [](RunConfig& c) -> int& { return c.associate.image_pairs.max_pairs_per_image; }, 1, 1000));
+    k.push_back(Double(
+        "associate", "sigma_position_m",
+        "position uncertainty of the row-SLAM poses for the bounded search",
+        [](RunConfig& c) -> double& { return c.associate.robust.sigma_position_m; }, 0.0, kHuge));
+    k.push_back(Double(
+        "associate", "max_ratio", "distinctiveness ratio of a match",
+        [](RunConfig& c) -> double& { return c.associate.robust.max_ratio; }, 0.01, 1.0));
+    k.push_back(Double(
+        "associate", "warp_baseline_m", "plane-induced warp beyond this baseline",
+        [](RunConfig& c) -> double& { return c.associate.robust.warp_min_baseline_m; }, 0.0,
+        kHuge));
+    k.push_back(Word("associate", "prealign",
+                     "pre-alignment of passes placed by a metre-level GPS: auto, always, never",
+                     {"auto", "always", "never"},
+                     [](RunConfig& c) -> std::string& { return c.associate.prealign; }));
+    k.push_back(Int(
+        "associate", "min_track_length",
+        "landmarks projected from row-SLAM tracks of at least this many images",
+        [](RunConfig& c) -> int& { return c.associate.min_track_length; }, 2, 1000));
+    k.push_back(Double(
+        "associate", "max_landmark_distance_m",
+        "landmarks projected up to this distance from the camera",
+        [](RunConfig& c) -> double& { return c.associate.max_landmark_distance_m; }, 0.1, kHuge));
+
+    k.push_back(Word("fuse", "method", "the associations used: robust or naive",
+                     {"robust", "naive"},
+                     [](RunConfig& c) -> std::string& { return c.fuse.method; }));
+    k.push_back(Int(
+        "fuse", "matches_per_image_pair", "cross matches of one image pair used at most (0: all)",
+        [](RunConfig& c) -> int& { return c.fuse.max_matches_per_image_pair; }, 0, 1000000));
+    k.push_back(Double(
+        "fuse", "max_reprojection_error_px",
+        "observations above this error are removed before the final solve",
+        [](RunConfig& c) -> double& { return c.fuse.optimiser.row.max_reprojection_error_px; }, 0.1,
+        1000));
+    k.push_back(Int(
+        "fuse", "max_iterations", "Levenberg-Marquardt iterations per solve",
+        [](RunConfig& c) -> int& { return c.fuse.optimiser.row.max_iterations; }, 1, 100000));
+    k.push_back(Choice(
+        "fuse", "linear_solver",
+        "exact (sparse Cholesky of the Schur complement) or iterative (conjugate gradients)",
+        {"exact", "iterative"},
+        [](RunConfig& c) -> std::string {
+          return c.fuse.optimiser.row.iterative_schur ? "iterative" : "exact";
+        },
+        [](RunConfig& c, const std::string& w) {
+          c.fuse.optimiser.row.iterative_schur = w == "iterative";
+        }));
+    k.push_back(Bool("fuse", "colmap", "write the COLMAP text model of the fused reconstruction",
+                     [](RunConfig& c) -> bool& { return c.fuse.write_colmap; }));
+
+    k.push_back(Double(
+        "densify", "cell_m", "cell of the height-field grid",
+        [](RunConfig& c) -> double& { return c.densify_options.stereo.cell_m; }, 0.001, 1.0));
+    k.push_back(Double(
+        "densify", "max_canopy_height_m", "heights swept above the ground",
+        [](RunConfig& c) -> double& { return c.densify_options.stereo.max_canopy_height_m; }, 0.01,
+        100));
+    k.push_back(Double(
+        "densify", "margin_m", "the crop rows widened by this much",
+        [](RunConfig& c) -> double& { return c.densify_options.margin_m; }, 0.0, 1000));
+    k.push_back(Int(
+        "densify", "max_views", "views compared with the reference view per cell",
+        [](RunConfig& c) -> int& { return c.densify_options.stereo.max_views; }, 1, 100));
+    k.push_back(Double(
+        "densify", "min_score", "aggregated ZNCC a cell needs",
+        [](RunConfig& c) -> double& { return c.densify_options.stereo.min_score; }, -1.0, 1.0));
+    k.push_back(Bool("densify", "around_sites", "only discs of radius_m around the sites",
+                     [](RunConfig& c) -> bool& { return c.densify_options.around_sites; }));
+    k.push_back(Double(
+        "densify", "radius_m", "radius of the discs of around_sites",
+        [](RunConfig& c) -> double& { return c.densify_options.radius_m; }, 0.01, 1000));
+
+    k.push_back(String("analyze", "sites",
+                       "sites file (CSV: site_id,x,y,radius_m or site_id,lat,lon,radius_m); \"\": "
+                       "the sites of field.yaml",
+                       [](RunConfig& c) -> std::string& { return c.analyze.sites_file; }));
+    k.push_back(Word(
+        "analyze", "cloud", "clouds analysed: auto (dense when present), dense, sparse",
+        {"auto", "dense", "sparse"}, [](RunConfig& c) -> std::string& { return c.analyze.cloud; }));
+    k.push_back(Choice(
+        "analyze", "greenness", "vegetation index: exg or exgr", {"exg", "exgr"},
+        [](RunConfig& c) -> std::string {
+          return c.analyze.vegetation.index == analysis::GreennessIndex::kExGR ? "exgr" : "exg";
+        },
+        [](RunConfig& c, const std::string& w) {
+          c.analyze.vegetation.index =
+              w == "exgr" ? analysis::GreennessIndex::kExGR : analysis::GreennessIndex::kExG;
+        }));
+    k.push_back(Choice(
+        "analyze", "canopy_top", "canopy height per site: plant-tops, crown-peaks or quantile",
+        {"plant-tops", "crown-peaks", "quantile"},
+        [](RunConfig& c) -> std::string { return analysis::CanopyTopName(c.analyze.canopy.top); },
+        [](RunConfig& c, const std::string& w) {
+          c.analyze.canopy.top = w == "crown-peaks" ? analysis::CanopyTop::kCrownPeaks
+                                 : w == "quantile"  ? analysis::CanopyTop::kQuantile
+                                                    : analysis::CanopyTop::kPlantTops;
+        }));
+    k.push_back(Double(
+        "analyze", "plant_top_quantile", "quantile of a plant's canopy cells",
+        [](RunConfig& c) -> double& { return c.analyze.canopy.plant_top_quantile; }, 0.0, 1.0));
+    k.push_back(Double(
+        "analyze", "min_canopy_height_m", "vegetation this far above the terrain is canopy",
+        [](RunConfig& c) -> double& { return c.analyze.canopy.min_height_m; }, 0.0, 10));
+    k.push_back(Double(
+        "analyze", "min_canopy_height_any_colour_m",
+        "any point this far above the terrain is canopy",
+        [](RunConfig& c) -> double& { return c.analyze.canopy.min_height_any_colour_m; }, 0.0, 10));
+    k.push_back(Double(
+        "analyze", "terrain_cell_m", "cell of the terrain model",
+        [](RunConfig& c) -> double& { return c.analyze.terrain.cell_m; }, 0.005, 10));
+    k.push_back(Double(
+        "analyze", "terrain_radius_m", "radius of the terrain's local fits",
+        [](RunConfig& c) -> double& { return c.analyze.terrain.fit_radius_m; }, 0.01, 100));
+    k.push_back(Bool("analyze", "later_session_terrain",
+                     "refine the terrain with later sessions' bare ground",
+                     [](RunConfig& c) -> bool& { return c.analyze.terrain.use_later_sessions; }));
+    k.push_back(Double(
+        "analyze", "raster_cell_m", "cell of the GeoTIFF rasters",
+        [](RunConfig& c) -> double& { return c.analyze.raster_cell_m; }, 0.001, 100));
+
+    k.push_back(Double(
+        "eval", "rpe_distance_m", "relative pose error over this path length",
+        [](RunConfig& c) -> double& { return c.eval_options.metrics.rpe_distance_m; }, 0.01,
+        kHuge));
+    k.push_back(Double(
+        "eval", "match_distance_m", "a cross match is correct within this distance",
+        [](RunConfig& c) -> double& { return c.eval_options.association.max_distance_m; }, 0.0001,
+        100));
+    k.push_back(Double(
+        "eval", "canopy_max_error_m", "a canopy height further from the truth is a failure",
+        [](RunConfig& c) -> double& { return c.eval_options.canopy_options.max_error_m; }, 0.0001,
+        100));
+    k.push_back(
+        String("eval", "depth_cache",
+               "where rendered true depth maps are kept (\"\": "
+               "WS/eval/depth)",
+               [](RunConfig& c) -> std::string& { return c.eval_options.depth_cache_dir; }));
+    return k;
+  }();
+  return keys;
+}
+
+const char* const kSections[] = {"",     "stages",  "slam",    "associate",
+                                 "fuse", "densify", "analyze", "eval"};
+
+RunConfig Parse(io::YamlFile& file) {
+  RunConfig config;
+  if (!file.root().IsDefined() || file.root().IsNull()) return config;  // an empty file
+  if (!file.root().IsMap()) {
+    file.Error(io::YamlLine(file.root()), "expected a map of sections");
+    file.Finish();
+  }
+  std::set<std::string> sections(std::begin(kSections), std::end(kSections));
+  for (const auto& item : file.root()) {
+    const std::string name = item.first.as<std::string>();
+    const std::int64_t line = io::YamlLine(item.first);
+    const YAML::Node& value = item.second;
+    if (sections.count(name) && !name.empty()) {
+      if (!value.IsMap()) {
+        if (!value.IsNull()) file.Error(line, "'" + name + "' must be a map of keys");
+        continue;
+      }
+      for (const auto& entry : value) {
+        const std::string key = entry.first.as<std::string>();
+        const std::int64_t key_line = io::YamlLine(entry.first);
+        const Key* found = nullptr;
+        for (const Key& k : Keys()) {
+          if (k.section == name && k.name == key) found = &k;
+        }
+        if (found == nullptr) {
+          file.Error(key_line, "unknown key '" + name + "." + key + "' (docs/run.md lists them)");
+          continue;
+        }
+        if (!entry.second.IsScalar()) {
+          file.Error(key_line, "'" + name + "." + key + "' must be a single value");
+          continue;
+        }
+        const std::string error = found->set(config, entry.second.Scalar());
+        if (!error.empty()) file.Error(key_line, "'" + name + "." + key + "': " + error);
+      }
+      continue;
+    }
+    const Key* found = nullptr;
+    for (const Key& k : Keys()) {
+      if (std::string(k.section).empty() && k.name == name) found = &k;
+    }
+    if (found == nullptr) {
+      file.Error(line, "unknown key '" + name + "' (docs/run.md lists them)");
+      continue;
+    }
+    if (!value.IsScalar()) {
+      file.Error(line, "'" + name + "' must be a single value");
+      continue;
+    }
+    const std::string error = found->set(config, value.Scalar());
+    if (!error.empty()) file.Error(line, "'" + name + "': " + error);
+  }
+  file.Finish();
+  std::string message;
+  if (!config.Check(&message)) throw InputError(file.path(), 0, message);
+  return config;
+}
+
+}  // namespace
+
+bool RunConfig::Check(std::string* message) const {
+  auto fail = [message](const std::string& m) {
+    if (message != nullptr) *message = m;
+    return false;
+  };
+  if (associate.method != "both" && associate.method != fuse.method) {
+    return fail("fuse.method '" + fuse.method + "' needs associate.method '" + fuse.method +
+                "' or 'both' (got '" + associate.method + "')");
+  }
+  if (!slam.Check()) return fail("invalid slam options");
+  if (!associate.Check()) return fail("invalid associate options");
+  if (!fuse.Check()) return fail("invalid fuse options");
+  if (!densify_options.Check()) return fail("invalid densify options");
+  if (!analyze.Check()) return fail("invalid analyze options");
+  if (!eval_options.Check()) return fail("invalid eval options");
+  return true;
+}
+
+RunConfig ReadRunConfig(const std::string& path) {
+  io::YamlFile file(path, nullptr);
+  return Parse(file);
+}
+
+RunConfig ParseRunConfig(const std::string& name, const std::string& text) {
+  io::YamlFile file(name, text, nullptr);
+  return Parse(file);
+}
+
+std::string FormatRunConfig(const RunConfig& config) {
+  RunConfig c = config;  // the table's accessors take a mutable configuration
+  std::ostringstream out;
+  out << "# crop4d run configuration (docs/run.md). Every key is optional; edit and pass back\n"
+         "# with `crop4d run FIELD --workspace WS --config FILE`.\n";
+  for (const char* section : kSections) {
+    const bool top = std::string(section).empty();
+    if (!top) out << "\n" << section << ":\n";
+    for (const Key& k : Keys()) {
+      if (std::string(k.section) != section) continue;
+      const std::string indent = top ? "" : "  ";
+      out << indent << "# " << k.comment << "\n" << indent << k.name << ": " << k.get(c) << "\n";
+    }
+  }
+  return out.str();
+}
+
+}  // namespace crop4d::pipeline

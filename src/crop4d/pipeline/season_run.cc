@@ -1,0 +1,497 @@
+#include "crop4d/pipeline/season_run.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <regex>
+#include <set>
+
+#include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
+#include "crop4d/core/progress.h"
+#include "crop4d/core/version.h"
+#include "crop4d/features/hash.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/io/validator.h"
+#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/report/html_report.h"
+
+namespace crop4d::pipeline {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+bool RunResult::any_stage_failed() const {
+  for (const StageRecord& s : record.stages) {
+    if (s.status == "failed") return true;
+  }
+  return false;
+}
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// WS/crop4d.log on the default logger for the lifetime of the object.
+class ScopedLogFile {
+ public:
+  explicit ScopedLogFile(const std::string& path) : sink_(AddLogFile(path)) {}
+  ~ScopedLogFile() { RemoveLogSink(sink_); }
+
+ private:
+  spdlog::sink_ptr sink_;
+};
+
+// The state of one run: the record, the log and the stage being run.
+class SeasonRun {
+ public:
+  SeasonRun(std::string field, std::string workspace, const RunOptions& options)
+      : field_(std::move(field)),
+        ws_(std::move(workspace)),
+        options_(options),
+        config_(options.config),
+        log_((fs::path(ws_) / "run_log.jsonl").string()),
+        record_path_((fs::path(ws_) / "run.json").string()) {
+    record_.crop4d_version = kVersion;
+    record_.field = field_;
+    record_.workspace = ws_;
+    record_.started = IsoTimeNow();
+    record_.threads = config_.threads;
+    for (const char* name : kRunStages) {
+      record_.stages.emplace_back();
+      record_.stages.back().name = name;
+    }
+    collector_ = MessageCollector::Install();
+  }
+  ~SeasonRun() {
+    collector_->Remove();
+    Progress::SetGlobalPrefix("");
+  }
+
+  RunResult Run();
+
+ private:
+  // Runs one stage: times it, catches what it throws (the stage fails, the run goes on),
+  // collects the messages logged meanwhile, and writes WS/run.json.
+  void Stage(const std::string& name, const std::function<void(StageRecord&)>& body);
+  void Item(StageRecord& stage, const std::string& session, const std::string& item,
+            const char* action, double seconds, const std::string& reason = "");
+  void Skip(const std::string& stage, const std::string& session, const std::string& item,
+            const std::string& reason);
+
+  void Validate(StageRecord& stage);
+  void Slam(StageRecord& stage);
+  void Associate(StageRecord& stage);
+  void Fuse(StageRecord& stage);
+  void Densify(StageRecord& stage);
+  void Analyze(StageRecord& stage);
+  void Eval(StageRecord& stage);
+  void Report(StageRecord& stage);
+
+  // Sessions with at least one row pass in the workspace.
+  std::vector<std::string> SessionsWithPasses() const;
+  std::string EvalFingerprint() const;
+
+  std::string field_, ws_;
+  RunOptions options_;
+  RunConfig config_;
+  std::vector<std::string> sessions_;
+  RunLog log_;
+  std::string record_path_;
+  RunRecord record_;
+  std::shared_ptr<MessageCollector> collector_;
+  int stage_index_ = 0;
+};
+
+void SeasonRun::Item(StageRecord& stage, const std::string& session, const std::string& item,
+                     const char* action, double seconds, const std::string& reason) {
+  const std::string name = session.empty() ? item : item.empty() ? session : session + "/" + item;
+  log_.Add(stage.name, name, action, seconds, reason);
+  if (std::string(action) == kActionDone) {
+    ++stage.done;
+  } else if (std::string(action) == kActionUpToDate) {
+    ++stage.skipped;
+  } else {
+    ++stage.failed;
+    Skip(stage.name, session, item, reason);
+  }
+}
+
+void SeasonRun::Skip(const std::string& stage, const std::string& session, const std::string& item,
+                     const std::string& reason) {
+  record_.skipped.push_back({stage, session, item, reason});
+  spdlog::warn("{}: {}{} skipped: {}", stage, session, item.empty() ? "" : "/" + item, reason);
+}
+
+void SeasonRun::Stage(const std::string& name, const std::function<void(StageRecord&)>& body) {
+  ++stage_index_;
+  StageRecord& stage = *record_.Stage(name);
+  Progress::SetGlobalPrefix(fmt::format("[{}/{} {}] ", stage_index_, std::size(kRunStages), name));
+  spdlog::info("== {} ({}/{})", name, stage_index_, std::size(kRunStages));
+  log_.Add(name, "", "start");
+  collector_->Take(0);  // messages of earlier stages are theirs
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    body(stage);
+    if (stage.status == "not run") {
+      stage.status = stage.failed > 0 ? "partial" : stage.done > 0 ? "done" : "up to date";
+    }
+  } catch (const std::exception& e) {
+    stage.status = "failed";
+    Skip(name, "", "", e.what());
+  }
+  stage.seconds = SecondsSince(start);
+  stage.messages = collector_->Take(StageRecord::kMaxMessages);
+  log_.Add(name, "", "end", stage.seconds, stage.status);
+  WriteRunRecord(record_path_, record_);
+}
+
+void SeasonRun::Validate(StageRecord& stage) {
+  io::ValidateOptions o;
+  o.progress = options_.show_progress;
+  const io::ValidationReport report = io::ValidateField(field_, o);
+  // Problems per session; the run goes on (a stage that cannot use a session says so).
+  std::map<std::string, std::pair<int, std::string>> per_session;
+  for (const io::Diagnostic& d : report.diagnostics) {
+    if (d.severity != io::Severity::kError) continue;
+    std::string session;
+    if (d.file.rfind("sessions/", 0) == 0) {
+      session = d.file.substr(9, d.file.find('/', 9) - 9);
+    }
+    auto& [count, first] = per_session[session];
+    if (count++ == 0) first = d.ToString();
+  }
+  for (const std::string& id : sessions_) {
+    auto it = per_session.find(id);
+    if (it == per_session.end()) {
+      Item(stage, id, "", kActionDone, 0);
+    } else {
+      // Recorded, not skipped: the session is still processed (with warnings) by the stages.
+      log_.Add("validate", id, "warning", 0,
+               fmt::format("{} error(s), first: {}", it->second.first, it->second.second));
+      record_.skipped.push_back({"validate", id, "",
+                                 fmt::format("{} problem(s) in the data, first: {} (the session "
+                                             "is processed without the bad samples)",
+                                             it->second.first, it->second.second)});
+      ++stage.failed;
+    }
+  }
+  if (per_session.count("")) {
+    spdlog::warn("validate: {}", per_session[""].second);
+  }
+}
+
+void SeasonRun::Slam(StageRecord& stage) {
+  for (const std::string& id : sessions_) {
+    SlamStageOptions o = config_.slam;
+    o.session = id;
+    o.force = options_.force;
+    o.show_progress = options_.show_progress;
+    std::vector<PassReport> reports;
+    try {
+      reports = RunSlamStage(field_, ws_, o);
+    } catch (const std::exception& e) {
+      Item(stage, id, "", kActionFailed, 0, e.what());
+      continue;
+    }
+    if (reports.empty()) Item(stage, id, "", kActionFailed, 0, "no row pass found");
+    for (const PassReport& r : reports) {
+      Item(stage, id, r.pass.id,
+           r.failed    ? kActionFailed
+           : r.skipped ? kActionUpToDate
+                       : kActionDone,
+           r.seconds, r.message);
+    }
+  }
+  if (SessionsWithPasses().empty()) {
+    throw InputError(ws_, 0, "row SLAM gave no pass in any session: nothing to go on with");
+  }
+}
+
+std::vector<std::string> SeasonRun::SessionsWithPasses() const {
+  std::vector<std::string> out;
+  for (const std::string& id : sessions_) {
+    const fs::path rows = fs::path(ws_) / "sessions" / id / "rows";
+    std::error_code ec;
+    bool any = false;
+    for (fs::directory_iterator it(rows, ec), end; !ec && it != end; it.increment(ec)) {
+      if (fs::exists(it->path() / "summary.json")) any = true;
+    }
+    if (any) out.push_back(id);
+  }
+  return out;
+}
+
+void SeasonRun::Associate(StageRecord& stage) {
+  AssociateStageOptions o = config_.associate;
+  o.force = options_.force;
+  o.show_progress = options_.show_progress;
+  o.num_threads = config_.threads;
+  for (const PassPairReport& r : RunAssociateStage(field_, ws_, o)) {
+    Item(stage, "",
+         fmt::format("{}/{}__{}/{} ({})", r.pair.a.session, r.pair.a.pass, r.pair.b.session,
+                     r.pair.b.pass, r.method),
+         r.skipped ? kActionUpToDate : kActionDone, r.seconds);
+  }
+}
+
+void SeasonRun::Fuse(StageRecord& stage) {
+  FuseStageOptions o = config_.fuse;
+  o.force = options_.force;
+  o.show_progress = options_.show_progress;
+  o.optimiser.row.num_threads = config_.threads;
+  const FuseReport report = RunFuseStage(field_, ws_, o);
+  Item(stage, "", fmt::format("{} sessions, {} passes", report.num_sessions, report.num_passes),
+       report.skipped ? kActionUpToDate : kActionDone, report.seconds);
+}
+
+void SeasonRun::Densify(StageRecord& stage) {
+  for (const std::string& id : sessions_) {
+    if (!fs::exists(fs::path(ws_) / "fused" / id / "poses.tum")) {
+      if (fs::exists(fs::path(ws_) / "sessions" / id)) {
+        Item(stage, id, "", kActionSkipped, 0, "no fused poses (the session has no usable pass)");
+      }
+      continue;
+    }
+    DensifyStageOptions o = config_.densify_options;
+    o.sessions = {id};
+    o.force = options_.force;
+    o.show_progress = options_.show_progress;
+    o.num_threads = config_.threads;
+    try {
+      for (const DensifySessionReport& r : RunDensifyStage(field_, ws_, o)) {
+        Item(stage, r.session, "", r.skipped ? kActionUpToDate : kActionDone, r.seconds);
+      }
+    } catch (const std::exception& e) {
+      Item(stage, id, "", kActionFailed, 0, e.what());
+    }
+  }
+}
+
+void SeasonRun::Analyze(StageRecord& stage) {
+  AnalyzeStageOptions o = config_.analyze;
+  o.force = options_.force;
+  if (!config_.densify) o.cloud = "sparse";
+  const AnalyzeReport report = RunAnalyzeStage(field_, ws_, o);
+  Item(stage, "",
+       fmt::format("{} sessions, {} site estimates", report.sessions.size(), report.sites.size()),
+       report.skipped ? kActionUpToDate : kActionDone, report.seconds);
+  if (!report.skipped && spdlog::get_level() <= spdlog::level::info) {
+    spdlog::info("\n{}", FormatAnalyzeReport(report));
+  }
+}
+
+std::string SeasonRun::EvalFingerprint() const {
+  // The evaluation's inputs are the outputs of the other stages, and each of those records the
+  // fingerprint of its own inputs: their fingerprints (not the large files) stand for them.
+  features::Fnv1aHasher hasher;
+  auto add = [&hasher](const std::string& s) {
+    hasher.AddBytes(s.data(), s.size());
+    hasher.AddBytes("\n", 1);
+  };
+  add(kVersion);
+  add(FormatRunConfig(config_).substr(FormatRunConfig(config_).find("\neval:")));
+  std::vector<std::string> summaries;
+  for (const char* folder : {"sessions", "associations", "fused", "analysis"}) {
+    std::error_code ec;
+    for (fs::recursive_directory_iterator it(fs::path(ws_) / folder, ec), end; !ec && it != end;
+         it.increment(ec)) {
+      if (it->path().extension() == ".json") summaries.push_back(it->path().string());
+    }
+  }
+  std::sort(summaries.begin(), summaries.end());
+  for (const std::string& path : summaries) {
+    add(fs::relative(path, ws_).string());
+    add(SummaryFingerprint(path));
+  }
+  std::error_code ec;
+  std::vector<std::string> truth;
+  for (fs::recursive_directory_iterator it(fs::path(field_) / "ground_truth", ec), end;
+       !ec && it != end; it.increment(ec)) {
+    if (it->is_regular_file()) truth.push_back(it->path().string());
+  }
+  std::sort(truth.begin(), truth.end());
+  for (const std::string& path : truth) {
+    add(fs::relative(path, field_).string());
+    add(FileHash(path));
+  }
+  return std::to_string(hasher.hash());
+}
+
+void SeasonRun::Eval(StageRecord& stage) {
+  const bool has_truth = fs::is_directory(fs::path(field_) / "ground_truth");
+  if (config_.eval == "never" || (config_.eval == "auto" && !has_truth)) {
+    stage.status = "disabled";
+    if (config_.eval == "auto") spdlog::info("eval: the field has no ground_truth/");
+    return;
+  }
+  const fs::path stamp_path = fs::path(ws_) / "eval" / "inputs.fingerprint";
+  const fs::path metrics = fs::path(ws_) / "eval" / "metrics.json";
+  const std::string stamp = EvalFingerprint();
+  std::string previous;
+  if (std::ifstream in(stamp_path); in) std::getline(in, previous);
+  if (!options_.force && previous == stamp && fs::exists(metrics)) {
+    Item(stage, "", "metrics.json", kActionUpToDate, 0);
+    return;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  eval::WorkspaceEvalOptions o = config_.eval_options;
+  const eval::WorkspaceEval result = eval::EvaluateWorkspace(ws_, field_, o);
+  eval::WriteWorkspaceEval(result);
+  io::WriteFileAtomic(stamp_path.string(), stamp + "\n");
+  Item(stage, "", "metrics.json", kActionDone, SecondsSince(start));
+  if (spdlog::get_level() <= spdlog::level::info) {
+    spdlog::info("\n{}", eval::FormatWorkspaceEvalTable(result));
+  }
+}
+
+void SeasonRun::Report(StageRecord& stage) {
+  if (!config_.report) {
+    stage.status = "disabled";
+    return;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  report::HtmlReportOptions o;
+  const report::HtmlReportResult result = report::WriteHtmlReport(ws_, field_, "", o);
+  for (const std::string& line : result.skipped) spdlog::warn("report: {}", line);
+  Item(stage, "", fs::path(result.path).filename().string(), kActionDone, SecondsSince(start));
+}
+
+// Removes the temporary files that a killed process left behind (io/atomic_file.h names them
+// "<path>.tmp.<pid>.<n>"; one run at a time owns a workspace).
+int RemoveStaleTemporaries(const std::string& workspace) {
+  static const std::regex kTemporary(R"(.*\.tmp\.[0-9]+\.[0-9]+$)");
+  std::vector<fs::path> stale;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(workspace, ec), end; !ec && it != end;
+       it.increment(ec)) {
+    if (it->is_regular_file(ec) && std::regex_match(it->path().filename().string(), kTemporary)) {
+      stale.push_back(it->path());
+    }
+  }
+  for (const fs::path& p : stale) fs::remove(p, ec);
+  return static_cast<int>(stale.size());
+}
+
+RunResult SeasonRun::Run() {
+  const io::Field field(field_);  // throws InputError for an unreadable field.yaml
+  sessions_ = field.session_ids();
+  if (sessions_.empty()) throw InputError(field_, 0, "the field has no session");
+  if (const int n = RemoveStaleTemporaries(ws_); n > 0) {
+    spdlog::info("removed {} temporary file(s) left by an interrupted run", n);
+  }
+  io::WriteFileAtomic((fs::path(ws_) / "crop4d.yaml").string(), FormatRunConfig(config_));
+  spdlog::info("crop4d {} run: field {} ({} sessions), workspace {}, configuration {}", kVersion,
+               field_, sessions_.size(), ws_, options_.config_source);
+  WriteRunRecord(record_path_, record_);
+
+  std::optional<tbb::global_control> threads;
+  if (config_.threads > 0) {
+    threads.emplace(tbb::global_control::max_allowed_parallelism, config_.threads);
+  }
+  config_.slam.front_end.num_threads = config_.threads;
+  config_.slam.optimiser.num_threads = config_.threads;
+
+  Stage("validate", [this](StageRecord& s) { Validate(s); });
+  Stage("slam", [this](StageRecord& s) { Slam(s); });
+  if (record_.Stage("slam")->status == "failed") {
+    // Nothing downstream can run; the record says why.
+    record_.finished = IsoTimeNow();
+    WriteRunRecord(record_path_, record_);
+    return {record_, record_path_};
+  }
+  Stage("associate", [this](StageRecord& s) { Associate(s); });
+  Stage("fuse", [this](StageRecord& s) { Fuse(s); });
+  Stage("densify", [this](StageRecord& s) {
+    if (config_.densify) {
+      Densify(s);
+    } else {
+      s.status = "disabled";
+    }
+  });
+  Stage("analyze", [this](StageRecord& s) { Analyze(s); });
+  Stage("eval", [this](StageRecord& s) { Eval(s); });
+  // The report shows the record: complete before it is drawn.
+  record_.complete = true;
+  record_.finished = IsoTimeNow();
+  WriteRunRecord(record_path_, record_);
+  Stage("report", [this](StageRecord& s) { Report(s); });
+  record_.finished = IsoTimeNow();
+  WriteRunRecord(record_path_, record_);
+  return {record_, record_path_};
+}
+
+std::string Cm(const json& j) {
+  return j.is_number() ? fmt::format("{:.2f} cm", 100.0 * j.get<double>()) : "n/a";
+}
+
+}  // namespace
+
+RunResult RunSeason(const std::string& field_folder, const std::string& workspace,
+                    const RunOptions& options) {
+  std::string message;
+  if (!options.config.Check(&message)) throw InputError(options.config_source, 0, message);
+  std::error_code ec;
+  fs::create_directories(workspace, ec);
+  if (ec || !fs::is_directory(workspace)) {
+    throw InputError(workspace, 0, "cannot create the workspace folder: " + ec.message());
+  }
+  ScopedLogFile log_file((fs::path(workspace) / "crop4d.log").string());
+  SeasonRun run(field_folder, workspace, options);
+  return run.Run();
+}
+
+std::string FormatRunSummary(const RunResult& result) {
+  const RunRecord& r = result.record;
+  std::string out = fmt::format("{:<10} {:<11} {:>9} {:>6} {:>11} {:>7}\n", "stage", "status",
+                                "time [s]", "done", "up to date", "failed");
+  double total = 0;
+  for (const StageRecord& s : r.stages) {
+    total += s.seconds;
+    out += fmt::format("{:<10} {:<11} {:>9.1f} {:>6} {:>11} {:>7}\n", s.name, s.status, s.seconds,
+                       s.done, s.skipped, s.failed);
+  }
+  out += fmt::format("{:<10} {:<11} {:>9.1f}\n", "total", r.complete ? "complete" : "incomplete",
+                     total);
+  if (!r.skipped.empty()) {
+    out += fmt::format("\nskipped or degraded ({}):\n", r.skipped.size());
+    for (const SkippedItem& s : r.skipped) {
+      std::string what = s.session;
+      if (!s.item.empty()) what += (what.empty() ? "" : "/") + s.item;
+      out += fmt::format("  {:<9} {:<28} {}\n", s.stage, what.empty() ? "-" : what, s.reason);
+    }
+  }
+  const fs::path metrics = fs::path(r.workspace) / "eval" / "metrics.json";
+  if (std::ifstream in(metrics); in) {
+    const json m = json::parse(in, nullptr, false);
+    if (m.is_object()) {
+      out += "\n";
+      const json fused = m.value("/fused/overall/ate_raw_m/rmse"_json_pointer, json());
+      const json passes = m.value("/overall/ate_raw_m/rmse"_json_pointer, json());
+      const json misalign =
+          m.value("/ground_misalignment/fused/pooled/median_m"_json_pointer, json());
+      const json canopy = m.value("/canopy/ours/rmse_m"_json_pointer, json());
+      out += fmt::format("trajectory error (ATE RMSE, no alignment): row SLAM {}, fused {}\n",
+                         Cm(passes), Cm(fused));
+      out += fmt::format("cross-session ground misalignment (fused, median): {}\n", Cm(misalign));
+      out += fmt::format("canopy height RMSE: {}\n", Cm(canopy));
+    }
+  }
+  const fs::path report = fs::path(r.workspace) / "report.html";
+  if (fs::exists(report)) out += fmt::format("\nreport: {}\n", report.string());
+  return out;
+}
+
+}  // namespace crop4d::pipeline

@@ -1,0 +1,62 @@
+#pragma once
+
+// A whole season in one call (`crop4d run`, docs/run.md): validate → slam → associate → fuse →
+// densify → analyze → eval (when the field has ground truth) → report, into one workspace.
+//
+// Resumable and incremental: every stage records a fingerprint of what it consumed (content
+// hashes of its input files and the options that matter to it) and skips the work whose inputs
+// are unchanged — per pass (slam), per pass pair (associate), per session (densify), as a whole
+// (fuse, analyze, eval). Every output is written atomically (io/atomic_file.h) and a stage's
+// summary with its fingerprint last, so a run killed at any moment leaves either a finished
+// item or none, and the next run finishes the rest with the same results as an uninterrupted
+// run. A session added to the field costs its own passes, its association pairs, and the stages
+// that depend on all sessions (fusion, the dense clouds of the sessions whose fused poses moved,
+// the analysis, the evaluation).
+//
+// Bad input in one session (an unreadable image, a truncated IMU file, a session without GPS)
+// is logged and recorded (WS/run.json "skipped", the report); the other sessions go on. Only a
+// field that cannot be read at all, or a workspace that cannot be written, stops the run.
+//
+// Records: WS/crop4d.yaml (the effective configuration), WS/run.json, WS/run_log.jsonl and
+// WS/crop4d.log (pipeline/run_log.h).
+
+#include <string>
+
+#include "crop4d/pipeline/run_config.h"
+#include "crop4d/pipeline/run_log.h"
+
+namespace crop4d::pipeline {
+
+// The stages in run order (the names of WS/run.json and the run log).
+inline constexpr const char* kRunStages[] = {"validate", "slam",    "associate", "fuse",
+                                             "densify",  "analyze", "eval",      "report"};
+
+struct RunOptions {
+  RunConfig config;
+  // Where the configuration came from, for the log ("defaults" or a file).
+  std::string config_source = "defaults";
+  // Redo every stage even when its outputs are up to date.
+  bool force = false;
+  bool show_progress = true;
+};
+
+struct RunResult {
+  RunRecord record;
+  std::string record_path;  // WS/run.json
+  // Every stage ran (some items may have been skipped: see record.skipped).
+  bool complete() const { return record.complete; }
+  // A stage failed as a whole.
+  bool any_stage_failed() const;
+};
+
+// Runs the season. Throws InputError when the field's field.yaml cannot be read or the
+// workspace cannot be written; everything else is recorded in the result.
+RunResult RunSeason(const std::string& field_folder, const std::string& workspace,
+                    const RunOptions& options);
+
+// A short summary for the terminal: a line per stage (status, time, counts), what was skipped,
+// the headline figures of WS/eval/metrics.json when present (trajectory error, cross-session
+// misalignment, canopy-height RMSE), and where the report is.
+std::string FormatRunSummary(const RunResult& result);
+
+}  // namespace crop4d::pipeline

@@ -1,0 +1,335 @@
+// End-to-end tests of `crop4d run` (pipeline/season_run.h) on a simulated tiny field with three
+// sessions: runs killed at random moments finish with the outputs of an uninterrupted run; a
+// session added to the field redoes only its own work and what depends on every session; bad
+// data in one session leaves the rest of the season processed and says what was skipped.
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "crop4d/pipeline/run_log.h"
+#include "crop4d/sim/sim_config.h"
+#include "crop4d/sim/simulator.h"
+
+extern char** environ;
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+std::string Binary() {
+  const char* override_path = std::getenv("CROP4D_TEST_BINARY");
+  return override_path != nullptr ? override_path : std::string(CROP4D_BINARY_DIR) + "/crop4d";
+}
+
+// The tiny preset with a third session (no rain: the sessions register), simulated once per
+// build tree.
+const fs::path& ThreeSessionField() {
+  static const fs::path path = [] {
+    const fs::path folder = fs::path(CROP4D_BINARY_DIR) / "test_data" / "tiny_three_sessions";
+    if (fs::exists(folder / "field.yaml")) return folder;
+    sim::SimConfig config = sim::PresetConfig("tiny");
+    config.sessions = {{"2016-06-10", false}, {"2016-06-24", false}, {"2016-07-08", false}};
+    const fs::path tmp = folder.string() + ".tmp." + std::to_string(getpid());
+    fs::remove_all(tmp);
+    sim::Simulator(config).Write(tmp.string());
+    fs::create_directories(folder.parent_path());
+    std::error_code ec;
+    fs::rename(tmp, folder, ec);
+    fs::remove_all(tmp);
+    return folder;
+  }();
+  return path;
+}
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A view of the field with only its first `num_sessions` sessions: field.yaml rewritten, the
+// rest linked (the session folders and the ground truth are shared, read-only).
+void MakeFieldView(const fs::path& view, int num_sessions) {
+  const fs::path source = ThreeSessionField();
+  fs::create_directories(view / "sessions");
+  std::string yaml = Slurp(source / "field.yaml");
+  const std::vector<std::string> ids = {"2016-06-10", "2016-06-24", "2016-07-08"};
+  for (int i = num_sessions; i < 3; ++i) {
+    const std::string line = "  - \"" + ids[i] + "\"\n";
+    const std::size_t at = yaml.find(line);
+    ASSERT_NE(at, std::string::npos) << line;
+    yaml.erase(at, line.size());
+  }
+  std::ofstream(view / "field.yaml") << yaml;
+  for (int i = 0; i < num_sessions; ++i) {
+    if (!fs::exists(view / "sessions" / ids[i])) {
+      fs::create_directory_symlink(fs::absolute(source / "sessions" / ids[i]),
+                                   view / "sessions" / ids[i]);
+    }
+  }
+  if (!fs::exists(view / "ground_truth")) {
+    fs::create_directory_symlink(fs::absolute(source / "ground_truth"), view / "ground_truth");
+  }
+}
+
+// Starts `crop4d args...` with output to `log`; returns its pid.
+pid_t Start(const std::vector<std::string>& args, const fs::path& log) {
+  std::vector<std::string> all = {Binary()};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  return rc == 0 ? pid : -1;
+}
+
+// Runs to the end; returns the exit code (-1 when killed by a signal).
+int RunToEnd(const std::vector<std::string>& args, const fs::path& log) {
+  const pid_t pid = Start(args, log);
+  if (pid < 0) return -2;
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Runs and kills the process with SIGKILL after `seconds` (if still running). Returns true when
+// it was killed, false when it had finished before.
+bool RunAndKill(const std::vector<std::string>& args, const fs::path& log, double seconds) {
+  const pid_t pid = Start(args, log);
+  if (pid < 0) return false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  int status = 0;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, &status, 0);
+  return true;
+}
+
+// The products of a workspace: every file but the records that hold times (summaries, logs,
+// run record, report), relative path → bytes.
+std::map<std::string, std::string> Products(const fs::path& ws) {
+  std::map<std::string, std::string> out;
+  for (const auto& entry : fs::recursive_directory_iterator(ws)) {
+    if (!entry.is_regular_file()) continue;
+    const std::string name = entry.path().filename().string();
+    const std::string ext = entry.path().extension().string();
+    if (ext == ".json" || ext == ".jsonl" || ext == ".log" || name == "report.html") continue;
+    out[fs::relative(entry.path(), ws).string()] = Slurp(entry.path());
+  }
+  return out;
+}
+
+class SeasonRunTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(fs::exists(Binary())) << Binary();
+    dir_ = fs::path(::testing::TempDir()) /
+           ("crop4d_run_" + std::to_string(getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    ThreeSessionField();
+    // Coarser dense clouds than the default keep the test quick; the stages are the same.
+    std::ofstream(dir_ / "config.yaml") << "densify: {cell_m: 0.015}\n";
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+  std::vector<std::string> RunArgs(const fs::path& field, const fs::path& ws,
+                                   std::vector<std::string> extra = {}) const {
+    std::vector<std::string> args = {"run",       field.string(), "--workspace",
+                                     ws.string(), "--config",     (dir_ / "config.yaml").string(),
+                                     "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(SeasonRunTest, RunsKilledAtRandomMomentsFinishWithTheOutputsOfAnUninterruptedRun) {
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 2);
+  // One thread: Ceres sums in a fixed order, so results are reproducible to the last bit (with
+  // more threads they agree to rounding, run to run, interrupted or not).
+  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
+  const auto start = std::chrono::steady_clock::now();
+  ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / "reference", extra), dir_ / "reference.log"), 0)
+      << Slurp(dir_ / "reference.log");
+  const double full_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  // Kill moments drawn at random (seeded: the test is repeatable) over the length of a run;
+  // each resumed run gets further, since the work already done is kept.
+  std::mt19937 rng(20261122);
+  std::uniform_real_distribution<double> moment(0.5, 0.6 * full_s);
+  const fs::path ws = dir_ / "resumed";
+  int kills = 0;
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    if (RunAndKill(RunArgs(field, ws, extra), dir_ / "resumed.log", moment(rng))) ++kills;
+  }
+  EXPECT_GE(kills, 3) << "the runs finished before they could be killed";
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, extra), dir_ / "resumed.log"), 0)
+      << Slurp(dir_ / "resumed.log");
+
+  const auto expected = Products(dir_ / "reference");
+  const auto actual = Products(ws);
+  std::set<std::string> names_expected, names_actual;
+  for (const auto& [name, bytes] : expected) names_expected.insert(name);
+  for (const auto& [name, bytes] : actual) names_actual.insert(name);
+  // The same files (no stray temporary file, nothing missing) with the same bytes.
+  EXPECT_EQ(names_actual, names_expected);
+  int differ = 0;
+  for (const auto& [name, bytes] : expected) {
+    auto it = actual.find(name);
+    if (it != actual.end() && it->second != bytes) {
+      ADD_FAILURE() << name << " differs from the uninterrupted run";
+      ++differ;
+    }
+  }
+  EXPECT_EQ(differ, 0);
+  EXPECT_GT(expected.size(), 50u);  // passes, associations, fusion, dense, analysis
+  EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
+  EXPECT_TRUE(expected.count("dense/2016-06-24.ply"));
+
+  // The last run completed and says so.
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  EXPECT_TRUE(record.skipped.empty());
+}
+
+// Which items of `stage` the run `run_id` did (action "done").
+std::set<std::string> DoneItems(const std::vector<RunEvent>& events, const std::string& run_id,
+                                const std::string& stage) {
+  std::set<std::string> items;
+  for (const RunEvent& e : events) {
+    if (e.run == run_id && e.stage == stage && e.action == kActionDone) items.insert(e.item);
+  }
+  return items;
+}
+
+TEST_F(SeasonRunTest, AddedSessionRedoesOnlyItsOwnWorkAndWhatDependsOnAllSessions) {
+  const fs::path field = dir_ / "field";
+  const fs::path ws = dir_ / "ws";
+  MakeFieldView(field, 2);
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run1.log"), 0) << Slurp(dir_ / "run1.log");
+  // Nothing changed: nothing is redone.
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run2.log"), 0) << Slurp(dir_ / "run2.log");
+  // The third session arrives.
+  fs::remove(field / "field.yaml");
+  MakeFieldView(field, 3);
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run3.log"), 0) << Slurp(dir_ / "run3.log");
+
+  const std::vector<RunEvent> events = ReadRunLog((ws / "run_log.jsonl").string());
+  std::vector<std::string> runs;
+  for (const RunEvent& e : events) {
+    if (runs.empty() || runs.back() != e.run) runs.push_back(e.run);
+  }
+  ASSERT_EQ(runs.size(), 3u);
+
+  // Run 2: up to date everywhere (the report is always drawn again).
+  for (const char* stage : {"slam", "associate", "fuse", "densify", "analyze", "eval"}) {
+    EXPECT_TRUE(DoneItems(events, runs[1], stage).empty()) << stage;
+  }
+  // Run 3: the new session's passes only.
+  const std::set<std::string> slam = DoneItems(events, runs[2], "slam");
+  EXPECT_EQ(slam, (std::set<std::string>{"2016-07-08/row00", "2016-07-08/row01"}));
+  // Association pairs: only those with a pass of the new session (its rows with each other,
+  // and with the same rows of the session before).
+  const std::set<std::string> pairs = DoneItems(events, runs[2], "associate");
+  EXPECT_FALSE(pairs.empty());
+  for (const std::string& pair : pairs) {
+    EXPECT_NE(pair.find("2016-07-08"), std::string::npos) << pair;
+  }
+  std::set<std::string> pairs_first_run = DoneItems(events, runs[0], "associate");
+  for (const std::string& pair : pairs) EXPECT_EQ(pairs_first_run.count(pair), 0u) << pair;
+  // Everything that depends on all sessions.
+  EXPECT_EQ(DoneItems(events, runs[2], "fuse").size(), 1u);
+  EXPECT_EQ(DoneItems(events, runs[2], "analyze").size(), 1u);
+  EXPECT_EQ(DoneItems(events, runs[2], "eval").size(), 1u);
+  EXPECT_TRUE(DoneItems(events, runs[2], "densify").count("2016-07-08"));
+
+  // The results cover the three sessions.
+  const std::string heights = Slurp(ws / "analysis" / "site_heights.csv");
+  EXPECT_NE(heights.find("2016-07-08"), std::string::npos);
+  const json metrics = json::parse(Slurp(ws / "eval" / "metrics.json"));
+  EXPECT_EQ(metrics["fused"]["overall"]["num_evaluated"].get<int>(), 3);
+  EXPECT_LT(metrics["fused"]["overall"]["ate_raw_m"]["rmse"].get<double>(), 0.05);
+}
+
+TEST_F(SeasonRunTest, BadDataInSessionsIsReportedAndTheRestOfTheSeasonIsProcessed) {
+  // A copy of the field with: an image of a row pass overwritten with garbage (session 1), the
+  // IMU file cut in the middle of a line (session 2), no GPS fix at all (session 3).
+  const fs::path field = dir_ / "field";
+  fs::copy(ThreeSessionField(), field, fs::copy_options::recursive);
+  const fs::path s1 = field / "sessions" / "2016-06-10";
+  std::vector<fs::path> images;
+  for (const auto& e : fs::directory_iterator(s1 / "cam0" / "data")) images.push_back(e.path());
+  std::sort(images.begin(), images.end());
+  ASSERT_GT(images.size(), 100u);
+  std::ofstream(images[images.size() / 4], std::ios::trunc) << "not an image";
+  const fs::path imu = field / "sessions" / "2016-06-24" / "imu0" / "data.csv";
+  fs::resize_file(imu, fs::file_size(imu) / 2 + 7);
+  for (const char* gps : {"gps0", "gps1"}) {
+    const fs::path csv = field / "sessions" / "2016-07-08" / gps / "data.csv";
+    std::istringstream in(Slurp(csv));
+    std::ostringstream out;
+    std::string line;
+    while (std::getline(in, line)) {
+      if (!line.empty() && line[0] != '#') line = line.substr(0, line.rfind(',')) + ",0";
+      out << line << "\n";
+    }
+    std::ofstream(csv, std::ios::trunc) << out.str();
+  }
+
+  const fs::path ws = dir_ / "ws";
+  const int code = RunToEnd(RunArgs(field, ws, {"--eval", "never"}), dir_ / "run.log");
+  EXPECT_EQ(code, 0) << Slurp(dir_ / "run.log");
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  std::set<std::string> sessions_named;
+  for (const SkippedItem& s : record.skipped) sessions_named.insert(s.session);
+  // Each damaged session is named, with a reason.
+  for (const char* id : {"2016-06-10", "2016-06-24", "2016-07-08"}) {
+    EXPECT_TRUE(sessions_named.count(id)) << id << " not in run.json's skipped list";
+  }
+  for (const SkippedItem& s : record.skipped) EXPECT_FALSE(s.reason.empty());
+  // The readable sessions went all the way through.
+  const std::string heights = Slurp(ws / "analysis" / "site_heights.csv");
+  EXPECT_NE(heights.find("2016-06-10"), std::string::npos);
+  EXPECT_TRUE(fs::exists(ws / "dense" / "2016-06-10.ply"));
+  EXPECT_TRUE(fs::exists(ws / "report.html"));
+  // The terminal summary names what was skipped.
+  EXPECT_NE(Slurp(dir_ / "run.log").find("skipped or degraded"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace crop4d::pipeline

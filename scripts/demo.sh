@@ -27,7 +27,7 @@ fi
 # second `make demo` takes seconds; an interrupted one finishes where it stopped.
 workspace="$demo_dir/workspace"
 run_start=$(date +%s)
-"$crop4d" run "$field" --workspace "$workspace"
+"$crop4d" run "$field" --workspace "$workspace" --config "$repo/scripts/demo.yaml"
 run_s=$(( $(date +%s) - run_start ))
 "$crop4d" section --workspace "$workspace" --field "$field" --row 1 --output "$demo_dir/cross_section.png"
 

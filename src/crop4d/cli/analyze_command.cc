@@ -12,6 +12,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/pipeline/analyze_stage.h"
 
 namespace crop4d::cli {
@@ -58,7 +59,7 @@ int RunAnalyze(AnalyzeArgs& args) {
     limit.emplace(tbb::global_control::max_allowed_parallelism, args.threads);
   }
   const pipeline::AnalyzeReport report = pipeline::RunAnalyzeStage(args.field, args.workspace, o);
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::fputs(pipeline::FormatAnalyzeReport(report).c_str(), stdout);
     std::fflush(stdout);
   }

@@ -11,6 +11,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/pipeline/associate_stage.h"
 
 namespace crop4d::cli {
@@ -57,7 +58,7 @@ int RunAssociate(AssociateArgs& args) {
   }
   const std::vector<pipeline::PassPairReport> reports =
       pipeline::RunAssociateStage(args.field, args.workspace, o);
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::printf("%-21s %-21s %-29s %-6s %6s %9s %8s %8s %8s  %s\n", "pass a", "pass b", "type",
                 "method", "images", "projected", "putative", "matches", "time [s]", "status");
     for (const pipeline::PassPairReport& r : reports) {

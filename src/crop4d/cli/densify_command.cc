@@ -11,6 +11,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/pipeline/densify_stage.h"
 
 namespace crop4d::cli {
@@ -69,7 +70,7 @@ int RunDensify(DensifyArgs& args) {
   if (!o.Check()) throw InputError("crop4d densify", 0, "invalid options");
   const std::vector<pipeline::DensifySessionReport> reports =
       pipeline::RunDensifyStage(args.field, args.workspace, o);
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::fputs(pipeline::FormatDensifyReport(reports).c_str(), stdout);
     std::fflush(stdout);
   }

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "crop4d/cli/command.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/eval/workspace_eval.h"
 
 namespace crop4d::cli {
@@ -31,7 +32,7 @@ int RunEval(const EvalArgs& args) {
     if (!pass.ok())
       spdlog::warn("pass {}/{} not evaluated: {}", pass.session, pass.pass, pass.error);
   }
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::fputs(eval::FormatWorkspaceEvalTable(result).c_str(), stdout);
     std::fflush(stdout);
   }

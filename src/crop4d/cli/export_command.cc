@@ -11,6 +11,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/pipeline/export_stage.h"
 
 namespace crop4d::cli {
@@ -38,7 +39,7 @@ int RunExportCommand(ExportArgs& args) {
   if (!o.Check(&why)) throw InputError("crop4d export", 0, why);
   const pipeline::ExportReport report =
       pipeline::RunExport(args.field, args.workspace, args.out, o);
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::fputs(pipeline::FormatExportReport(report).c_str(), stdout);
     std::fflush(stdout);
   }

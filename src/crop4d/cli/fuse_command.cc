@@ -10,6 +10,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/pipeline/fuse_stage.h"
 
 namespace crop4d::cli {
@@ -36,7 +37,7 @@ int RunFuse(FuseArgs& args) {
   }
   if (!o.Check()) throw InputError("crop4d fuse", 0, "invalid options");
   const pipeline::FuseReport report = pipeline::RunFuseStage(args.field, args.workspace, o);
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::fputs(pipeline::FormatFuseReport(report).c_str(), stdout);
     std::fflush(stdout);
   }

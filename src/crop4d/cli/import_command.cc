@@ -13,6 +13,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/dataset_format.h"
 #include "crop4d/io/importer.h"
@@ -102,7 +103,7 @@ int RunImport(const ImportArgs& args) {
   }
 
   const io::SessionImporter::Summary summary = io::SessionImporter(options).Run();
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::fputs(io::FormatImportSummary(summary).c_str(), stdout);
     std::fflush(stdout);
   }

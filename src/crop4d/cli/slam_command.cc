@@ -10,6 +10,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/pipeline/slam_stage.h"
 
@@ -53,14 +54,14 @@ int RunSlam(SlamArgs& args) {
   const std::vector<pipeline::PassReport> reports =
       pipeline::RunSlamStage(args.field, args.workspace, o);
   int failed = 0, skipped = 0;
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     std::printf("%-12s %-8s %-12s %6s %9s %9s %8s  %s\n", "session", "pass", "sensors", "states",
                 "landmarks", "cloud", "time [s]", "status");
   }
   for (const pipeline::PassReport& r : reports) {
     failed += r.failed ? 1 : 0;
     skipped += r.skipped ? 1 : 0;
-    if (spdlog::get_level() <= spdlog::level::info) {
+    if (!IsQuiet()) {
       std::printf("%-12s %-8s %-12s %6d %9d %9d %8.1f  %s\n", r.session.c_str(), r.pass.id.c_str(),
                   r.sensors.c_str(), r.num_states, r.num_landmarks, r.num_cloud_points, r.seconds,
                   r.failed    ? ("FAILED: " + r.message).c_str()

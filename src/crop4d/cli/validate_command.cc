@@ -11,6 +11,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/validator.h"
 
@@ -26,7 +27,7 @@ struct ValidateArgs {
 
 int RunValidate(const ValidateArgs& args) {
   io::ValidateOptions options = args.options;
-  options.progress = spdlog::get_level() <= spdlog::level::info;
+  options.progress = !IsQuiet();
   const io::ValidationReport report = io::ValidateField(args.field, options);
 
   // Diagnostics to stderr, at most max_messages per file.
@@ -49,7 +50,7 @@ int RunValidate(const ValidateArgs& args) {
   }
 
   // The summary table, unless there is nothing to summarise (e.g. no such folder).
-  if (spdlog::get_level() <= spdlog::level::info && (report.ok() || !report.sessions.empty())) {
+  if (!IsQuiet() && (report.ok() || !report.sessions.empty())) {
     std::fputs(io::FormatValidationSummary(report).c_str(), stdout);
     std::fflush(stdout);
   }

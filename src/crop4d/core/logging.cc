@@ -1,13 +1,16 @@
 #include "crop4d/core/logging.h"
 
-#include <algorithm>
-
 #include <spdlog/sinks/basic_file_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
+
+#include <algorithm>
+#include <atomic>
 
 namespace crop4d {
 
 namespace {
+std::atomic<bool> g_quiet{false};
+
 spdlog::level::level_enum ToLevel(Verbosity v) {
   switch (v) {
     case Verbosity::kQuiet:
@@ -33,6 +36,7 @@ void InitLogging(Verbosity verbosity) {
     spdlog::set_default_logger(logger);
   }
   logger->sinks().front()->set_level(ToLevel(verbosity));
+  g_quiet = ToLevel(verbosity) > spdlog::level::info;
   logger->set_level(spdlog::level::trace);
   logger->flush_on(spdlog::level::warn);
 }
@@ -56,6 +60,8 @@ void RemoveLogSink(const spdlog::sink_ptr& sink) {
   auto& sinks = spdlog::default_logger()->sinks();
   sinks.erase(std::remove(sinks.begin(), sinks.end(), sink), sinks.end());
 }
+
+bool IsQuiet() { return g_quiet; }
 
 Verbosity VerbosityFromFlags(int verbose_count, bool quiet) {
   if (quiet) return Verbosity::kQuiet;

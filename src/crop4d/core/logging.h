@@ -22,6 +22,11 @@ spdlog::sink_ptr AddLogFile(const std::string& path);
 // Takes a sink added by AddLogFile off the default logger (flushing it first); null is ignored.
 void RemoveLogSink(const spdlog::sink_ptr& sink);
 
+// True when the terminal shows only warnings and errors (-q): commands leave out their result
+// tables then. (The default logger itself stays at trace level so that the log file of a run
+// gets debug messages; its level says nothing about the terminal.)
+bool IsQuiet();
+
 // Maps the count of -v flags and the -q flag to a verbosity.
 Verbosity VerbosityFromFlags(int verbose_count, bool quiet);
 

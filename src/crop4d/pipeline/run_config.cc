@@ -323,6 +323,10 @@ const std::vector<Key>& Keys() {
         "eval", "canopy_max_error_m", "a canopy height further from the truth is a failure",
         [](RunConfig& c) -> double& { return c.eval_options.canopy_options.max_error_m; }, 0.0001,
         100));
+    k.push_back(Bool("eval", "associations",
+                     "precision of the cross matches (renders a true depth map per matched image: "
+                     "the slow part of the evaluation)",
+                     [](RunConfig& c) -> bool& { return c.eval_options.associations; }));
     k.push_back(
         String("eval", "depth_cache",
                "where rendered true depth maps are kept (\"\": "

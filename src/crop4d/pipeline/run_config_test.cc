@@ -53,7 +53,7 @@ TEST(RunConfigTest, KeysSetTheStageOptions) {
                                      "densify: {cell_m: 0.01, max_views: 5}\n"
                                      "analyze: {canopy_top: crown-peaks, greenness: exgr, "
                                      "sites: my_sites.csv}\n"
-                                     "eval: {canopy_max_error_m: 0.03}\n");
+                                     "eval: {canopy_max_error_m: 0.03, associations: false}\n");
   EXPECT_EQ(c.threads, 2);
   EXPECT_FALSE(c.densify);
   EXPECT_EQ(c.eval, "never");
@@ -72,6 +72,7 @@ TEST(RunConfigTest, KeysSetTheStageOptions) {
   EXPECT_EQ(c.analyze.vegetation.index, analysis::GreennessIndex::kExGR);
   EXPECT_EQ(c.analyze.sites_file, "my_sites.csv");
   EXPECT_DOUBLE_EQ(c.eval_options.canopy_options.max_error_m, 0.03);
+  EXPECT_FALSE(c.eval_options.associations);
 }
 
 TEST(RunConfigTest, FormattedConfigurationReadsBackToItself) {

@@ -288,7 +288,7 @@ void SeasonRun::Analyze(StageRecord& stage) {
   Item(stage, "",
        fmt::format("{} sessions, {} site estimates", report.sessions.size(), report.sites.size()),
        report.skipped ? kActionUpToDate : kActionDone, report.seconds);
-  if (!report.skipped && spdlog::get_level() <= spdlog::level::info) {
+  if (!report.skipped && !IsQuiet()) {
     spdlog::info("\n{}", FormatAnalyzeReport(report));
   }
 }
@@ -352,7 +352,7 @@ void SeasonRun::Eval(StageRecord& stage) {
   eval::WriteWorkspaceEval(result);
   io::WriteFileAtomic(stamp_path.string(), stamp + "\n");
   Item(stage, "", "metrics.json", kActionDone, SecondsSince(start));
-  if (spdlog::get_level() <= spdlog::level::info) {
+  if (!IsQuiet()) {
     spdlog::info("\n{}", eval::FormatWorkspaceEvalTable(result));
   }
 }

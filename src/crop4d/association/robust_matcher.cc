@@ -7,15 +7,12 @@
 #include <opencv2/core/mat.hpp>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/stopwatch.h"
 
 namespace crop4d::association {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // L2 distance of two 8-bit descriptors (exact, in integers).
 float DescriptorDistance(const std::uint8_t* a, const std::uint8_t* b) {

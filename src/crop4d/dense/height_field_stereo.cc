@@ -16,15 +16,12 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/stopwatch.h"
 
 namespace crop4d::dense {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // Why a cell has no point (kept in a byte per cell).
 enum CellState : std::uint8_t {

@@ -12,13 +12,10 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/stopwatch.h"
 
 namespace crop4d::features {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 Progress::Options ProgressOptions(bool show) {
   Progress::Options options;

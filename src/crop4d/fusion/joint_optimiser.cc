@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/slam/pass_graph.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/triangulation.h"
@@ -19,10 +20,6 @@ namespace crop4d::fusion {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 bool SameCamera(const geometry::PinholeRadTan& a, const geometry::PinholeRadTan& b) {
   return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&

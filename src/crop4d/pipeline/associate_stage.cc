@@ -18,6 +18,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
 #include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
@@ -34,10 +35,6 @@ using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
 constexpr int kAssociateStageRevision = 2;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // A pass loaded for association: features, camera, image files, the landmarks seen in each
 // image, and (for a pass that projects its landmarks) the local planes of its cloud.
@@ -527,8 +524,9 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
     return *slot;
   };
   std::vector<PassPairReport> reports;
-  Progress progress("associate", pairs.size() * methods.size(), "pair",
-                    Progress::Options{.silent = !options.show_progress});
+  Progress::Options progress_options;
+  progress_options.silent = !options.show_progress;
+  Progress progress("associate", pairs.size() * methods.size(), "pair", progress_options);
   // Light pass data (summary and poses) decides what is up to date; features, tracks and images
   // are loaded only for the pairs that need work.
   std::map<association::PassRef, PassData> light;

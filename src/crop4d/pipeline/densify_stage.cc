@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
@@ -33,10 +34,6 @@ using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
 constexpr int kDensifyStageRevision = 1;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 json BoxJson(const Eigen::AlignedBox2d& box) {
   if (box.isEmpty()) return json::array();

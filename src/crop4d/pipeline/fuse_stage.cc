@@ -19,6 +19,7 @@
 
 #include "crop4d/association/association_file.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
 #include "crop4d/features/hash.h"
 #include "crop4d/geometry/rotation.h"
@@ -42,10 +43,6 @@ using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
 constexpr int kFuseStageRevision = 1;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // One (pass, image, feature) as a node of the landmark graph.
 struct Node {

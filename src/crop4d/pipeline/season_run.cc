@@ -18,6 +18,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
 #include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
@@ -39,10 +40,6 @@ bool RunResult::any_stage_failed() const {
 }
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // WS/crop4d.log on the default logger for the lifetime of the object.
 class ScopedLogFile {

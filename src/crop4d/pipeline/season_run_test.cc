@@ -328,7 +328,10 @@ TEST_F(SeasonRunTest, BadDataInSessionsIsReportedAndTheRestOfTheSeasonIsProcesse
   const std::string heights = Slurp(ws / "analysis" / "site_heights.csv");
   EXPECT_NE(heights.find("2016-06-10"), std::string::npos);
   EXPECT_TRUE(fs::exists(ws / "dense" / "2016-06-10.ply"));
-  EXPECT_TRUE(fs::exists(ws / "report.html"));
+  // The report says what was skipped: the session without GPS, with the reason.
+  const std::string report = Slurp(ws / "report.html");
+  EXPECT_NE(report.find("2016-07-08"), std::string::npos);
+  EXPECT_NE(report.find("this session has none"), std::string::npos);
   // The terminal summary names what was skipped.
   EXPECT_NE(Slurp(dir_ / "run.log").find("skipped or degraded"), std::string::npos);
 }

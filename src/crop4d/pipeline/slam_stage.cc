@@ -14,6 +14,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
 #include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
@@ -29,10 +30,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 // The options that change a pass's result, as JSON (in summary.json and the fingerprint).
 json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {

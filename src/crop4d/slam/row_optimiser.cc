@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "crop4d/core/stopwatch.h"
 #include "crop4d/slam/pass_graph.h"
 #include "crop4d/slam/reprojection_factor.h"
 
@@ -17,10 +18,6 @@ namespace crop4d::slam {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 }  // namespace
 

@@ -299,7 +299,8 @@ std::string SeasonRun::EvalFingerprint() const {
     hasher.AddBytes("\n", 1);
   };
   add(kVersion);
-  add(FormatRunConfig(config_).substr(FormatRunConfig(config_).find("\neval:")));
+  const std::string config = FormatRunConfig(config_);
+  add(config.substr(config.find("\neval:")));
   std::vector<std::string> summaries;
   for (const char* folder : {"sessions", "associations", "fused", "analysis"}) {
     std::error_code ec;

@@ -15,6 +15,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/version.h"
+#include "crop4d/eval/canopy_eval.h"
 #include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/csv.h"
@@ -202,40 +203,26 @@ void WriteGrowthCsv(const fs::path& path, const std::vector<SiteGrowth>& growth,
 
 // Site results of an earlier run (for the table of a skipped, up-to-date stage).
 std::vector<SiteResult> ReadSiteCsvs(const fs::path& dir) {
+  // The files this stage wrote, read back with the reader `crop4d eval` uses.
   std::map<std::pair<std::string, std::string>, SiteResult> by_key;
   std::vector<std::pair<std::string, std::string>> order;
   for (const bool ours : {true, false}) {
     const fs::path path = dir / (ours ? "site_heights.csv" : "site_heights_single_plane.csv");
     if (!fs::exists(path)) continue;
-    io::CsvReader reader(path.string());
-    io::CsvRecord rec;
-    bool header = true;
-    while (reader.Next(&rec)) {
-      if (header) {
-        header = false;
-        continue;
-      }
-      if (rec.fields.size() != 7) {
-        throw InputError(path.string(), rec.line, "expected 7 fields");
-      }
-      const auto key = std::make_pair(std::string(rec.fields[0]), std::string(rec.fields[1]));
+    for (const eval::SiteHeight& h : eval::ReadSiteHeights(path.string())) {
+      const auto key = std::make_pair(h.site_id, h.session);
       if (!by_key.count(key)) order.push_back(key);
       SiteResult& r = by_key[key];
-      r.site_id = key.first;
-      r.session = key.second;
-      ParseDate(std::string(rec.fields[2]), &r.date);
+      r.site_id = h.site_id;
+      r.session = h.session;
+      if (!h.date.empty() && !ParseDate(h.date, &r.date)) {
+        throw InputError(path.string(), h.line, "not a date (YYYY-MM-DD): '" + h.date + "'");
+      }
       analysis::SiteCanopy& c = ours ? r.ours : r.single_plane;
-      auto number = [&](std::string_view f) {
-        double v = kNaN;
-        if (!f.empty() && !io::ParseDouble(f, &v)) {
-          throw InputError(path.string(), rec.line, "not a number: '" + std::string(f) + "'");
-        }
-        return v;
-      };
-      c.height_m = number(rec.fields[3]);
-      c.cover = number(rec.fields[4]);
-      c.volume_m3 = number(rec.fields[5]);
-      c.n_points = static_cast<int>(number(rec.fields[6]));
+      c.height_m = h.height_m;
+      c.cover = h.cover;
+      c.volume_m3 = h.volume_m3;
+      c.n_points = h.n_points >= 0 ? static_cast<int>(h.n_points) : 0;
     }
   }
   std::vector<SiteResult> out;

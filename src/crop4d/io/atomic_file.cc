@@ -7,15 +7,30 @@
 #include <cstring>
 #include <filesystem>
 #include <system_error>
+#include <vector>
 
 #include "crop4d/core/error.h"
 
 namespace crop4d::io {
 namespace {
 
+constexpr const char* kTemporaryInfix = ".tmp.";
+
 std::string TemporaryPath(const std::string& path) {
   static std::atomic<unsigned long> counter{0};
-  return path + ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  return path + kTemporaryInfix + std::to_string(::getpid()) + "." + std::to_string(counter++);
+}
+
+// Whether `name` ends in TemporaryPath's suffix: ".tmp.<digits>.<digits>".
+bool IsTemporaryName(const std::string& name) {
+  const std::size_t at = name.rfind(kTemporaryInfix);
+  if (at == std::string::npos) return false;
+  const std::string tail = name.substr(at + std::strlen(kTemporaryInfix));
+  const std::size_t dot = tail.find('.');
+  auto digits = [](const std::string& s) {
+    return !s.empty() && s.find_first_not_of("0123456789") == std::string::npos;
+  };
+  return dot != std::string::npos && digits(tail.substr(0, dot)) && digits(tail.substr(dot + 1));
 }
 
 }  // namespace
@@ -71,6 +86,20 @@ void WriteFileAtomic(const std::string& path, const std::string& content) {
   AtomicFile file(path);
   file.stream().write(content.data(), static_cast<std::streamsize>(content.size()));
   file.Commit();
+}
+
+int RemoveStaleTemporaryFiles(const std::string& folder) {
+  namespace fs = std::filesystem;
+  std::vector<fs::path> stale;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    if (it->is_regular_file(ec) && IsTemporaryName(it->path().filename().string())) {
+      stale.push_back(it->path());
+    }
+  }
+  int removed = 0;
+  for (const fs::path& p : stale) removed += fs::remove(p, ec) ? 1 : 0;
+  return removed;
 }
 
 }  // namespace crop4d::io

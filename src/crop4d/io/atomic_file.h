@@ -32,4 +32,9 @@ class AtomicFile {
 // Writes `content` to `path` atomically.
 void WriteFileAtomic(const std::string& path, const std::string& content);
 
+// Removes, below `folder` (recursively), the temporary files that AtomicFile leaves when its
+// process is killed before Commit(). Only for a folder that no other process is writing into.
+// Returns how many were removed.
+int RemoveStaleTemporaryFiles(const std::string& folder);
+
 }  // namespace crop4d::io

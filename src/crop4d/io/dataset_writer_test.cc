@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/atomic_file.h"
@@ -41,6 +42,22 @@ TEST(AtomicFileTest, WithoutCommitNothingAppears) {
     file.stream() << "partial";
   }
   EXPECT_TRUE(FilesIn(dir.path()).empty());
+}
+
+TEST(AtomicFileTest, StaleTemporaryFilesOfAKilledWriterAreRemoved) {
+  testing::TempDir dir;
+  WriteFileAtomic(dir / "keep.ply", "kept");
+  WriteFileAtomic(dir / "sub/keep.json", "kept");
+  // What a process killed before Commit() leaves (AtomicFile's own names), and look-alikes.
+  std::ofstream(dir / "keep.ply.tmp.123.0") << "partial";
+  std::ofstream(dir / "sub/keep.json.tmp.4567.12") << "partial";
+  std::ofstream(dir / "notes.tmp.txt") << "user file";
+  std::ofstream(dir / "a.tmp.12.x") << "user file";
+  EXPECT_EQ(RemoveStaleTemporaryFiles(dir.path()), 2);
+  EXPECT_EQ(FilesIn(dir.path()),
+            (std::vector<std::string>{"a.tmp.12.x", "keep.ply", "notes.tmp.txt", "sub"}));
+  EXPECT_EQ(FilesIn(dir / "sub"), std::vector<std::string>{"keep.json"});
+  EXPECT_EQ(RemoveStaleTemporaryFiles(dir / "missing"), 0);
 }
 
 TEST(AtomicFileTest, FolderAsTargetIsAnInputError) {

@@ -12,7 +12,6 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <regex>
 #include <set>
 
 #include "crop4d/core/error.h"
@@ -367,27 +366,12 @@ void SeasonRun::Report(StageRecord& stage) {
   Item(stage, "", fs::path(result.path).filename().string(), kActionDone, SecondsSince(start));
 }
 
-// Removes the temporary files that a killed process left behind (io/atomic_file.h names them
-// "<path>.tmp.<pid>.<n>"; one run at a time owns a workspace).
-int RemoveStaleTemporaries(const std::string& workspace) {
-  static const std::regex kTemporary(R"(.*\.tmp\.[0-9]+\.[0-9]+$)");
-  std::vector<fs::path> stale;
-  std::error_code ec;
-  for (fs::recursive_directory_iterator it(workspace, ec), end; !ec && it != end;
-       it.increment(ec)) {
-    if (it->is_regular_file(ec) && std::regex_match(it->path().filename().string(), kTemporary)) {
-      stale.push_back(it->path());
-    }
-  }
-  for (const fs::path& p : stale) fs::remove(p, ec);
-  return static_cast<int>(stale.size());
-}
-
 RunResult SeasonRun::Run() {
   const io::Field field(field_);  // throws InputError for an unreadable field.yaml
   sessions_ = field.session_ids();
   if (sessions_.empty()) throw InputError(field_, 0, "the field has no session");
-  if (const int n = RemoveStaleTemporaries(ws_); n > 0) {
+  // One run at a time owns a workspace: what a killed run was writing is garbage.
+  if (const int n = io::RemoveStaleTemporaryFiles(ws_); n > 0) {
     spdlog::info("removed {} temporary file(s) left by an interrupted run", n);
   }
   io::WriteFileAtomic((fs::path(ws_) / "crop4d.yaml").string(), FormatRunConfig(config_));

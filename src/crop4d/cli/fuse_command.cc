@@ -80,6 +80,10 @@ RunFunction SetupFuse(CLI::App& app) {
   app.add_option("--max-iterations", o.optimiser.row.max_iterations,
                  "Levenberg–Marquardt iterations per solve")
       ->capture_default_str();
+  app.add_option("--function-tolerance", o.optimiser.row.function_tolerance,
+                 "A solve stops when an iteration lowers the cost by less than this fraction")
+      ->check(CLI::Range(1e-12, 0.1))
+      ->capture_default_str();
   app.add_flag(
       "--no-colmap", [&o](std::int64_t) { o.write_colmap = false; },
       "Do not write the COLMAP text model");

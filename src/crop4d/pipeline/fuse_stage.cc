@@ -187,6 +187,7 @@ json OptionsJson(const FuseStageOptions& o) {
           {"max_iterations", r.max_iterations},
           {"iterative_schur", r.iterative_schur},
           {"max_linear_iterations", r.max_linear_iterations},
+          {"function_tolerance", r.function_tolerance},
           {"gps_loss_scale", r.gps_loss_scale},
           {"cloud_min_parallax_deg", o.cloud.min_parallax_deg},
           {"cloud_max_reprojection_error_px", o.cloud.max_reprojection_error_px},

@@ -228,6 +228,11 @@ const std::vector<Key>& Keys() {
     k.push_back(Int(
         "fuse", "max_iterations", "Levenberg-Marquardt iterations per solve",
         [](RunConfig& c) -> int& { return c.fuse.optimiser.row.max_iterations; }, 1, 100000));
+    k.push_back(Double(
+        "fuse", "function_tolerance",
+        "a solve stops when an iteration lowers the cost by less than this fraction of it",
+        [](RunConfig& c) -> double& { return c.fuse.optimiser.row.function_tolerance; }, 1e-12,
+        0.1));
     k.push_back(Choice(
         "fuse", "linear_solver",
         "exact (sparse Cholesky of the Schur complement) or iterative (conjugate gradients)",

@@ -1,6 +1,7 @@
 #include "crop4d/slam/pass_graph.h"
 
 #include <ceres/normal_prior.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -211,6 +212,7 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
                                  const std::vector<double*>& schur_blocks) {
   ceres::Solver::Options so;
   so.max_num_iterations = options.max_iterations;
+  so.function_tolerance = options.function_tolerance;
   so.num_threads = options.num_threads > 0 ? options.num_threads
                                            : static_cast<int>(std::thread::hardware_concurrency());
   so.logging_type = ceres::SILENT;
@@ -235,6 +237,15 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
   }
   ceres::Solver::Summary summary;
   ceres::Solve(so, problem, &summary);
+  if (spdlog::should_log(spdlog::level::trace)) {
+    for (const ceres::IterationSummary& it : summary.iterations) {
+      spdlog::trace("solver iteration {:3d}: cost {:.6e}, change {:.3e}, step {:.3e}, {} linear "
+                    "iterations, {}, {:.2f} s",
+                    it.iteration, it.cost, it.cost_change, it.step_norm,
+                    it.linear_solver_iterations, it.step_is_successful ? "accepted" : "rejected",
+                    it.cumulative_time_in_seconds);
+    }
+  }
   return summary;
 }
 

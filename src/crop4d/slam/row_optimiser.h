@@ -96,6 +96,9 @@ class RowOptimiser {
     // fraction of an exact one and Levenberg–Marquardt still converges (measured on the demo's
     // joint problem: 50 iterations reach the same cost as 500 in a fifth of the time).
     int max_linear_iterations = 50;
+    // A solve stops when an iteration lowers the cost by less than this fraction of it (Ceres'
+    // function tolerance).
+    double function_tolerance = 1e-6;
     int num_threads = 0;
 
     bool Check() const;

@@ -1,21 +1,13 @@
 #include "crop4d/association/association_file.h"
 
-#include <bit>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <type_traits>
+#include <string>
 #include <utility>
 
 #include "crop4d/core/error.h"
-#include "crop4d/features/hash.h"
-#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/checksummed_file.h"
 
 namespace crop4d::association {
 namespace {
-
-static_assert(std::endian::native == std::endian::little,
-              "the association file is written in the machine's byte order, assumed little-endian");
 
 constexpr char kMagic[8] = {'C', '4', 'D', 'A', 'S', 'S', 'O', '\0'};
 // Bytes of one CrossMatch record: 4 i32, 2 i64, 5 f32, 1 i32.
@@ -24,55 +16,26 @@ constexpr std::uint64_t kMatchBytes = 4 * 4 + 2 * 8 + 5 * 4 + 4;
 // corrupt file, and checking it before allocating keeps a bad length from asking for gigabytes.
 constexpr std::uint32_t kMaxNameLength = 4096;
 
-// Appends the little-endian bytes of values to a string.
-class Buffer {
- public:
-  template <typename T>
-  void Put(const T& value) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    bytes_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+// The statuses of the container map one to one onto the file's own.
+AssociationFileStatus FromContainer(io::ChecksummedFileStatus status) {
+  switch (status) {
+    case io::ChecksummedFileStatus::kOk:
+      return AssociationFileStatus::kOk;
+    case io::ChecksummedFileStatus::kMissing:
+      return AssociationFileStatus::kMissing;
+    case io::ChecksummedFileStatus::kUnreadable:
+      return AssociationFileStatus::kUnreadable;
+    case io::ChecksummedFileStatus::kBadMagic:
+      return AssociationFileStatus::kBadMagic;
+    case io::ChecksummedFileStatus::kWrongVersion:
+      return AssociationFileStatus::kWrongVersion;
+    case io::ChecksummedFileStatus::kTruncated:
+      return AssociationFileStatus::kTruncated;
+    case io::ChecksummedFileStatus::kCorrupt:
+      return AssociationFileStatus::kCorrupt;
   }
-  void PutBytes(const void* data, std::size_t size) {
-    bytes_.append(static_cast<const char*>(data), size);
-  }
-  void PutString(const std::string& text) {
-    CROP4D_CHECK_MSG(text.size() <= kMaxNameLength, "association file: name too long");
-    Put<std::uint32_t>(static_cast<std::uint32_t>(text.size()));
-    PutBytes(text.data(), text.size());
-  }
-  const std::string& bytes() const { return bytes_; }
-
- private:
-  std::string bytes_;
-};
-
-// Reads the bytes between the version and the checksum footer while hashing them; never reads
-// past the footer.
-class PayloadReader {
- public:
-  PayloadReader(std::istream& in, std::uint64_t payload_size, features::Fnv1aHasher prefix)
-      : in_(in), remaining_(payload_size), hasher_(prefix) {}
-
-  bool Read(void* data, std::size_t size) {
-    if (size > remaining_) return false;
-    in_.read(static_cast<char*>(data), static_cast<std::streamsize>(size));
-    if (!in_) return false;
-    hasher_.AddBytes(data, size);
-    remaining_ -= size;
-    return true;
-  }
-  template <typename T>
-  bool Get(T* value) {
-    return Read(value, sizeof(T));
-  }
-  std::uint64_t remaining() const { return remaining_; }
-  std::uint64_t hash() const { return hasher_.hash(); }
-
- private:
-  std::istream& in_;
-  std::uint64_t remaining_;
-  features::Fnv1aHasher hasher_;
-};
+  return AssociationFileStatus::kCorrupt;
+}
 
 AssociationFileStatus Fail(AssociationFileStatus status, const std::string& what,
                            std::string* detail, PassAssociation* association) {
@@ -104,15 +67,17 @@ std::string_view ToString(AssociationFileStatus status) {
 }
 
 void WriteAssociationFile(const std::string& path, const PassAssociation& association) {
-  Buffer buffer;
-  buffer.PutBytes(kMagic, sizeof(kMagic));
-  buffer.Put<std::uint32_t>(kAssociationFileVersion);
-  buffer.PutString(association.a.session);
-  buffer.PutString(association.a.pass);
-  buffer.PutString(association.b.session);
-  buffer.PutString(association.b.pass);
-  buffer.PutString(association.method);
+  io::ByteBuffer buffer;
+  const auto put_name = [&](const std::string& name) {
+    buffer.PutString(name, kMaxNameLength, "association file: name");
+  };
+  put_name(association.a.session);
+  put_name(association.a.pass);
+  put_name(association.b.session);
+  put_name(association.b.pass);
+  put_name(association.method);
   buffer.Put<std::uint64_t>(association.matches.size());
+  buffer.reserve(buffer.size() + association.matches.size() * kMatchBytes);
   for (const CrossMatch& m : association.matches) {
     buffer.Put(m.image_a);
     buffer.Put(m.feature_a);
@@ -127,55 +92,24 @@ void WriteAssociationFile(const std::string& path, const PassAssociation& associ
     buffer.Put(m.distance);
     buffer.Put(m.landmark_a);
   }
-  features::Fnv1aHasher hasher;
-  hasher.AddBytes(buffer.bytes().data(), buffer.bytes().size());
-  buffer.Put<std::uint64_t>(hasher.hash());
-
-  io::AtomicFile file(path);
-  file.stream().write(buffer.bytes().data(), static_cast<std::streamsize>(buffer.bytes().size()));
-  file.Commit();
+  io::ChecksummedFileWriter writer(path, kMagic, kAssociationFileVersion);
+  writer.Write(buffer);
+  writer.Commit();
 }
 
 AssociationFileStatus ReadAssociationFile(const std::string& path, PassAssociation* association,
                                           std::string* detail) {
   CROP4D_CHECK(association != nullptr);
   *association = PassAssociation();
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    return Fail(AssociationFileStatus::kMissing, "no such file", detail, association);
+  io::ChecksummedFileReader reader(path, kMagic, kAssociationFileVersion, "association file");
+  if (reader.status() != io::ChecksummedFileStatus::kOk) {
+    return Fail(FromContainer(reader.status()), reader.detail(), detail, association);
   }
-  const std::uintmax_t file_size = std::filesystem::file_size(path, ec);
-  if (ec) return Fail(AssociationFileStatus::kUnreadable, ec.message(), detail, association);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Fail(AssociationFileStatus::kUnreadable, "cannot open", detail, association);
-
-  char magic[sizeof(kMagic)] = {};
-  in.read(magic, sizeof(magic));
-  if (!in || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) {
-    return Fail(AssociationFileStatus::kBadMagic,
-                "the file does not start with the association file magic", detail, association);
-  }
-  std::uint32_t version = 0;
-  in.read(reinterpret_cast<char*>(&version), sizeof(version));
-  if (!in) {
-    return Fail(AssociationFileStatus::kTruncated, "ends inside the header", detail, association);
-  }
-  if (version != kAssociationFileVersion) {
-    return Fail(AssociationFileStatus::kWrongVersion,
-                "format version " + std::to_string(version) + ", expected " +
-                    std::to_string(kAssociationFileVersion),
-                detail, association);
-  }
-  // Magic, version, five lengths, the match count and the checksum: the smallest valid file.
-  constexpr std::uint64_t kFixedBytes = sizeof(kMagic) + 4 + 5 * 4 + 8 + 8;
-  if (file_size < kFixedBytes) {
+  // Five lengths and the match count: the smallest valid payload.
+  if (reader.remaining() < 5 * 4 + 8) {
     return Fail(AssociationFileStatus::kTruncated, "shorter than the header and footer", detail,
                 association);
   }
-  features::Fnv1aHasher prefix;
-  prefix.AddBytes(kMagic, sizeof(kMagic));
-  prefix.Add(version);
-  PayloadReader reader(in, file_size - sizeof(kMagic) - 4 - 8, prefix);
 
   PassAssociation result;
   const auto read_string = [&](const char* what, std::string* text,
@@ -228,16 +162,9 @@ AssociationFileStatus ReadAssociationFile(const std::string& path, PassAssociati
                   association);
     }
   }
-  if (reader.remaining() != 0) {
-    return Fail(AssociationFileStatus::kCorrupt,
-                std::to_string(reader.remaining()) + " unexpected bytes after the last match",
-                detail, association);
-  }
-  std::uint64_t stored_checksum = 0;
-  in.read(reinterpret_cast<char*>(&stored_checksum), sizeof(stored_checksum));
-  if (!in) return Fail(AssociationFileStatus::kTruncated, "no checksum", detail, association);
-  if (stored_checksum != reader.hash()) {
-    return Fail(AssociationFileStatus::kCorrupt, "checksum mismatch", detail, association);
+  const io::ChecksummedFileStatus end = reader.Finish("the last match");
+  if (end != io::ChecksummedFileStatus::kOk) {
+    return Fail(FromContainer(end), reader.detail(), detail, association);
   }
   *association = std::move(result);
   if (detail != nullptr) detail->clear();

@@ -1,21 +1,14 @@
 #include "crop4d/features/feature_cache.h"
 
-#include <bit>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
+#include <string>
 #include <unordered_map>
 #include <utility>
 
 #include "crop4d/core/error.h"
-#include "crop4d/features/hash.h"
-#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/checksummed_file.h"
 
 namespace crop4d::features {
 namespace {
-
-static_assert(std::endian::native == std::endian::little,
-              "the feature cache is written in the machine's byte order, assumed little-endian");
 
 constexpr char kMagic[8] = {'C', '4', 'D', 'F', 'E', 'A', 'T', '\0'};
 constexpr std::size_t kKeypointBytes = 6 * 4;
@@ -25,67 +18,26 @@ constexpr std::size_t kBytesPerFeature = kKeypointBytes + kDescriptorSize + 3;
 constexpr std::uint32_t kMaxKeyLength = 4096;
 constexpr int kMaxImageSide = 1 << 16;
 
-// Appends raw bytes to a buffer.
-class Buffer {
- public:
-  template <typename T>
-  void Put(const T& value) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    const auto* p = reinterpret_cast<const char*>(&value);
-    bytes_.append(p, sizeof(T));
+// The statuses of the container map one to one onto the cache's own.
+FeatureCacheStatus FromContainer(io::ChecksummedFileStatus status) {
+  switch (status) {
+    case io::ChecksummedFileStatus::kOk:
+      return FeatureCacheStatus::kOk;
+    case io::ChecksummedFileStatus::kMissing:
+      return FeatureCacheStatus::kMissing;
+    case io::ChecksummedFileStatus::kUnreadable:
+      return FeatureCacheStatus::kUnreadable;
+    case io::ChecksummedFileStatus::kBadMagic:
+      return FeatureCacheStatus::kBadMagic;
+    case io::ChecksummedFileStatus::kWrongVersion:
+      return FeatureCacheStatus::kWrongVersion;
+    case io::ChecksummedFileStatus::kTruncated:
+      return FeatureCacheStatus::kTruncated;
+    case io::ChecksummedFileStatus::kCorrupt:
+      return FeatureCacheStatus::kCorrupt;
   }
-  void PutBytes(const void* data, std::size_t size) {
-    bytes_.append(static_cast<const char*>(data), size);
-  }
-  std::string& bytes() { return bytes_; }
-
- private:
-  std::string bytes_;
-};
-
-// Writes buffers to the file while hashing them.
-class HashingWriter {
- public:
-  explicit HashingWriter(std::ostream& out) : out_(out) {}
-  void Write(const std::string& bytes) {
-    hasher_.AddBytes(bytes.data(), bytes.size());
-    out_.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  }
-  std::uint64_t hash() const { return hasher_.hash(); }
-
- private:
-  std::ostream& out_;
-  Fnv1aHasher hasher_;
-};
-
-// Reads from the file while hashing, never past the bytes before the checksum footer.
-class HashingReader {
- public:
-  // `prefix` holds the hash of the bytes already read.
-  HashingReader(std::istream& in, std::uint64_t payload_size, Fnv1aHasher prefix)
-      : in_(in), remaining_(payload_size), hasher_(prefix) {}
-
-  // False when fewer than `size` payload bytes are left or the stream fails.
-  bool Read(void* data, std::size_t size) {
-    if (size > remaining_) return false;
-    in_.read(static_cast<char*>(data), static_cast<std::streamsize>(size));
-    if (!in_) return false;
-    hasher_.AddBytes(data, size);
-    remaining_ -= size;
-    return true;
-  }
-  template <typename T>
-  bool Get(T* value) {
-    return Read(value, sizeof(T));
-  }
-  std::uint64_t remaining() const { return remaining_; }
-  std::uint64_t hash() const { return hasher_.hash(); }
-
- private:
-  std::istream& in_;
-  std::uint64_t remaining_;
-  Fnv1aHasher hasher_;
-};
+  return FeatureCacheStatus::kCorrupt;
+}
 
 FeatureCacheStatus Fail(FeatureCacheStatus status, const std::string& what, std::string* detail,
                         FeatureCache* cache) {
@@ -121,29 +73,24 @@ std::string_view ToString(FeatureCacheStatus status) {
 void WriteFeatureCache(const std::string& path, const FeatureCache& cache) {
   CROP4D_CHECK_MSG(cache.image_keys.size() == cache.features.size(),
                    "FeatureCache: one key per feature set");
-  io::AtomicFile file(path);
-  HashingWriter writer(file.stream());
-
-  Buffer header;
-  header.PutBytes(kMagic, sizeof(kMagic));
-  header.Put<std::uint32_t>(kFeatureCacheVersion);
+  io::ChecksummedFileWriter writer(path, kMagic, kFeatureCacheVersion);
+  io::ByteBuffer header;
   header.Put<std::uint32_t>(kDescriptorSize);
   header.Put<std::uint64_t>(cache.options_hash);
   header.Put<std::uint64_t>(cache.features.size());
-  writer.Write(header.bytes());
+  writer.Write(header);
 
+  // One block per image, streamed: the whole cache (tens of MB) never sits in memory twice.
   for (std::size_t i = 0; i < cache.features.size(); ++i) {
     const FeatureSet& set = cache.features[i];
     const std::string& key = cache.image_keys[i];
     CROP4D_CHECK_MSG(set.IsConsistent(), "FeatureCache: inconsistent FeatureSet");
-    CROP4D_CHECK_MSG(key.size() <= kMaxKeyLength, "FeatureCache: image key too long");
-    Buffer block;
-    block.Put<std::uint32_t>(static_cast<std::uint32_t>(key.size()));
-    block.PutBytes(key.data(), key.size());
+    io::ByteBuffer block;
+    block.PutString(key, kMaxKeyLength, "FeatureCache: image key");
     block.Put<std::int32_t>(set.image_width);
     block.Put<std::int32_t>(set.image_height);
     block.Put<std::uint64_t>(set.size());
-    block.bytes().reserve(block.bytes().size() + set.size() * kBytesPerFeature);
+    block.reserve(block.size() + set.size() * kBytesPerFeature);
     for (const Keypoint& k : set.keypoints) {
       block.Put(k.x);
       block.Put(k.y);
@@ -154,52 +101,24 @@ void WriteFeatureCache(const std::string& path, const FeatureCache& cache) {
     }
     block.PutBytes(set.descriptors.data(), set.descriptors.size());
     for (const auto& rgb : set.colors) block.PutBytes(rgb.data(), 3);
-    writer.Write(block.bytes());
+    writer.Write(block);
   }
-  const std::uint64_t checksum = writer.hash();
-  file.stream().write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
-  file.Commit();
+  writer.Commit();
 }
 
 FeatureCacheStatus ReadFeatureCache(const std::string& path, FeatureCache* cache,
                                     std::string* detail) {
   CROP4D_CHECK(cache != nullptr);
   *cache = FeatureCache();
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    return Fail(FeatureCacheStatus::kMissing, "no such file", detail, cache);
+  io::ChecksummedFileReader reader(path, kMagic, kFeatureCacheVersion, "cache");
+  if (reader.status() != io::ChecksummedFileStatus::kOk) {
+    return Fail(FromContainer(reader.status()), reader.detail(), detail, cache);
   }
-  const std::uintmax_t file_size = std::filesystem::file_size(path, ec);
-  if (ec) return Fail(FeatureCacheStatus::kUnreadable, ec.message(), detail, cache);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return Fail(FeatureCacheStatus::kUnreadable, "cannot open", detail, cache);
-
-  char magic[sizeof(kMagic)] = {};
-  in.read(magic, sizeof(magic));
-  if (!in || std::memcmp(magic, kMagic, sizeof(kMagic)) != 0) {
-    return Fail(FeatureCacheStatus::kBadMagic, "the file does not start with the cache magic",
-                detail, cache);
-  }
-  std::uint32_t version = 0;
-  in.read(reinterpret_cast<char*>(&version), sizeof(version));
-  if (!in) return Fail(FeatureCacheStatus::kTruncated, "ends inside the header", detail, cache);
-  if (version != kFeatureCacheVersion) {
-    return Fail(FeatureCacheStatus::kWrongVersion,
-                "format version " + std::to_string(version) + ", expected " +
-                    std::to_string(kFeatureCacheVersion),
-                detail, cache);
-  }
-  // Everything after the magic and version, up to the checksum footer, is read through the
-  // hashing reader, whose hash starts from that of the magic and version (as the writer's).
-  constexpr std::uint64_t kFixedBytes = sizeof(kMagic) + 4 + 4 + 8 + 8 + 8;
-  if (file_size < kFixedBytes) {
+  // Descriptor size, options hash and image count: the smallest valid payload.
+  if (reader.remaining() < 4 + 8 + 8) {
     return Fail(FeatureCacheStatus::kTruncated, "shorter than the header and footer", detail,
                 cache);
   }
-  Fnv1aHasher prefix;
-  prefix.AddBytes(kMagic, sizeof(kMagic));
-  prefix.Add(version);
-  HashingReader reader(in, file_size - sizeof(kMagic) - 4 - 8, prefix);
 
   FeatureCache result;
   std::uint32_t descriptor_size = 0;
@@ -265,16 +184,9 @@ FeatureCacheStatus ReadFeatureCache(const std::string& path, FeatureCache* cache
     result.image_keys.push_back(std::move(key));
     result.features.push_back(std::move(set));
   }
-  if (reader.remaining() != 0) {
-    return Fail(FeatureCacheStatus::kCorrupt,
-                std::to_string(reader.remaining()) + " unexpected bytes after the last image",
-                detail, cache);
-  }
-  std::uint64_t stored_checksum = 0;
-  in.read(reinterpret_cast<char*>(&stored_checksum), sizeof(stored_checksum));
-  if (!in) return Fail(FeatureCacheStatus::kTruncated, "no checksum", detail, cache);
-  if (stored_checksum != reader.hash()) {
-    return Fail(FeatureCacheStatus::kCorrupt, "checksum mismatch", detail, cache);
+  const io::ChecksummedFileStatus end = reader.Finish("the last image");
+  if (end != io::ChecksummedFileStatus::kOk) {
+    return Fail(FromContainer(end), reader.detail(), detail, cache);
   }
   *cache = std::move(result);
   if (detail != nullptr) detail->clear();

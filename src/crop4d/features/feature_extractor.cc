@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "crop4d/core/error.h"
-#include "crop4d/features/hash.h"
+#include "crop4d/core/hash.h"
 
 namespace crop4d::features {
 namespace {

@@ -14,9 +14,9 @@
 #include <set>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
 #include "crop4d/core/version.h"
 #include "crop4d/eval/canopy_eval.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/dataset_reader.h"
@@ -316,7 +316,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   const fs::path measurements = fs::path(field_folder) / "ground_truth" / "site_measurements.csv";
 
   // Up to date?
-  features::Fnv1aHasher fingerprint;
+  Fnv1aHasher fingerprint;
   fingerprint.Add(kAnalyzeStageRevision);
   fingerprint.AddString(kVersion);
   fingerprint.AddString(OptionsJson(options).dump());

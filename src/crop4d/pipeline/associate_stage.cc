@@ -17,10 +17,10 @@
 #include <unordered_map>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/pipeline/pass_data.h"
@@ -202,7 +202,7 @@ fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
 // row-SLAM fingerprints.
 std::string PairFingerprint(const std::string& method, const AssociateStageOptions& options,
                             const PassData& a, const PassData& b) {
-  features::Fnv1aHasher hasher;
+  Fnv1aHasher hasher;
   hasher.Add(kAssociateStageRevision);
   hasher.AddString(kVersion);
   hasher.AddString(OptionsJson(options, method).dump());

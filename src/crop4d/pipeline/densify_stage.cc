@@ -16,8 +16,8 @@
 #include <sstream>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
 #include "crop4d/core/stopwatch.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/image_sequence.h"
@@ -170,7 +170,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
 
     // Fingerprint of the inputs and options.
     const json options_json = OptionsJson(options, centers);
-    features::Fnv1aHasher fingerprint;
+    Fnv1aHasher fingerprint;
     fingerprint.Add(kDensifyStageRevision);
     fingerprint.AddString(options_json.dump());
     for (const fs::path& p :

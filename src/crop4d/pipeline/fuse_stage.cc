@@ -19,9 +19,9 @@
 
 #include "crop4d/association/association_file.h"
 #include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/colmap_text.h"
@@ -291,7 +291,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   // Passes with a camera, in session and pass order.
   std::vector<std::unique_ptr<LoadedPass>> passes;
   std::map<association::PassRef, int> pass_index;
-  features::Fnv1aHasher fingerprint;
+  Fnv1aHasher fingerprint;
   fingerprint.Add(kFuseStageRevision);
   fingerprint.AddString(kVersion);
   fingerprint.AddString(OptionsJson(options).dump());

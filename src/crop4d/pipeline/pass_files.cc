@@ -1,143 +1,115 @@
 #include "crop4d/pipeline/pass_files.h"
 
-#include <bit>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <iterator>
+#include <cmath>
 #include <sstream>
 
 #include "crop4d/core/error.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
+#include "crop4d/io/checksummed_file.h"
 #include "crop4d/io/csv.h"
 
 namespace crop4d::pipeline {
 namespace {
 
-static_assert(std::endian::native == std::endian::little,
-              "tracks.bin is written in the machine's byte order, assumed little-endian");
-
 constexpr char kMagic[8] = {'C', '4', 'D', 'T', 'R', 'A', 'K', '\0'};
 // Far above any real pass; a larger count means corruption (checked before allocating).
 constexpr std::uint64_t kMaxCount = std::uint64_t{1} << 32;
 
-template <typename T>
-void Put(std::string* out, const T& value) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  out->append(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-
-void PutTracks(std::string* out, const std::vector<PassTrack>& tracks) {
-  Put<std::uint64_t>(out, tracks.size());
+void PutTracks(io::ByteBuffer* out, const std::vector<PassTrack>& tracks) {
+  out->Put<std::uint64_t>(tracks.size());
   for (const PassTrack& t : tracks) {
-    for (int k = 0; k < 3; ++k) Put<double>(out, t.position_world(k));
-    out->append(reinterpret_cast<const char*>(t.color.data()), 3);
-    Put<std::uint32_t>(out, static_cast<std::uint32_t>(t.observations.size()));
+    for (int k = 0; k < 3; ++k) out->Put<double>(t.position_world(k));
+    out->PutBytes(t.color.data(), 3);
+    out->Put<std::uint32_t>(static_cast<std::uint32_t>(t.observations.size()));
     for (const features::Observation& o : t.observations) {
-      Put<std::int32_t>(out, o.image);
-      Put<std::int32_t>(out, o.feature);
+      out->Put<std::int32_t>(o.image);
+      out->Put<std::int32_t>(o.feature);
     }
   }
 }
 
-// Reads little-endian values from a byte range; any read past the end throws "truncated".
-class Reader {
- public:
-  Reader(const std::string& path, const std::string& bytes, std::size_t end)
-      : path_(path), bytes_(bytes), end_(end) {}
-  template <typename T>
-  T Get() {
-    if (pos_ + sizeof(T) > end_) throw InputError(path_ + ": truncated tracks file");
-    T value;
-    std::memcpy(&value, bytes_.data() + pos_, sizeof(T));
-    pos_ += sizeof(T);
-    return value;
-  }
-  void GetTracks(std::vector<PassTrack>* tracks) {
-    const auto count = Get<std::uint64_t>();
-    // Each track takes at least 31 bytes: a count larger than the bytes left is corrupt.
-    if (count > kMaxCount || count * 31 > end_ - pos_) {
-      throw InputError(path_ + ": corrupt tracks file (impossible track count)");
-    }
-    tracks->resize(count);
-    for (PassTrack& t : *tracks) {
-      for (int k = 0; k < 3; ++k) t.position_world(k) = Get<double>();
-      for (int k = 0; k < 3; ++k) t.color[k] = Get<std::uint8_t>();
-      const auto n = Get<std::uint32_t>();
-      if (std::uint64_t{n} * 8 > end_ - pos_) {
-        throw InputError(path_ + ": corrupt tracks file (impossible observation count)");
-      }
-      t.observations.resize(n);
-      for (features::Observation& o : t.observations) {
-        o.image = Get<std::int32_t>();
-        o.feature = Get<std::int32_t>();
-        if (o.image < 0 || o.feature < 0) {
-          throw InputError(path_ + ": corrupt tracks file (negative index)");
-        }
-      }
-    }
-  }
-  std::size_t pos() const { return pos_; }
+// Reads one value of the payload; the reader never reads into the checksum footer, so running
+// out of payload means the file is truncated (or a count in it is wrong).
+template <typename T>
+T Get(const std::string& path, io::ChecksummedFileReader* reader) {
+  T value;
+  if (!reader->Get(&value)) throw InputError(path + ": truncated tracks file");
+  return value;
+}
 
- private:
-  const std::string& path_;
-  const std::string& bytes_;
-  std::size_t end_;
-  std::size_t pos_ = 0;
-};
+// The checksum is only known once the whole payload is read, so every count is checked against
+// the bytes left before it sizes an allocation.
+void GetTracks(const std::string& path, io::ChecksummedFileReader* reader,
+               std::vector<PassTrack>* tracks) {
+  const auto count = Get<std::uint64_t>(path, reader);
+  // Each track takes at least 31 bytes: a count larger than the bytes left is corrupt.
+  if (count > kMaxCount || count * 31 > reader->remaining()) {
+    throw InputError(path + ": corrupt tracks file (impossible track count)");
+  }
+  tracks->resize(count);
+  for (PassTrack& t : *tracks) {
+    for (int k = 0; k < 3; ++k) t.position_world(k) = Get<double>(path, reader);
+    for (int k = 0; k < 3; ++k) t.color[k] = Get<std::uint8_t>(path, reader);
+    const auto n = Get<std::uint32_t>(path, reader);
+    if (std::uint64_t{n} * 8 > reader->remaining()) {
+      throw InputError(path + ": corrupt tracks file (impossible observation count)");
+    }
+    t.observations.resize(n);
+    for (features::Observation& o : t.observations) {
+      o.image = Get<std::int32_t>(path, reader);
+      o.feature = Get<std::int32_t>(path, reader);
+      if (o.image < 0 || o.feature < 0) {
+        throw InputError(path + ": corrupt tracks file (negative index)");
+      }
+    }
+  }
+}
 
 constexpr int kStateColumns = 1 + 7 + 3 + 3 + 6;
 
 }  // namespace
 
 void WritePassTracks(const std::string& path, const PassTracks& tracks) {
-  std::string bytes(kMagic, sizeof(kMagic));
-  Put<std::uint32_t>(&bytes, kPassTracksVersion);
+  io::ByteBuffer bytes;
   PutTracks(&bytes, tracks.landmarks);
   PutTracks(&bytes, tracks.cloud);
-  features::Fnv1aHasher hasher;
-  hasher.AddBytes(bytes.data(), bytes.size());
-  Put<std::uint64_t>(&bytes, hasher.hash());
-  io::WriteFileAtomic(path, bytes);
+  io::ChecksummedFileWriter writer(path, kMagic, kPassTracksVersion);
+  writer.Write(bytes);
+  writer.Commit();
 }
 
 PassTracks ReadPassTracks(const std::string& path) {
-  if (!std::filesystem::exists(path)) {
-    throw InputError(path + ": missing (rerun `crop4d slam` for this pass)");
+  io::ChecksummedFileReader reader(path, kMagic, kPassTracksVersion, "tracks file");
+  switch (reader.status()) {
+    case io::ChecksummedFileStatus::kOk:
+      break;
+    case io::ChecksummedFileStatus::kMissing:
+      throw InputError(path + ": missing (rerun `crop4d slam` for this pass)");
+    case io::ChecksummedFileStatus::kUnreadable:
+      throw InputError(path + ": cannot be read (" + reader.detail() + ")");
+    case io::ChecksummedFileStatus::kBadMagic:
+      throw InputError(path + ": not a crop4d tracks file");
+    case io::ChecksummedFileStatus::kWrongVersion:
+      throw InputError(path + ": tracks file version " + std::to_string(reader.found_version()) +
+                       ", expected " + std::to_string(kPassTracksVersion) +
+                       " (rerun `crop4d slam --force`)");
+    case io::ChecksummedFileStatus::kTruncated:
+      throw InputError(path + ": truncated tracks file");
+    case io::ChecksummedFileStatus::kCorrupt:
+      throw InputError(path + ": corrupt tracks file (" + reader.detail() + ")");
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot be read");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.size() < sizeof(kMagic) + 4 + 8 ||
-      std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
-    throw InputError(path + ": not a crop4d tracks file");
-  }
-  std::uint32_t version = 0;
-  std::memcpy(&version, bytes.data() + sizeof(kMagic), 4);
-  if (version != kPassTracksVersion) {
-    throw InputError(path + ": tracks file version " + std::to_string(version) + ", expected " +
-                     std::to_string(kPassTracksVersion) + " (rerun `crop4d slam --force`)");
-  }
-  const std::size_t end = bytes.size() - 8;
-  std::uint64_t stored = 0;
-  std::memcpy(&stored, bytes.data() + end, 8);
-  features::Fnv1aHasher hasher;
-  hasher.AddBytes(bytes.data(), end);
-  Reader reader(path, bytes, end);
-  reader.Get<std::uint64_t>();  // magic
-  reader.Get<std::uint32_t>();  // version
   PassTracks tracks;
-  try {
-    reader.GetTracks(&tracks.landmarks);
-    reader.GetTracks(&tracks.cloud);
-  } catch (const InputError&) {
-    if (hasher.hash() != stored) throw InputError(path + ": corrupt tracks file (checksum)");
-    throw;
+  GetTracks(path, &reader, &tracks.landmarks);
+  GetTracks(path, &reader, &tracks.cloud);
+  switch (reader.Finish("the cloud")) {
+    case io::ChecksummedFileStatus::kOk:
+      return tracks;
+    case io::ChecksummedFileStatus::kTruncated:
+      throw InputError(path + ": truncated tracks file");
+    default:
+      // "checksum mismatch" or "<n> unexpected bytes after the cloud".
+      throw InputError(path + ": corrupt tracks file (" + reader.detail() + ")");
   }
-  if (hasher.hash() != stored) throw InputError(path + ": corrupt tracks file (checksum)");
-  if (reader.pos() != end) throw InputError(path + ": corrupt tracks file (trailing bytes)");
-  return tracks;
 }
 
 void WritePassStates(const std::string& path, const std::vector<slam::RowState>& states) {

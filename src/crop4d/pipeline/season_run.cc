@@ -15,11 +15,11 @@
 #include <set>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/validator.h"
@@ -292,7 +292,7 @@ void SeasonRun::Analyze(StageRecord& stage) {
 std::string SeasonRun::EvalFingerprint() const {
   // The evaluation's inputs are the outputs of the other stages, and each of those records the
   // fingerprint of its own inputs: their fingerprints (not the large files) stand for them.
-  features::Fnv1aHasher hasher;
+  Fnv1aHasher hasher;
   auto add = [&hasher](const std::string& s) {
     hasher.AddBytes(s.data(), s.size());
     hasher.AddBytes("\n", 1);

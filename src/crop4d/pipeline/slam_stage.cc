@@ -13,10 +13,10 @@
 #include <sstream>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
-#include "crop4d/features/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
@@ -83,7 +83,7 @@ constexpr int kSlamStageRevision = 5;
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
-  features::Fnv1aHasher hasher;
+  Fnv1aHasher hasher;
   hasher.AddString(kVersion);
   hasher.Add(kSlamStageRevision);
   hasher.AddString(options.dump());

@@ -4,14 +4,14 @@
 #include <nlohmann/json.hpp>
 #include <vector>
 
-#include "crop4d/features/hash.h"
+#include "crop4d/core/hash.h"
 
 namespace crop4d::pipeline {
 
 std::string FileHash(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return "";
-  features::Fnv1aHasher hasher;
+  Fnv1aHasher hasher;
   std::vector<char> buffer(1 << 20);
   while (in) {
     in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <type_traits>
 
-namespace crop4d::features {
+namespace crop4d {
 
 class Fnv1aHasher {
  public:
@@ -37,4 +37,4 @@ class Fnv1aHasher {
   std::uint64_t hash_ = 0xcbf29ce484222325ULL;
 };
 
-}  // namespace crop4d::features
+}  // namespace crop4d

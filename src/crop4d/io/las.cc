@@ -72,6 +72,27 @@ class ByteReader {
   std::size_t pos_ = 0;
 };
 
+// The (E)VLR whose header starts at bytes[*pos], which must end by `end`; moves *pos past it.
+// An EVLR (`extended`) has a 64-bit length, a VLR a 16-bit one. Returns an error message
+// (`label` names the record, `past_end` says what a record that does not fit does) or "".
+std::string ReadVlr(const std::string& bytes, std::uint64_t* pos, std::uint64_t end, bool extended,
+                    const std::string& label, const std::string& past_end, LasVlr* vlr) {
+  const std::uint64_t header_size = extended ? kLasEvlrHeaderSize : kLasVlrHeaderSize;
+  if (*pos > end || end - *pos < header_size) return label + " " + past_end;
+  ByteReader v(bytes.data() + *pos);
+  v.Get<std::uint16_t>();  // reserved
+  vlr->user_id = v.GetText(16);
+  vlr->record_id = v.Get<std::uint16_t>();
+  const std::uint64_t length =
+      extended ? v.Get<std::uint64_t>() : std::uint64_t{v.Get<std::uint16_t>()};
+  vlr->description = v.GetText(32);
+  *pos += header_size;
+  if (length > end - *pos) return label + " ('" + vlr->user_id + "') " + past_end;
+  vlr->data = bytes.substr(*pos, length);
+  *pos += length;
+  return "";
+}
+
 void PutVlrHeader(ByteWriter& w, const LasVlr& vlr, bool extended) {
   w.Put<std::uint16_t>(0);  // reserved
   w.PutText(vlr.user_id, 16);
@@ -342,25 +363,13 @@ LasFile ReadLas(const std::string& path) {
   }
 
   // VLRs between the header and the points.
-  std::size_t pos = h.header_size;
+  std::uint64_t pos = h.header_size;
   for (std::uint32_t i = 0; i < h.number_of_vlrs; ++i) {
-    if (pos + kLasVlrHeaderSize > h.offset_to_point_data) {
-      throw fail("VLR " + std::to_string(i) + " runs past the offset to point data");
-    }
-    ByteReader v(bytes.data() + pos);
     LasVlr vlr;
-    v.Get<std::uint16_t>();
-    vlr.user_id = v.GetText(16);
-    vlr.record_id = v.Get<std::uint16_t>();
-    const std::size_t length = v.Get<std::uint16_t>();
-    vlr.description = v.GetText(32);
-    pos += kLasVlrHeaderSize;
-    if (pos + length > h.offset_to_point_data) {
-      throw fail("VLR " + std::to_string(i) + " ('" + vlr.user_id +
-                 "') runs past the offset to point data");
-    }
-    vlr.data = bytes.substr(pos, length);
-    pos += length;
+    const std::string error =
+        ReadVlr(bytes, &pos, h.offset_to_point_data, false, "VLR " + std::to_string(i),
+                "runs past the offset to point data", &vlr);
+    if (!error.empty()) throw fail(error);
     las.vlrs.push_back(std::move(vlr));
   }
 
@@ -399,22 +408,10 @@ LasFile ReadLas(const std::string& path) {
     }
     std::uint64_t at = h.start_of_first_evlr;
     for (std::uint32_t i = 0; i < h.number_of_evlrs; ++i) {
-      if (at + kLasEvlrHeaderSize > bytes.size()) {
-        throw fail("EVLR " + std::to_string(i) + " is truncated");
-      }
-      ByteReader v(bytes.data() + at);
       LasVlr vlr;
-      v.Get<std::uint16_t>();
-      vlr.user_id = v.GetText(16);
-      vlr.record_id = v.Get<std::uint16_t>();
-      const std::uint64_t length = v.Get<std::uint64_t>();
-      vlr.description = v.GetText(32);
-      at += kLasEvlrHeaderSize;
-      if (length > bytes.size() - at) {
-        throw fail("EVLR " + std::to_string(i) + " ('" + vlr.user_id + "') is truncated");
-      }
-      vlr.data = bytes.substr(at, length);
-      at += length;
+      const std::string error = ReadVlr(bytes, &at, bytes.size(), true, "EVLR " + std::to_string(i),
+                                        "is truncated", &vlr);
+      if (!error.empty()) throw fail(error);
       las.evlrs.push_back(std::move(vlr));
     }
   }

@@ -239,11 +239,11 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
   ceres::Solve(so, problem, &summary);
   if (spdlog::should_log(spdlog::level::trace)) {
     for (const ceres::IterationSummary& it : summary.iterations) {
-      spdlog::trace("solver iteration {:3d}: cost {:.6e}, change {:.3e}, step {:.3e}, {} linear "
-                    "iterations, {}, {:.2f} s",
-                    it.iteration, it.cost, it.cost_change, it.step_norm,
-                    it.linear_solver_iterations, it.step_is_successful ? "accepted" : "rejected",
-                    it.cumulative_time_in_seconds);
+      spdlog::trace(
+          "solver iteration {:3d}: cost {:.6e}, change {:.3e}, step {:.3e}, {} linear "
+          "iterations, {}, {:.2f} s",
+          it.iteration, it.cost, it.cost_change, it.step_norm, it.linear_solver_iterations,
+          it.step_is_successful ? "accepted" : "rejected", it.cumulative_time_in_seconds);
     }
   }
   return summary;

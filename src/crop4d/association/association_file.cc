@@ -16,27 +16,6 @@ constexpr std::uint64_t kMatchBytes = 4 * 4 + 2 * 8 + 5 * 4 + 4;
 // corrupt file, and checking it before allocating keeps a bad length from asking for gigabytes.
 constexpr std::uint32_t kMaxNameLength = 4096;
 
-// The statuses of the container map one to one onto the file's own.
-AssociationFileStatus FromContainer(io::ChecksummedFileStatus status) {
-  switch (status) {
-    case io::ChecksummedFileStatus::kOk:
-      return AssociationFileStatus::kOk;
-    case io::ChecksummedFileStatus::kMissing:
-      return AssociationFileStatus::kMissing;
-    case io::ChecksummedFileStatus::kUnreadable:
-      return AssociationFileStatus::kUnreadable;
-    case io::ChecksummedFileStatus::kBadMagic:
-      return AssociationFileStatus::kBadMagic;
-    case io::ChecksummedFileStatus::kWrongVersion:
-      return AssociationFileStatus::kWrongVersion;
-    case io::ChecksummedFileStatus::kTruncated:
-      return AssociationFileStatus::kTruncated;
-    case io::ChecksummedFileStatus::kCorrupt:
-      return AssociationFileStatus::kCorrupt;
-  }
-  return AssociationFileStatus::kCorrupt;
-}
-
 AssociationFileStatus Fail(AssociationFileStatus status, const std::string& what,
                            std::string* detail, PassAssociation* association) {
   if (detail != nullptr) *detail = what;
@@ -103,7 +82,8 @@ AssociationFileStatus ReadAssociationFile(const std::string& path, PassAssociati
   *association = PassAssociation();
   io::ChecksummedFileReader reader(path, kMagic, kAssociationFileVersion, "association file");
   if (reader.status() != io::ChecksummedFileStatus::kOk) {
-    return Fail(FromContainer(reader.status()), reader.detail(), detail, association);
+    return Fail(io::ToFormatStatus<AssociationFileStatus>(reader.status()), reader.detail(), detail,
+                association);
   }
   // Five lengths and the match count: the smallest valid payload.
   if (reader.remaining() < 5 * 4 + 8) {
@@ -164,7 +144,8 @@ AssociationFileStatus ReadAssociationFile(const std::string& path, PassAssociati
   }
   const io::ChecksummedFileStatus end = reader.Finish("the last match");
   if (end != io::ChecksummedFileStatus::kOk) {
-    return Fail(FromContainer(end), reader.detail(), detail, association);
+    return Fail(io::ToFormatStatus<AssociationFileStatus>(end), reader.detail(), detail,
+                association);
   }
   *association = std::move(result);
   if (detail != nullptr) detail->clear();

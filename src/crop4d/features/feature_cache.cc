@@ -18,27 +18,6 @@ constexpr std::size_t kBytesPerFeature = kKeypointBytes + kDescriptorSize + 3;
 constexpr std::uint32_t kMaxKeyLength = 4096;
 constexpr int kMaxImageSide = 1 << 16;
 
-// The statuses of the container map one to one onto the cache's own.
-FeatureCacheStatus FromContainer(io::ChecksummedFileStatus status) {
-  switch (status) {
-    case io::ChecksummedFileStatus::kOk:
-      return FeatureCacheStatus::kOk;
-    case io::ChecksummedFileStatus::kMissing:
-      return FeatureCacheStatus::kMissing;
-    case io::ChecksummedFileStatus::kUnreadable:
-      return FeatureCacheStatus::kUnreadable;
-    case io::ChecksummedFileStatus::kBadMagic:
-      return FeatureCacheStatus::kBadMagic;
-    case io::ChecksummedFileStatus::kWrongVersion:
-      return FeatureCacheStatus::kWrongVersion;
-    case io::ChecksummedFileStatus::kTruncated:
-      return FeatureCacheStatus::kTruncated;
-    case io::ChecksummedFileStatus::kCorrupt:
-      return FeatureCacheStatus::kCorrupt;
-  }
-  return FeatureCacheStatus::kCorrupt;
-}
-
 FeatureCacheStatus Fail(FeatureCacheStatus status, const std::string& what, std::string* detail,
                         FeatureCache* cache) {
   if (detail != nullptr) *detail = what;
@@ -112,7 +91,8 @@ FeatureCacheStatus ReadFeatureCache(const std::string& path, FeatureCache* cache
   *cache = FeatureCache();
   io::ChecksummedFileReader reader(path, kMagic, kFeatureCacheVersion, "cache");
   if (reader.status() != io::ChecksummedFileStatus::kOk) {
-    return Fail(FromContainer(reader.status()), reader.detail(), detail, cache);
+    return Fail(io::ToFormatStatus<FeatureCacheStatus>(reader.status()), reader.detail(), detail,
+                cache);
   }
   // Descriptor size, options hash and image count: the smallest valid payload.
   if (reader.remaining() < 4 + 8 + 8) {
@@ -186,7 +166,7 @@ FeatureCacheStatus ReadFeatureCache(const std::string& path, FeatureCache* cache
   }
   const io::ChecksummedFileStatus end = reader.Finish("the last image");
   if (end != io::ChecksummedFileStatus::kOk) {
-    return Fail(FromContainer(end), reader.detail(), detail, cache);
+    return Fail(io::ToFormatStatus<FeatureCacheStatus>(end), reader.detail(), detail, cache);
   }
   *cache = std::move(result);
   if (detail != nullptr) detail->clear();

@@ -99,6 +99,22 @@ enum class ChecksummedFileStatus {
 
 std::string_view ToString(ChecksummedFileStatus status);
 
+// The status of a format built on the container, whose enum begins with the container's
+// statuses, by name and in this order (it may add its own after them): the conversion is a
+// cast, and the layout is checked at compile time.
+template <typename Status>
+Status ToFormatStatus(ChecksummedFileStatus status) {
+  using C = ChecksummedFileStatus;
+  constexpr auto same = [](Status s, C c) { return static_cast<int>(s) == static_cast<int>(c); };
+  static_assert(same(Status::kOk, C::kOk) && same(Status::kMissing, C::kMissing) &&
+                    same(Status::kUnreadable, C::kUnreadable) &&
+                    same(Status::kBadMagic, C::kBadMagic) &&
+                    same(Status::kWrongVersion, C::kWrongVersion) &&
+                    same(Status::kTruncated, C::kTruncated) && same(Status::kCorrupt, C::kCorrupt),
+                "the format's status enum must begin with ChecksummedFileStatus's enumerators");
+  return static_cast<Status>(static_cast<int>(status));
+}
+
 // Reads one checksummed file. The constructor opens it and checks its header; when status() is
 // kOk the payload can be read with Read/Get, and Finish() then checks the end and the checksum.
 // Never throws on bad content.

@@ -43,7 +43,7 @@ struct FuseStageOptions {
     o.row.iterative_schur = true;
     // Inexact (conjugate-gradient) steps converge slowly at the end: on the demo field the
     // iterations after the cost stops falling by 1e-4 per iteration take half the time and
-    // move the fused trajectories by 0.2 mm RMS (bench/RESULTS.md).
+    // lower the fused ATE RMSE by at most 0.24 mm (bench/RESULTS.md).
     o.row.function_tolerance = 1e-4;
     return o;
   }();

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "crop4d/cli/command.h"
+#include "crop4d/core/allocator.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
@@ -50,6 +51,8 @@ constexpr Command kCommands[] = {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Before any thread exists (core/allocator.h: large image buffers are reused, not refaulted).
+  crop4d::KeepFreedMemoryForReuse();
   CLI::App app{
       "crop4d — 4D crop monitoring: registered 3D models of a field over a season, and "
       "the crop measurements that follow.",

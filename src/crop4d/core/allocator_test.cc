@@ -1,0 +1,58 @@
+#include "crop4d/core/allocator.h"
+
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <vector>
+
+namespace crop4d {
+namespace {
+
+long MinorFaults() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_minflt;
+}
+
+// One round of the pattern of a SIFT scale space: several large buffers allocated, written and
+// freed. Returns the page faults the round caused.
+long Round(std::size_t block_bytes, int blocks) {
+  const long before = MinorFaults();
+  std::vector<char*> buffers;
+  for (int b = 0; b < blocks; ++b) {
+    char* p = static_cast<char*>(std::malloc(block_bytes));
+    std::memset(p, b + 1, block_bytes);
+    buffers.push_back(p);
+  }
+  // Keep the writes observable so that the compiler cannot drop them.
+  long sum = 0;
+  for (char* p : buffers) sum += p[block_bytes / 2];
+  EXPECT_EQ(sum, blocks * (blocks + 1) / 2);
+  for (char* p : buffers) std::free(p);
+  return MinorFaults() - before;
+}
+
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;  // AddressSanitizer's allocator ignores mallopt
+#else
+constexpr bool kSanitized = false;
+#endif
+
+TEST(Allocator, FreedLargeBlocksAreReusedWithoutPageFaults) {
+  if (kSanitized) GTEST_SKIP() << "AddressSanitizer has its own allocator";
+  ASSERT_TRUE(KeepFreedMemoryForReuse());
+  constexpr std::size_t kBlock = 5u << 20;  // a 1280×960 float image
+  constexpr int kBlocks = 12;               // 60 MiB, a SIFT scale space
+  const long pages_per_round = static_cast<long>(kBlock * kBlocks / 4096);
+  const long first = Round(kBlock, kBlocks);
+  EXPECT_GT(first, pages_per_round / 2);  // the first round maps fresh pages...
+  long later = 0;
+  for (int round = 0; round < 5; ++round) later += Round(kBlock, kBlocks);
+  // ...the later ones reuse them (glibc's defaults fault in every page again each round).
+  EXPECT_LT(later, pages_per_round / 20) << "first round " << first << " faults";
+}
+
+}  // namespace
+}  // namespace crop4d

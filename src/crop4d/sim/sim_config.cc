@@ -134,6 +134,8 @@ std::vector<Key> Keys(SimConfig& c) {
       {"camera", "forward_m", &cam.forward_m, "optical centre ahead of the IMU, m"},
       {"camera", "lateral_m", &cam.lateral_m, "optical centre left of the IMU, m"},
       {"camera", "msaa_samples", &cam.msaa_samples, "renderer anti-aliasing samples (1, 2, 4, 8)"},
+      {"camera", "trigger", &cam.trigger,
+       "\"continuous\": the camera records the whole drive; \"passes\": only along the row passes"},
       {"drive", "lane", &d.lane,
        "\"row\": centred over each row (straddling it); \"furrow\": between rows"},
       {"drive", "speed_mps", &d.speed_mps, "cruise speed along the rows, m/s"},
@@ -484,6 +486,8 @@ void SimConfig::Check() const {
   Require(In(cam.pitch_deg, -10.0, 90.0), "camera.pitch_deg", "must be in [-10, 90]");
   Require(In(cam.forward_m, -10.0, 10.0), "camera.forward_m", "must be in [-10, 10]");
   Require(In(cam.lateral_m, -10.0, 10.0), "camera.lateral_m", "must be in [-10, 10]");
+  Require(cam.trigger == "continuous" || cam.trigger == "passes", "camera.trigger",
+          "must be \"continuous\" or \"passes\"");
   Require(cam.msaa_samples == 1 || cam.msaa_samples == 2 || cam.msaa_samples == 4 ||
               cam.msaa_samples == 8,
           "camera.msaa_samples", "must be 1, 2, 4 or 8");
@@ -552,6 +556,10 @@ SimConfig PresetConfig(const std::string& preset) {
     c.sessions = {
         {"2016-06-01", false}, {"2016-06-15", false}, {"2016-06-29", true}, {"2016-07-13", false}};
     SetImage(&c, 640, 480);
+    // Images over the row passes only: no stage uses the 38 % of a continuous recording taken
+    // in the headland turns, and rendering them took 85 s of `make demo` (bench/RESULTS.md,
+    // "Whole season"). The tiny and paper presets record continuously.
+    c.camera.trigger = "passes";
   } else if (preset == "paper") {
     // Dong et al. 2017: a peanut field recorded 23 times over 89 days, twice a week.
     c.world.num_rows = 21;

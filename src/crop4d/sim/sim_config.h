@@ -48,6 +48,11 @@ struct CameraRigOptions {
   double lateral_m = 0.05;
   // Multisample anti-aliasing samples of the renderer (1, 2, 4 or 8).
   int msaa_samples = 4;
+  // When the camera records: "continuous" (the whole drive, headland turns included) or
+  // "passes" (only along the row passes, their straight lead beyond the row ends included: a
+  // rig whose camera is triggered over the plots). The IMU, magnetometer and GPS record the
+  // whole drive either way.
+  std::string trigger = "continuous";
 
   geometry::PinholeRadTan Intrinsics() const;
   // body_from_camera for a body origin `body_height_m` above the ground: optical axis along

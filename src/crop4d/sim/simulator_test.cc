@@ -85,6 +85,50 @@ TEST(SimulatorTest, SensorsHaveTheirRatesAndNeverShareATimestamp) {
   EXPECT_EQ(first_stamps.size(), sensors.size());  // every sensor has its own phase
 }
 
+TEST(SimulatorTest, CameraTriggeredOverThePassesOnly) {
+  SimConfig config = PresetConfig("tiny");
+  const SessionRecord continuous = Simulator(config).SimulateSession(0);
+  config.camera.trigger = "passes";
+  const Simulator sim(config);
+  const SessionRecord rec = sim.SimulateSession(0);
+  const std::vector<Pass>& passes = rec.trajectory->passes();
+  ASSERT_EQ(passes.size(), 2u);
+  // Every image is taken during a pass, and every pass has all of its frames.
+  std::vector<int> per_pass(passes.size(), 0);
+  for (const Timestamp t : rec.image_times) {
+    const double s = rec.Seconds(t);
+    int inside = -1;
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      if (s >= passes[p].t_begin && s <= passes[p].t_end) inside = static_cast<int>(p);
+    }
+    ASSERT_GE(inside, 0) << "image at " << s << " s is in a turn";
+    ++per_pass[inside];
+  }
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    EXPECT_NEAR(per_pass[p], (passes[p].t_end - passes[p].t_begin) * config.camera.rate_hz, 1.0);
+  }
+  // The same frames as the continuous recording (the clock keeps its phase), minus the turn's.
+  std::size_t k = 0;
+  for (const Timestamp t : rec.image_times) {
+    while (k < continuous.image_times.size() && continuous.image_times[k] + 2 < t) ++k;
+    ASSERT_LT(k, continuous.image_times.size());
+    EXPECT_LE(std::llabs(continuous.image_times[k] - t), 2);
+  }
+  const double turn_s = passes[1].t_begin - passes[0].t_end;
+  EXPECT_NEAR(static_cast<double>(continuous.image_times.size() - rec.image_times.size()),
+              turn_s * config.camera.rate_hz, 1.0);
+  // The other sensors record the whole drive.
+  EXPECT_EQ(rec.imu.size(), continuous.imu.size());
+  EXPECT_EQ(rec.gps[0].size(), continuous.gps[0].size());
+  EXPECT_THROW(
+      {
+        SimConfig bad = PresetConfig("tiny");
+        bad.camera.trigger = "sometimes";
+        bad.Check();
+      },
+      InputError);
+}
+
 TEST(SimulatorTest, GpsSamplesEqualTheTrueAntennaUpToTheStatedNoise) {
   const Simulator sim(PresetConfig("tiny"));
   const SimConfig& c = sim.config();

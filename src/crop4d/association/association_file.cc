@@ -26,23 +26,8 @@ AssociationFileStatus Fail(AssociationFileStatus status, const std::string& what
 }  // namespace
 
 std::string_view ToString(AssociationFileStatus status) {
-  switch (status) {
-    case AssociationFileStatus::kOk:
-      return "ok";
-    case AssociationFileStatus::kMissing:
-      return "missing";
-    case AssociationFileStatus::kUnreadable:
-      return "unreadable";
-    case AssociationFileStatus::kBadMagic:
-      return "not an association file";
-    case AssociationFileStatus::kWrongVersion:
-      return "wrong format version";
-    case AssociationFileStatus::kTruncated:
-      return "truncated";
-    case AssociationFileStatus::kCorrupt:
-      return "corrupt";
-  }
-  return "unknown";
+  if (status == AssociationFileStatus::kBadMagic) return "not an association file";
+  return io::ToString(io::ToChecksummedStatus(status));
 }
 
 void WriteAssociationFile(const std::string& path, const PassAssociation& association) {

@@ -119,6 +119,10 @@ TEST_F(AssociationFileTest, MissingFile) {
   EXPECT_EQ(Read(&detail), AssociationFileStatus::kMissing);
   EXPECT_FALSE(detail.empty());
   EXPECT_EQ(ToString(AssociationFileStatus::kMissing), "missing");
+  // The format's own wording where it has one, the container's otherwise.
+  EXPECT_EQ(ToString(AssociationFileStatus::kBadMagic), "not an association file");
+  EXPECT_EQ(ToString(AssociationFileStatus::kTruncated), "truncated");
+  EXPECT_EQ(ToString(AssociationFileStatus::kCorrupt), "corrupt");
 }
 
 TEST_F(AssociationFileTest, FolderIsUnreadable) {

@@ -29,24 +29,13 @@ FeatureCacheStatus Fail(FeatureCacheStatus status, const std::string& what, std:
 
 std::string_view ToString(FeatureCacheStatus status) {
   switch (status) {
-    case FeatureCacheStatus::kOk:
-      return "ok";
-    case FeatureCacheStatus::kMissing:
-      return "missing";
-    case FeatureCacheStatus::kUnreadable:
-      return "unreadable";
     case FeatureCacheStatus::kBadMagic:
       return "not a feature cache";
-    case FeatureCacheStatus::kWrongVersion:
-      return "wrong format version";
-    case FeatureCacheStatus::kTruncated:
-      return "truncated";
-    case FeatureCacheStatus::kCorrupt:
-      return "corrupt";
     case FeatureCacheStatus::kOptionsChanged:
       return "written with other extraction options";
+    default:
+      return io::ToString(io::ToChecksummedStatus(status));
   }
-  return "unknown";
 }
 
 void WriteFeatureCache(const std::string& path, const FeatureCache& cache) {

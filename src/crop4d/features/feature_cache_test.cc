@@ -81,6 +81,13 @@ TEST_F(FeatureCacheTest, MissingFile) {
   EXPECT_EQ(ReadFeatureCache(path_, &read), FeatureCacheStatus::kMissing);
 }
 
+TEST(FeatureCacheStatusTest, NamesEveryStatus) {
+  EXPECT_EQ(ToString(FeatureCacheStatus::kOk), "ok");
+  EXPECT_EQ(ToString(FeatureCacheStatus::kBadMagic), "not a feature cache");
+  EXPECT_EQ(ToString(FeatureCacheStatus::kWrongVersion), "wrong format version");
+  EXPECT_EQ(ToString(FeatureCacheStatus::kOptionsChanged), "written with other extraction options");
+}
+
 TEST_F(FeatureCacheTest, DetectsForeignFile) {
   fs::create_directories(fs::path(path_).parent_path());
   WriteBytes("this is not a feature cache at all, it is text");

@@ -99,20 +99,34 @@ enum class ChecksummedFileStatus {
 
 std::string_view ToString(ChecksummedFileStatus status);
 
-// The status of a format built on the container, whose enum begins with the container's
-// statuses, by name and in this order (it may add its own after them): the conversion is a
-// cast, and the layout is checked at compile time.
+// The status enum of a format built on the container begins with the container's statuses, by
+// name and in this order (it may add its own after them): conversions are casts, and the layout
+// is checked at compile time.
 template <typename Status>
-Status ToFormatStatus(ChecksummedFileStatus status) {
+constexpr bool kBeginsWithChecksummedStatuses = [] {
   using C = ChecksummedFileStatus;
   constexpr auto same = [](Status s, C c) { return static_cast<int>(s) == static_cast<int>(c); };
-  static_assert(same(Status::kOk, C::kOk) && same(Status::kMissing, C::kMissing) &&
-                    same(Status::kUnreadable, C::kUnreadable) &&
-                    same(Status::kBadMagic, C::kBadMagic) &&
-                    same(Status::kWrongVersion, C::kWrongVersion) &&
-                    same(Status::kTruncated, C::kTruncated) && same(Status::kCorrupt, C::kCorrupt),
+  return same(Status::kOk, C::kOk) && same(Status::kMissing, C::kMissing) &&
+         same(Status::kUnreadable, C::kUnreadable) && same(Status::kBadMagic, C::kBadMagic) &&
+         same(Status::kWrongVersion, C::kWrongVersion) && same(Status::kTruncated, C::kTruncated) &&
+         same(Status::kCorrupt, C::kCorrupt);
+}();
+
+// The format's status for a container status.
+template <typename Status>
+Status ToFormatStatus(ChecksummedFileStatus status) {
+  static_assert(kBeginsWithChecksummedStatuses<Status>,
                 "the format's status enum must begin with ChecksummedFileStatus's enumerators");
   return static_cast<Status>(static_cast<int>(status));
+}
+
+// The container status of a format's status that is one of the container's (the format's own
+// later statuses have none: the caller handles them first).
+template <typename Status>
+ChecksummedFileStatus ToChecksummedStatus(Status status) {
+  static_assert(kBeginsWithChecksummedStatuses<Status>,
+                "the format's status enum must begin with ChecksummedFileStatus's enumerators");
+  return static_cast<ChecksummedFileStatus>(static_cast<int>(status));
 }
 
 // Reads one checksummed file. The constructor opens it and checks its header; when status() is

@@ -1,6 +1,6 @@
 // crop4d eval --workspace WS --truth FIELD: compares a workspace with a synthetic field's ground
 // truth — row-pass trajectories, cross matches, fused trajectories, cross-session ground
-// misalignment, canopy heights — prints tables and writes WS/eval/metrics.json.
+// misalignment, dense clouds, canopy heights — prints tables and writes WS/eval/metrics.json.
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -61,6 +61,18 @@ int RunEval(const EvalArgs& args) {
         spdlog::warn("{} cloud of {} not used: {}", set.label, s.session, s.error);
     }
   }
+  if (result.dense) {
+    if (!result.dense->error.empty()) {
+      spdlog::warn("dense clouds not evaluated: {}", result.dense->error);
+      ++failed;
+    }
+    for (const eval::DenseSessionEval& s : result.dense->sessions) {
+      if (!s.ok()) {
+        spdlog::warn("dense cloud of {} not evaluated: {}", s.session, s.error);
+        ++failed;
+      }
+    }
+  }
   if (result.canopy) {
     for (const eval::CanopyMethodEval& m : result.canopy->methods) {
       if (!m.ok()) {
@@ -77,6 +89,7 @@ int RunEval(const EvalArgs& args) {
   for (const eval::CloudSetEval& set : result.clouds) {
     also += fmt::format(", {} clouds of {} sessions", set.label, set.sessions.size());
   }
+  if (result.dense) also += fmt::format(", {} dense clouds", result.dense->sessions.size());
   if (result.canopy) {
     also += fmt::format(", canopy heights of {} method{}", result.canopy->methods.size(),
                         result.canopy->methods.size() == 1 ? "" : "s");
@@ -124,13 +137,19 @@ RunFunction SetupEval(CLI::App& app) {
       "estimates, RMSE, bias (mean of estimate - truth), mean absolute error, the worst "
       "site/session, the failures (|error| > --canopy-max-error, or no estimate) and the same "
       "per session. Skipped with a note when either file is missing.\n"
+      "- dense clouds (WS/dense/<session>.ply, written by crop4d densify): for every plant of "
+      "FIELD/ground_truth/<session>/plants.csv, the highest point within --dense-top-radius of "
+      "its true stem minus its true height above FIELD/ground_truth/terrain.csv (median, 10th "
+      "and 90th percentiles, RMSE, shares within/below/above ±2 cm; plants without a point are "
+      "missing), and the height of the soil points above the true terrain: the cloud's accuracy "
+      "apart from the analysis's stems and terrain model.\n"
       "Example:\n"
       "  crop4d simulate --preset tiny --out field\n"
       "  crop4d slam field --workspace ws\n"
       "  crop4d eval --workspace ws --truth field\n"
       "Exit code: 0 when metrics.json is written (2 with --strict when a pass, an association "
-      "file, a fused session or a canopy-height file could not be evaluated); 2 for a missing "
-      "workspace, nothing to evaluate, or a field without ground_truth/.");
+      "file, a fused session, a dense cloud or a canopy-height file could not be evaluated); 2 "
+      "for a missing workspace, nothing to evaluate, or a field without ground_truth/.");
   app.add_option("--workspace", args->workspace, "The workspace (holds sessions/)")
       ->required()
       ->type_name("WS");
@@ -153,8 +172,8 @@ RunFunction SetupEval(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e3));
   app.add_flag("--strict", args->strict,
-               "Exit with code 2 when a pass, an association file, a fused session or a "
-               "canopy-height file could not be evaluated");
+               "Exit with code 2 when a pass, an association file, a fused session, a dense "
+               "cloud or a canopy-height file could not be evaluated");
   // Associations.
   app.add_flag("!--no-associations", args->options.associations,
                "Skip the association precision (WS/associations/)");
@@ -194,6 +213,14 @@ RunFunction SetupEval(CLI::App& app) {
                  "metres is a failure (as is a missing estimate)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e3));
+  // Dense clouds.
+  app.add_flag("!--no-dense", args->options.dense,
+               "Skip the plant tops and soil of the dense clouds (WS/dense/<session>.ply)");
+  app.add_option("--dense-top-radius", args->options.dense_options.top_radius_m,
+                 "Dense clouds: a plant's top is the highest point within this distance of its "
+                 "true stem, m")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-3, 10.0));
   return [args] { return RunEval(*args); };
 }
 

@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "crop4d/core/error.h"
+#include "crop4d/eval/grid2d.h"
 #include "crop4d/eval/quantile.h"
 #include "crop4d/io/csv.h"
 
@@ -32,43 +33,6 @@ bool IsHeader(const io::CsvRecord& record) {
   double value;
   return !record.fields.empty() && !ParseDouble(record.fields[0], &value);
 }
-
-// Points in square cells of side `cell` on the horizontal plane: the points within `cell` of a
-// position lie in its cell and the eight around it.
-class Grid2d {
- public:
-  Grid2d(const std::vector<Eigen::Vector2d>& xy, double cell) : cell_(cell) {
-    entries_.reserve(xy.size());
-    for (std::size_t i = 0; i < xy.size(); ++i) {
-      entries_.emplace_back(Key(CellOf(xy[i].x()), CellOf(xy[i].y())), static_cast<int>(i));
-    }
-    std::sort(entries_.begin(), entries_.end());
-  }
-
-  // Calls f(index) for every point in the 3×3 cells around (x, y).
-  template <typename F>
-  void ForNear(double x, double y, F&& f) const {
-    const std::int64_t cx = CellOf(x), cy = CellOf(y);
-    for (std::int64_t dy = -1; dy <= 1; ++dy) {
-      for (std::int64_t dx = -1; dx <= 1; ++dx) {
-        const std::int64_t key = Key(cx + dx, cy + dy);
-        auto it = std::lower_bound(entries_.begin(), entries_.end(),
-                                   std::make_pair(key, std::numeric_limits<int>::min()));
-        for (; it != entries_.end() && it->first == key; ++it) f(it->second);
-      }
-    }
-  }
-
- private:
-  std::int64_t CellOf(double v) const { return static_cast<std::int64_t>(std::floor(v / cell_)); }
-  static std::int64_t Key(std::int64_t cx, std::int64_t cy) {
-    // Fields are far smaller than 2^31 cells on a side.
-    return (cx + (std::int64_t{1} << 31)) << 32 | ((cy + (std::int64_t{1} << 31)) & 0xffffffff);
-  }
-
-  double cell_;
-  std::vector<std::pair<std::int64_t, int>> entries_;
-};
 
 std::vector<Eigen::Vector2d> Horizontal(const std::vector<Eigen::Vector3d>& points) {
   std::vector<Eigen::Vector2d> xy;
@@ -160,11 +124,14 @@ std::vector<PlantFootprint> ReadPlantsCsv(const std::string& path) {
                                    record.fields.size()));
     }
     PlantFootprint plant;
-    double height;
     if (!ParseDouble(record.fields[2], &plant.xy.x()) ||
-        !ParseDouble(record.fields[3], &plant.xy.y()) || !ParseDouble(record.fields[4], &height) ||
-        !ParseDouble(record.fields[5], &plant.canopy_radius_m) || plant.canopy_radius_m < 0.0) {
-      throw InputError(path, record.line, "x, y, height_m and canopy_radius_m must be numbers");
+        !ParseDouble(record.fields[3], &plant.xy.y()) ||
+        !ParseDouble(record.fields[4], &plant.height_m) ||
+        !ParseDouble(record.fields[5], &plant.canopy_radius_m) || plant.canopy_radius_m < 0.0 ||
+        plant.height_m < 0.0) {
+      throw InputError(path, record.line,
+                       "x, y, height_m and canopy_radius_m must be numbers (height and radius "
+                       "not negative)");
     }
     plants.push_back(plant);
   }

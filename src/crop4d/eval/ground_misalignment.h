@@ -34,10 +34,11 @@ namespace crop4d::eval {
 struct PlantFootprint {
   Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // stem, ENU m
   double canopy_radius_m = 0.0;                  // 0 before emergence
+  double height_m = 0.0;                         // above the terrain at the stem; 0 before
 };
 
 // Reads plants.csv (id,row,x,y,height_m,canopy_radius_m; a header line). Throws InputError with
-// the file and line for anything malformed.
+// the file and line for anything malformed (a negative height or radius included).
 std::vector<PlantFootprint> ReadPlantsCsv(const std::string& path);
 
 // The terrain height on a regular grid, bilinear between the nodes

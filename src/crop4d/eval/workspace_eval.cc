@@ -301,6 +301,49 @@ std::string Value(const ErrorStats& s, const char* format) {
   return s.count == 0 ? std::string("-") : fmt::format(fmt::runtime(format), s.rmse);
 }
 
+// ---- Dense clouds ---------------------------------------------------------------------------
+
+json PlantTopsJson(const PlantTopStats& t) {
+  return {{"num_plants", t.num_plants},
+          {"num_found", t.num_found},
+          {"num_missing", t.num_missing},
+          {"median_m", NumberOrNull(t.median_m)},
+          {"p10_m", NumberOrNull(t.p10_m)},
+          {"p90_m", NumberOrNull(t.p90_m)},
+          {"rmse_m", NumberOrNull(t.rmse_m)},
+          {"within_share", NumberOrNull(t.within_share)},
+          {"low_share", NumberOrNull(t.low_share)},
+          {"high_share", NumberOrNull(t.high_share)}};
+}
+
+json DenseJson(const DenseEval& dense) {
+  json j;
+  j["options"] = {{"top_radius_m", dense.options.top_radius_m},
+                  {"tolerance_m", dense.options.tolerance_m},
+                  {"plant_margin_m", dense.options.ground.plant_margin_m},
+                  {"max_terrain_distance_m", dense.options.ground.max_terrain_distance_m}};
+  j["error"] = dense.error.empty() ? json(nullptr) : json(dense.error);
+  json sessions = json::array();
+  for (const DenseSessionEval& s : dense.sessions) {
+    json item;
+    item["session"] = s.session;
+    item["file"] = s.file;
+    item["error"] = s.ok() ? json(nullptr) : json(s.error);
+    if (s.ok()) {
+      item["points"] = s.points;
+      item["plant_tops"] = PlantTopsJson(s.tops);
+      item["soil"] = {{"num_points", s.soil.num_points},
+                      {"median_m", NumberOrNull(s.soil.median_m)},
+                      {"abs_median_m", NumberOrNull(s.soil.abs_median_m)},
+                      {"abs_p90_m", NumberOrNull(s.soil.abs_p90_m)}};
+    }
+    sessions.push_back(std::move(item));
+  }
+  j["sessions"] = std::move(sessions);
+  j["plant_tops"] = PlantTopsJson(dense.tops);
+  return j;
+}
+
 // ---- Canopy heights ------------------------------------------------------------------------
 
 json CanopyStatsJson(const CanopyErrorStats& s, json j = json::object()) {
@@ -519,7 +562,8 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
 
 bool WorkspaceEvalOptions::Check() const {
   return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0 && association.Check() &&
-         clouds.selection.Check() && clouds.misalignment.Check() && canopy_options.Check();
+         clouds.selection.Check() && clouds.misalignment.Check() && canopy_options.Check() &&
+         dense_options.Check();
 }
 
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
@@ -563,8 +607,12 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   }
   const bool has_canopy =
       options.canopy && fs::is_regular_file(fs::path(workspace) / "analysis/site_heights.csv", ec);
+  const SessionTimeline timeline = ReadTimeline(field);
+  const std::vector<std::string> dense_files =
+      options.dense ? FindDenseClouds(workspace, timeline.sessions, options.sessions)
+                    : std::vector<std::string>();
   if (eval.passes.empty() && association_files.empty() && !(options.fused && has_fused) &&
-      !has_canopy) {
+      !has_canopy && dense_files.empty()) {
     throw InputError(
         workspace, 0,
         options.sessions.empty()
@@ -647,7 +695,6 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   overall.rpe_rotation_deg_per_m = ErrorStats::Pool(rpe_r);
 
   // The later stages, each when its inputs exist.
-  const SessionTimeline timeline = ReadTimeline(field);
   if (!association_files.empty()) {
     eval.association =
         EvaluateWorkspaceAssociations(workspace, field, association_files, timeline, options);
@@ -664,6 +711,9 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
         eval.clouds.push_back(EvaluateCloudSet(workspace, field, label, clouds, options.clouds));
       }
     }
+  }
+  if (!dense_files.empty()) {
+    eval.dense = EvaluateDenseClouds(workspace, field, dense_files, options.dense_options);
   }
   if (options.canopy) {
     CanopyEvalOptions canopy_options = options.canopy_options;
@@ -743,6 +793,7 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
     for (const CloudSetEval& set : eval.clouds) ground[set.label] = CloudSetJson(set);
     root["ground_misalignment"] = std::move(ground);
   }
+  if (eval.dense) root["dense"] = DenseJson(*eval.dense);
   if (eval.canopy) root["canopy"] = CanopyJson(*eval.canopy);
   return root.dump(2) + "\n";
 }
@@ -760,6 +811,7 @@ std::string FormatWorkspaceEvalTable(const WorkspaceEval& eval) {
   const auto section = [&](const std::string& text) { out += (out.empty() ? "" : "\n") + text; };
   if (eval.association) section(FormatAssociationTable(*eval.association));
   if (eval.fused || !eval.clouds.empty()) section(FormatFusedTable(eval));
+  if (eval.dense) section(FormatDenseTable(*eval.dense));
   if (eval.canopy) {
     section(FormatCanopyTable(*eval.canopy));
   } else if (!eval.canopy_skipped.empty()) {

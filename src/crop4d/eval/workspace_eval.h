@@ -26,6 +26,9 @@
 //   WS/analysis/site_heights.csv, site_heights_single_plane.csv   canopy heights (analyze)
 //   FIELD/ground_truth/site_truth.csv
 //       → canopy height errors per method and session (canopy_eval.h)
+//   WS/dense/<session>.ply                          dense clouds (densify)
+//   FIELD/ground_truth/<session>/plants.csv, FIELD/ground_truth/terrain.csv
+//       → plant tops and soil of each cloud against the truth (dense_eval.h)
 
 #include <optional>
 #include <string>
@@ -33,6 +36,7 @@
 
 #include "crop4d/eval/association_eval.h"
 #include "crop4d/eval/canopy_eval.h"
+#include "crop4d/eval/dense_eval.h"
 #include "crop4d/eval/fused_eval.h"
 #include "crop4d/eval/trajectory_metrics.h"
 
@@ -65,6 +69,9 @@ struct WorkspaceEvalOptions {
   // ignored).
   bool canopy = true;
   CanopyEvalOptions canopy_options;
+  // Plant tops and soil of the dense clouds (WS/dense/<session>.ply), when there are any.
+  bool dense = true;
+  DenseEvalOptions dense_options;
 
   bool Check() const;
 };
@@ -128,16 +135,19 @@ struct WorkspaceEval {
   std::optional<CanopyEval> canopy;
   // Why the canopy section was skipped (one line; empty when it was evaluated or disabled).
   std::string canopy_skipped;
+  // The dense clouds, when the workspace has any.
+  std::optional<DenseEval> dense;
 };
 
 // Reads every pass of `workspace` and evaluates it against `field`'s ground truth, then the
-// association files, the fused trajectories and the clouds when they exist. A pass, a file or a
-// session whose files are missing or malformed, or without truth, is listed with its error.
+// association files, the fused trajectories, the clouds, the dense clouds and the canopy heights
+// when they exist. A pass, a file or a session whose files are missing or malformed, or without
+// truth, is listed with its error.
 // Throws InputError when the workspace has nothing to evaluate (no sessions/*/rows/* folder, no
-// association file, no fused session and no WS/analysis/site_heights.csv) or the field has no
-// ground_truth/ folder. When the
-// true geometry is unavailable (no simulate.yaml, no EGL/OpenGL to render depth maps with) the
-// association section holds the error and the other sections are still evaluated.
+// association file, no fused session, no WS/analysis/site_heights.csv and no dense cloud) or
+// the field has no ground_truth/ folder. When the true geometry is unavailable (no simulate.yaml,
+// no EGL/OpenGL to render depth maps with) the association section holds the error and the other
+// sections are still evaluated.
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
                                 const WorkspaceEvalOptions& options = {});
 

@@ -301,7 +301,7 @@ std::string SeasonRun::EvalFingerprint() const {
   const std::string config = FormatRunConfig(config_);
   add(config.substr(config.find("\neval:")));
   std::vector<std::string> summaries;
-  for (const char* folder : {"sessions", "associations", "fused", "analysis"}) {
+  for (const char* folder : {"sessions", "associations", "fused", "dense", "analysis"}) {
     std::error_code ec;
     for (fs::recursive_directory_iterator it(fs::path(ws_) / folder, ec), end; !ec && it != end;
          it.increment(ec)) {

@@ -75,10 +75,15 @@ DenseSessionEval EvaluateDenseCloud(const std::vector<Eigen::Vector3d>& points,
   s.points = static_cast<std::int64_t>(points.size());
 
   // Plant tops: the highest point within the radius of each emerged plant's stem.
+  // Only points over the terrain grid (the field) are indexed: a wild point far away, or a
+  // non-finite one, can be no plant's top.
   std::vector<Eigen::Vector2d> xy;
-  xy.reserve(points.size());
+  std::vector<double> z;
   for (const Eigen::Vector3d& p : points) {
-    xy.push_back(p.allFinite() ? Eigen::Vector2d(p.head<2>()) : Eigen::Vector2d(1e12, 1e12));
+    double ground;
+    if (!p.allFinite() || !terrain.Height(p.x(), p.y(), &ground)) continue;
+    xy.push_back(p.head<2>());
+    z.push_back(p.z());
   }
   const Grid2d grid(xy, options.top_radius_m);
   const double r2 = options.top_radius_m * options.top_radius_m;
@@ -88,7 +93,7 @@ DenseSessionEval EvaluateDenseCloud(const std::vector<Eigen::Vector3d>& points,
     ++s.tops.num_plants;
     double top = -std::numeric_limits<double>::infinity();
     grid.ForNear(plant.xy.x(), plant.xy.y(), [&](int i) {
-      if ((xy[i] - plant.xy).squaredNorm() <= r2) top = std::max(top, points[i].z());
+      if ((xy[i] - plant.xy).squaredNorm() <= r2) top = std::max(top, z[i]);
     });
     if (!std::isfinite(top)) {
       ++s.tops.num_missing;

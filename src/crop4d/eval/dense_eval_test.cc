@@ -57,6 +57,9 @@ struct Scene {
     points.emplace_back(1.10, 1.00, Ground(1.0, 1.0) + 0.50);   // 10 cm away
     points.emplace_back(2.00, 0.95, Ground(2.0, 1.0) + 0.235);  // B's top: 3.5 cm high
     points.emplace_back(2.03, 1.00, Ground(2.0, 1.0) + 0.15);
+    // Neither a non-finite point nor one far off the field is anyone's top.
+    points.emplace_back(std::nan(""), 1.0, 5.0);
+    points.emplace_back(1e9, 1e9, 5.0);
   }
 };
 

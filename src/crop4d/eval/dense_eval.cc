@@ -1,6 +1,7 @@
 #include "crop4d/eval/dense_eval.h"
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -142,30 +143,36 @@ DenseEval EvaluateDenseClouds(const std::string& workspace, const std::string& f
     eval.error = e.what();
     return eval;
   }
-  std::vector<double> pooled;
-  for (const std::string& file : files) {
+  // Sessions in parallel (reading a cloud is most of the work), pooled in file order.
+  eval.sessions.resize(files.size());
+  tbb::parallel_for(std::size_t{0}, files.size(), [&](std::size_t k) {
+    const std::string& file = files[k];
     const std::string session = fs::path(file).stem().string();
-    DenseSessionEval s;
+    DenseSessionEval& s = eval.sessions[k];
     try {
       const fs::path plants_path = truth / session / "plants.csv";
-      if (!fs::exists(plants_path, ec)) {
+      std::error_code exists_ec;
+      if (!fs::exists(plants_path, exists_ec)) {
         throw InputError(plants_path.string(), 0,
                          fmt::format("no true plants for session '{}': file not found", session));
       }
       const std::vector<PlantFootprint> plants = ReadPlantsCsv(plants_path.string());
       const io::PlyPointCloud cloud = io::ReadPly((fs::path(workspace) / file).string());
       s = EvaluateDenseCloud(cloud.points, plants, terrain, options);
-      eval.tops.num_plants += s.tops.num_plants;
-      eval.tops.num_found += s.tops.num_found;
-      eval.tops.num_missing += s.tops.num_missing;
-      pooled.insert(pooled.end(), s.top_errors_m.begin(), s.top_errors_m.end());
     } catch (const InputError& e) {
       s = DenseSessionEval();
       s.error = e.what();
     }
     s.session = session;
     s.file = file;
-    eval.sessions.push_back(std::move(s));
+  });
+  std::vector<double> pooled;
+  for (const DenseSessionEval& s : eval.sessions) {
+    if (!s.ok()) continue;
+    eval.tops.num_plants += s.tops.num_plants;
+    eval.tops.num_found += s.tops.num_found;
+    eval.tops.num_missing += s.tops.num_missing;
+    pooled.insert(pooled.end(), s.top_errors_m.begin(), s.top_errors_m.end());
   }
   SummariseTops(std::move(pooled), options.tolerance_m, &eval.tops);
   return eval;

@@ -117,6 +117,11 @@ RunFunction SetupDensify(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--min-score", o.stereo.min_score, "Least aggregated ZNCC of a kept point (-1..1)")
       ->capture_default_str();
+  app.add_option("--top-surface-margin", o.stereo.top_surface_margin,
+                 "A green peak above a cell's best height, scoring at most this much less, is "
+                 "taken instead: the top leaves (0: off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 2.0));
   app.add_option("--threads", o.num_threads, "Worker threads (0: all cores)")
       ->capture_default_str();
   app.add_flag("--force", o.force, "Densify again even when the inputs have not changed");

@@ -448,6 +448,13 @@ class Sweeper {
   const std::vector<ViewImage>& images_;
 };
 
+// Excess green 2g − r − b of a colour (chromatic coordinates; 0 for black): ≈ 0 on soil,
+// 0.27–0.34 on the simulator's leaves (analysis/vegetation.h).
+double ExcessGreen(const std::array<std::uint8_t, 3>& rgb) {
+  const double sum = rgb[0] + rgb[1] + rgb[2];
+  return sum > 0 ? (2.0 * rgb[1] - rgb[0] - rgb[2]) / sum : 0.0;
+}
+
 // Sub-step position of a peak from the scores before, at and after it (parabola through three
 // points), in [−0.5, 0.5].
 double ParabolicOffset(double before, double at, double after) {
@@ -524,13 +531,16 @@ bool DenseRegion::Contains(const Eigen::Vector2d& xy) const {
 
 bool HeightFieldStereo::Options::Check() const {
   return cell_m > 0 && tile_cells >= 4 && patch_radius >= 1 && patch_radius <= 5 &&
-         fine_patch_radius >= 1 && fine_patch_radius <= 5 && below_ground_m >= 0 &&
-         max_canopy_height_m > 0 && coarse_step_m > 0 && fine_half_range_m > 0 && fine_step_m > 0 &&
-         fine_step_m < fine_half_range_m && max_views >= 2 && max_views <= 32 &&
-         max_view_distance_m > 0 && image_margin_px >= 0 && min_reference_separation_m >= 0 &&
-         min_views >= 1 && min_views < max_views && min_score > -1 && min_score < 1 &&
-         min_texture >= 0 && min_neighbours >= 0 && min_neighbours <= 8 &&
-         neighbour_tolerance_m > 0 && (max_canopy_height_m + below_ground_m) / coarse_step_m < 2000;
+         fine_patch_radius >= 1 && fine_patch_radius <= 5 && top_surface_margin >= 0 &&
+         top_surface_min_reference_score >= -1 && top_surface_min_reference_score <= 1 &&
+         top_surface_min_height_m >= 0 && top_surface_min_excess_green >= -1 &&
+         below_ground_m >= 0 && max_canopy_height_m > 0 && coarse_step_m > 0 &&
+         fine_half_range_m > 0 && fine_step_m > 0 && fine_step_m < fine_half_range_m &&
+         max_views >= 2 && max_views <= 32 && max_view_distance_m > 0 && image_margin_px >= 0 &&
+         min_reference_separation_m >= 0 && min_views >= 1 && min_views < max_views &&
+         min_score > -1 && min_score < 1 && min_texture >= 0 && min_neighbours >= 0 &&
+         min_neighbours <= 8 && neighbour_tolerance_m > 0 &&
+         (max_canopy_height_m + below_ground_m) / coarse_step_m < 2000;
 }
 
 HeightFieldStereo::HeightFieldStereo(const Options& options) : options_(options) {
@@ -732,6 +742,7 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
   std::vector<std::uint8_t> num_views(num_grid, 0);
   std::vector<std::array<std::uint8_t, 3>> rgb(num_grid, {0, 0, 0});
   std::vector<int> reference_of(num_grid, -1);
+  std::vector<std::uint8_t> on_top_surface(num_grid, 0);
   // |height of reference 1 alone − height of reference 2 alone| (−1: one of them did not score).
   std::vector<float> disagreement(num_grid, -1.0f);
   const int r = o.patch_radius;
@@ -765,60 +776,108 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
     const SweepVolume cv =
         sweeper.Run(grid, std::vector<float>(ns, 0.0f), coarse_levels, tile.views);
     const int fcells_c = tile.nx * tile.ny;
-    std::vector<float> coarse_z(fcells_c, std::numeric_limits<float>::quiet_NaN());
-    std::vector<float> coarse_score(fcells_c, kNoScore);
-    std::vector<float> uniqueness(fcells_c, 0.0f);
-    std::vector<char> inconsistent(fcells_c, 0);
-    std::vector<float> refdiff(fcells_c, -1.0f);
+    // Per cell two candidate surfaces: [0] the best coarse peak, [1] the top surface (a peak
+    // above it, see Options::top_surface_margin; the best where there is none).
+    std::vector<float> coarse_z[2], coarse_score[2], uniqueness[2], refdiff[2];
+    std::vector<char> inconsistent[2];
+    for (int k = 0; k < 2; ++k) {
+      coarse_z[k].assign(fcells_c, std::numeric_limits<float>::quiet_NaN());
+      coarse_score[k].assign(fcells_c, kNoScore);
+      uniqueness[k].assign(fcells_c, 0.0f);
+      refdiff[k].assign(fcells_c, -1.0f);
+      inconsistent[k].assign(fcells_c, 0);
+    }
+    std::vector<char> top_surface(fcells_c, 0);
     const int exclusion = std::max(1, static_cast<int>(std::lround(0.02 / o.coarse_step_m)));
+    const float* by_reference[2] = {
+        cv.score_by_reference.data(),
+        cv.score_by_reference.data() + static_cast<std::size_t>(cv.levels) * fcells_c};
     for (int c = 0; c < fcells_c; ++c) {
       auto at = [&](int l) { return cv.score[static_cast<std::size_t>(l) * fcells_c + c]; };
+      auto ref_at = [&](int ref, int l) {
+        return by_reference[ref][static_cast<std::size_t>(l) * fcells_c + c];
+      };
       int best = -1;
       for (int l = 0; l < cv.levels; ++l) {
         if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
       }
       if (best < 0) continue;
-      float second = -1.0f;
-      for (int l = 0; l < cv.levels; ++l) {
-        if (std::abs(l - best) > exclusion) second = std::max(second, at(l));
+      int top = best;
+      if (o.top_surface_margin > 0 && tile.views.num_references > 1) {
+        const float least = at(best) - static_cast<float>(o.top_surface_margin);
+        const float least_reference = static_cast<float>(o.top_surface_min_reference_score);
+        const Eigen::Vector2d xy = lo + Eigen::Vector2d(c % tile.nx + 0.5, c / tile.nx + 0.5) * s;
+        const double lowest = ground.At(xy.x(), xy.y()) + o.top_surface_min_height_m;
+        for (int l = cv.levels - 2; l > best + exclusion; --l) {
+          if (at(l) < least || at(l) < at(l - 1) || at(l) < at(l + 1)) continue;
+          if (coarse_levels[l] < lowest) break;
+          if (ref_at(0, l) < least_reference || ref_at(1, l) < least_reference) continue;
+          // A leaf: green where both references see it (a soil cell beside a leaf, whose
+          // patch holds the leaf, is not).
+          bool green = true;
+          for (int ref = 0; ref < 2 && green; ++ref) {
+            const int view = tile.views.views[ref];
+            std::array<std::uint8_t, 3> colour;
+            Eigen::Vector2d pixel;
+            green = camera.Project(geometry[view].camera_from_world *
+                                       (Eigen::Vector3d(xy.x(), xy.y(), coarse_levels[l]) -
+                                        geometry[view].center),
+                                   &pixel) &&
+                    images[view].SampleRgb(static_cast<float>(pixel.x()),
+                                           static_cast<float>(pixel.y()), &colour) &&
+                    ExcessGreen(colour) >= o.top_surface_min_excess_green;
+          }
+          if (!green) continue;
+          top = l;
+          break;
+        }
       }
-      uniqueness[c] = at(best) - second;
-      coarse_score[c] = at(best);
-      if (tile.views.num_references > 1) {
-        // Each reference alone must find the same height (where both see the cell).
-        int arg[2] = {-1, -1};
-        for (int ref = 0; ref < 2; ++ref) {
-          const float* sr =
-              cv.score_by_reference.data() + static_cast<std::size_t>(ref) * cv.levels * fcells_c;
-          for (int l = 0; l < cv.levels; ++l) {
-            const float v = sr[static_cast<std::size_t>(l) * fcells_c + c];
-            if (v > kNoScore &&
-                (arg[ref] < 0 || v > sr[static_cast<std::size_t>(arg[ref]) * fcells_c + c]))
-              arg[ref] = l;
+      top_surface[c] = top != best;
+      for (int k = 0; k < 2; ++k) {
+        const int peak = k == 0 ? best : top;
+        // Uniqueness: the margin over the best score more than 2 cm away (for a top surface,
+        // the best above it: the surface below it is expected).
+        float second = -1.0f;
+        for (int l = 0; l < cv.levels; ++l) {
+          if (std::abs(l - peak) > exclusion && (peak == best || l > peak)) {
+            second = std::max(second, at(l));
           }
         }
-        if (arg[0] >= 0 && arg[1] >= 0)
-          refdiff[c] = static_cast<float>(std::abs(arg[0] - arg[1]) * o.coarse_step_m);
-        if (o.cross_check_m > 0 && arg[0] >= 0 && arg[1] >= 0 &&
-            std::abs(arg[0] - arg[1]) * o.coarse_step_m > o.cross_check_m) {
-          inconsistent[c] = 1;
+        uniqueness[k][c] = at(peak) - second;
+        coarse_score[k][c] = at(peak);
+        if (tile.views.num_references > 1) {
+          // Each reference alone must find the same height (where both see the cell); for a
+          // top surface, the same height from it up.
+          const int first = peak == best ? 0 : peak - exclusion;
+          int arg[2] = {-1, -1};
+          for (int ref = 0; ref < 2; ++ref) {
+            for (int l = first; l < cv.levels; ++l) {
+              const float v = ref_at(ref, l);
+              if (v > kNoScore && (arg[ref] < 0 || v > ref_at(ref, arg[ref]))) arg[ref] = l;
+            }
+          }
+          if (arg[0] >= 0 && arg[1] >= 0)
+            refdiff[k][c] = static_cast<float>(std::abs(arg[0] - arg[1]) * o.coarse_step_m);
+          if (o.cross_check_m > 0 && arg[0] >= 0 && arg[1] >= 0 &&
+              std::abs(arg[0] - arg[1]) * o.coarse_step_m > o.cross_check_m) {
+            inconsistent[k][c] = 1;
+          }
         }
+        double offset = 0;
+        if (peak > 0 && peak + 1 < cv.levels && at(peak - 1) > kNoScore &&
+            at(peak + 1) > kNoScore) {
+          offset = ParabolicOffset(at(peak - 1), at(peak), at(peak + 1));
+        }
+        coarse_z[k][c] = static_cast<float>(coarse_levels[peak] + offset * o.coarse_step_m);
       }
-      double offset = 0;
-      if (best > 0 && best + 1 < cv.levels && at(best - 1) > kNoScore && at(best + 1) > kNoScore) {
-        offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
-      }
-      coarse_z[c] = static_cast<float>(coarse_levels[best] + offset * o.coarse_step_m);
     }
-    // The surface the fine sweep follows: 3 × 3 median of the confident coarse heights (holes
-    // take their neighbours' median, or the tile's).
     std::vector<float> all, window;
     for (int c = 0; c < fcells_c; ++c) {
-      if (coarse_score[c] >= o.min_score) all.push_back(coarse_z[c]);
+      if (coarse_score[0][c] >= o.min_score) all.push_back(coarse_z[0][c]);
     }
     if (all.empty()) {
       for (int c = 0; c < fcells_c; ++c) {
-        if (!std::isnan(coarse_z[c])) all.push_back(coarse_z[c]);
+        if (!std::isnan(coarse_z[0][c])) all.push_back(coarse_z[0][c]);
       }
     }
     if (all.empty()) {
@@ -840,80 +899,126 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
     fine.nx = tile.nx + 2 * rf;
     fine.ny = tile.ny + 2 * rf;
     fine.origin = lo + Eigen::Vector2d::Constant((0.5 - rf) * s);
-    std::vector<float> base(static_cast<std::size_t>(fine.nx) * fine.ny);
-    for (int b = 0; b < fine.ny; ++b) {
-      for (int a = 0; a < fine.nx; ++a) {
-        const int i = std::clamp(a - rf, 0, tile.nx - 1), j = std::clamp(b - rf, 0, tile.ny - 1);
-        float& out = base[static_cast<std::size_t>(b) * fine.nx + a];
-        window.clear();
-        for (int dj = -1; dj <= 1; ++dj) {
-          for (int di = -1; di <= 1; ++di) {
-            const int ii = i + di, jj = j + dj;
-            if (ii < 0 || jj < 0 || ii >= tile.nx || jj >= tile.ny) continue;
-            const int c = jj * tile.nx + ii;
-            if (coarse_score[c] >= o.min_score) window.push_back(coarse_z[c]);
-          }
-        }
-        out = window.empty() ? tile_median : Median(&window);
-      }
-    }
-    // Fine: ± fine_half_range_m around that surface.
     std::vector<float> fine_offsets;
     const int half_levels = static_cast<int>(std::lround(o.fine_half_range_m / o.fine_step_m));
     for (int k = -half_levels; k <= half_levels; ++k) {
       fine_offsets.push_back(static_cast<float>(k * o.fine_step_m));
     }
-    const SweepVolume fv = sweeper.Run(fine, base, fine_offsets, tile.views);
+    // A cell's fine result from one candidate surface.
+    struct FineResult {
+      CellState state = kNoViews;
+      double z = 0;
+      float score = 0;
+      int reference = -1;  // view index
+      std::uint8_t num_views = 0;
+      std::array<std::uint8_t, 3> rgb{0, 0, 0};
+    };
     const int fcells = tile.nx * tile.ny;
+    auto fine_sweep = [&](int k, std::vector<FineResult>* results) {
+      // The surface the fine sweep follows: 3 × 3 median of the confident coarse heights (holes
+      // take their neighbours' median, or the tile's).
+      std::vector<float> base(static_cast<std::size_t>(fine.nx) * fine.ny);
+      for (int b = 0; b < fine.ny; ++b) {
+        for (int a = 0; a < fine.nx; ++a) {
+          const int i = std::clamp(a - rf, 0, tile.nx - 1), j = std::clamp(b - rf, 0, tile.ny - 1);
+          float& out = base[static_cast<std::size_t>(b) * fine.nx + a];
+          window.clear();
+          for (int dj = -1; dj <= 1; ++dj) {
+            for (int di = -1; di <= 1; ++di) {
+              const int ii = i + di, jj = j + dj;
+              if (ii < 0 || jj < 0 || ii >= tile.nx || jj >= tile.ny) continue;
+              const int c = jj * tile.nx + ii;
+              if (coarse_score[k][c] >= o.min_score) window.push_back(coarse_z[k][c]);
+            }
+          }
+          out = window.empty() ? tile_median : Median(&window);
+        }
+      }
+      // Fine: ± fine_half_range_m around that surface.
+      const SweepVolume fv = sweeper.Run(fine, base, fine_offsets, tile.views);
+      results->assign(fcells, FineResult{});
+      for (int j = 0; j < tile.ny; ++j) {
+        for (int i = 0; i < tile.nx; ++i) {
+          const int c = j * tile.nx + i;
+          FineResult& res = (*results)[c];
+          auto at = [&](int l) { return fv.score[static_cast<std::size_t>(l) * fcells + c]; };
+          int best = -1;
+          for (int l = 0; l < fv.levels; ++l) {
+            if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
+          }
+          if (best < 0) {
+            res.state = (fv.low_texture[c] || cv.low_texture[c]) ? kLowTexture : kNoViews;
+            continue;
+          }
+          if (at(best) < o.min_score) {
+            res.state = kLowScore;
+            continue;
+          }
+          if (uniqueness[k][c] < o.min_uniqueness || inconsistent[k][c]) {
+            res.state = kNotUnique;
+            continue;
+          }
+          if (best == 0 || best + 1 == fv.levels || at(best - 1) <= kNoScore ||
+              at(best + 1) <= kNoScore) {
+            res.state = kAtRangeEdge;
+            continue;
+          }
+          const double offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
+          res.state = kKept;
+          res.z = base[static_cast<std::size_t>(j + rf) * fine.nx + i + rf] + fine_offsets[best] +
+                  offset * o.fine_step_m;
+          res.score = at(best);
+          const std::size_t ib = static_cast<std::size_t>(best) * fcells + c;
+          res.num_views = static_cast<std::uint8_t>(fv.num_views[ib] + 1);
+          res.reference = tile.views.views[fv.reference[ib]];
+          const Eigen::Vector2d xy =
+              grid_origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
+          const ViewGeometry& view = geometry[res.reference];
+          Eigen::Vector2d pixel;
+          if (camera.Project(
+                  view.camera_from_world * (Eigen::Vector3d(xy.x(), xy.y(), res.z) - view.center),
+                  &pixel)) {
+            images[res.reference].SampleRgb(static_cast<float>(pixel.x()),
+                                            static_cast<float>(pixel.y()), &res.rgb);
+          }
+        }
+      }
+    };
+    std::vector<FineResult> fine_best, fine_top;
+    fine_sweep(0, &fine_best);
+    if (std::find(top_surface.begin(), top_surface.end(), 1) != top_surface.end()) {
+      // The top surfaces: their heights (the best elsewhere) make the surface of a second fine
+      // sweep.
+      for (int c = 0; c < fcells_c; ++c) {
+        if (!top_surface[c]) {
+          coarse_z[1][c] = coarse_z[0][c];
+          coarse_score[1][c] = coarse_score[0][c];
+        }
+      }
+      fine_sweep(1, &fine_top);
+    }
     for (int j = 0; j < tile.ny; ++j) {
       for (int i = 0; i < tile.nx; ++i) {
         const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * gx + tile.i0 + i;
         if (state[g] == kOutside) continue;
         const int c = j * tile.nx + i;
-        const int cc = c;
-        auto at = [&](int l) { return fv.score[static_cast<std::size_t>(l) * fcells + c]; };
-        int best = -1;
-        for (int l = 0; l < fv.levels; ++l) {
-          if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
+        // A top surface where its fine sweep confirms it, still green (a leaf); else the best.
+        int k = 0;
+        if (top_surface[c] && fine_top[c].state == kKept &&
+            ExcessGreen(fine_top[c].rgb) >= o.top_surface_min_excess_green) {
+          k = 1;
         }
-        if (best < 0) {
-          state[g] = (fv.low_texture[c] || cv.low_texture[cc]) ? kLowTexture : kNoViews;
-          continue;
-        }
-        if (at(best) < o.min_score) {
-          state[g] = kLowScore;
-          continue;
-        }
-        if (uniqueness[cc] < o.min_uniqueness || inconsistent[cc]) {
-          state[g] = kNotUnique;
-          continue;
-        }
-        if (best == 0 || best + 1 == fv.levels || at(best - 1) <= kNoScore ||
-            at(best + 1) <= kNoScore) {
-          state[g] = kAtRangeEdge;
-          continue;
-        }
-        const double offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
-        const double zc = base[static_cast<std::size_t>(j + rf) * fine.nx + i + rf] +
-                          fine_offsets[best] + offset * o.fine_step_m;
-        state[g] = kKept;
-        height[g] = static_cast<float>(zc);
-        score[g] = at(best);
-        unique[g] = uniqueness[cc];
-        disagreement[g] = refdiff[cc];
-        const std::size_t ib = static_cast<std::size_t>(best) * fcells + c;
-        num_views[g] = static_cast<std::uint8_t>(fv.num_views[ib] + 1);
-        const int ref = tile.views.views[fv.reference[ib]];
-        reference_of[g] = ref;
-        const Eigen::Vector2d xy =
-            grid_origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
-        Eigen::Vector2d pixel;
-        if (camera.Project(geometry[ref].camera_from_world *
-                               (Eigen::Vector3d(xy.x(), xy.y(), zc) - geometry[ref].center),
-                           &pixel)) {
-          images[ref].SampleRgb(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()),
-                                &rgb[g]);
-        }
+        const FineResult& res = k == 1 ? fine_top[c] : fine_best[c];
+        state[g] = res.state;
+        if (res.state != kKept) continue;
+        height[g] = static_cast<float>(res.z);
+        score[g] = res.score;
+        unique[g] = uniqueness[k][c];
+        disagreement[g] = refdiff[k][c];
+        num_views[g] = res.num_views;
+        reference_of[g] = res.reference;
+        rgb[g] = res.rgb;
+        on_top_surface[g] = static_cast<std::uint8_t>(k);
       }
     }
     if (progress) progress->Add();
@@ -1092,6 +1197,7 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
           break;
       }
       if (state[g] != kKept) continue;
+      summary.num_top_surface += on_top_surface[g];
       const Eigen::Vector2d xy = grid_origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
       result.cloud.points.emplace_back(xy.x(), xy.y(), height[g]);
       result.cloud.colors.push_back(rgb[g]);

@@ -24,12 +24,16 @@
 // Coarse to fine in height: a sweep over the whole range in coarse_step_m steps, then a second
 // one ± fine_half_range_m around the (3 × 3 median of the) coarse surface in fine_step_m steps —
 // the patch then follows that surface instead of a horizontal plane — with a parabola through
-// the winner-take-all peak. A cell is kept when its score is high enough, its reference patch has
-// texture, its coarse peak is unique, the fine peak lies inside the fine range, and enough of its
-// neighbours agree with it. Then visibility: a point that hides many other points from the
-// reference they were matched in is a false match floating above them; and islands (small
-// connected sets of points — a plant's top leaf, or a false match) must be confirmed by both
-// references and must not float high above everything around them.
+// the winner-take-all peak. The top surface: where the coarse profile also has a peak above the
+// best one, almost as good, confirmed by each reference alone and green in both, a second fine
+// sweep follows it, and the cell takes it when that sweep confirms it (a top leaf over the
+// canopy below it; see Options::top_surface_margin). A cell is kept when its score is high
+// enough, its reference patch has texture, its coarse peak is unique, the fine peak lies inside
+// the fine range, and enough of its neighbours agree with it. Then visibility: a point that
+// hides many other points from the reference they were matched in is a false match floating
+// above them; and islands (small connected sets of points — a plant's top leaf, or a false
+// match) must be confirmed by both references and must not float high above everything around
+// them.
 //
 // Views: per tile, the images whose camera sees the tile within the image (with a margin) and
 // within max_view_distance_m. Two references — the most top-down views (highest resolution),
@@ -123,6 +127,21 @@ class HeightFieldStereo {
     double min_texture = 2.0;
     // Least margin of the coarse peak over the best score more than 2 cm away from it.
     double min_uniqueness = 0.05;
+    // The top surface. A height field holds one height per cell, and the canopy's is its top;
+    // but a small top leaf, no larger than the patch, fills only part of it and scores lower
+    // than the broader canopy below it, which the oblique views see past the leaf. So where the
+    // coarse score profile has a peak more than 2 cm above the best one, scoring at most this
+    // much less than the best (0: off), scored at least top_surface_min_reference_score by each
+    // reference alone, at least top_surface_min_height_m above the ground model (soil has no
+    // layer above it) and green in both references (excess green 2g − r − b at least
+    // top_surface_min_excess_green: a leaf), the highest such peak gets a fine sweep of its own,
+    // and the cell takes it when that sweep keeps it and its point is still green; otherwise
+    // the cell keeps its best peak. Measured on the demo field and a second one:
+    // bench/RESULTS.md (crop analysis, "Update (session 9): the top surface").
+    double top_surface_margin = 0.15;
+    double top_surface_min_reference_score = 0.45;
+    double top_surface_min_height_m = 0.05;
+    double top_surface_min_excess_green = 0.1;
     // A point needs at least this many of its 8 neighbours within neighbour_tolerance_m...
     int min_neighbours = 3;
     // ...a height difference, m, that also links neighbours into connected sets (islands).
@@ -162,6 +181,7 @@ class HeightFieldStereo {
     std::int64_t num_cells = 0;             // cells of the region
     std::int64_t num_cells_with_views = 0;  // with a reference and min_views other views
     std::int64_t num_points = 0;            // kept
+    std::int64_t num_top_surface = 0;       // kept points on a top surface (top_surface_margin)
     // Rejected cells by the first test they failed.
     std::int64_t num_low_texture = 0;
     std::int64_t num_low_score = 0;

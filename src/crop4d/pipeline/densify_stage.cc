@@ -67,6 +67,10 @@ json OptionsJson(const DensifyStageOptions& o, const std::vector<Eigen::Vector2d
           {"min_score", s.min_score},
           {"min_texture", s.min_texture},
           {"min_uniqueness", s.min_uniqueness},
+          {"top_surface_margin", s.top_surface_margin},
+          {"top_surface_min_reference_score", s.top_surface_min_reference_score},
+          {"top_surface_min_height_m", s.top_surface_min_height_m},
+          {"top_surface_min_excess_green", s.top_surface_min_excess_green},
           {"min_neighbours", s.min_neighbours},
           {"neighbour_tolerance_m", s.neighbour_tolerance_m},
           {"cross_check_m", s.cross_check_m},
@@ -283,6 +287,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
     summary["poses"] = report.num_poses;
     summary["views"] = report.num_views;
     summary["points"] = s.num_points;
+    summary["top_surface_points"] = s.num_top_surface;
     summary["cells"] = {{"region", s.num_cells},
                         {"with_views", s.num_cells_with_views},
                         {"low_texture", s.num_low_texture},

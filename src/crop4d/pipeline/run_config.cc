@@ -262,6 +262,11 @@ const std::vector<Key>& Keys() {
     k.push_back(Double(
         "densify", "min_score", "aggregated ZNCC a cell needs",
         [](RunConfig& c) -> double& { return c.densify_options.stereo.min_score; }, -1.0, 1.0));
+    k.push_back(Double(
+        "densify", "top_surface_margin",
+        "a peak above the best height scoring at most this much less wins (0: off)",
+        [](RunConfig& c) -> double& { return c.densify_options.stereo.top_surface_margin; }, 0.0,
+        2.0));
     k.push_back(Bool("densify", "around_sites", "only discs of radius_m around the sites",
                      [](RunConfig& c) -> bool& { return c.densify_options.around_sites; }));
     k.push_back(Double(

@@ -987,14 +987,7 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
     std::vector<FineResult> fine_best, fine_top;
     fine_sweep(0, &fine_best);
     if (std::find(top_surface.begin(), top_surface.end(), 1) != top_surface.end()) {
-      // The top surfaces: their heights (the best elsewhere) make the surface of a second fine
-      // sweep.
-      for (int c = 0; c < fcells_c; ++c) {
-        if (!top_surface[c]) {
-          coarse_z[1][c] = coarse_z[0][c];
-          coarse_score[1][c] = coarse_score[0][c];
-        }
-      }
+      // The top surfaces (the best heights elsewhere) make the surface of a second fine sweep.
       fine_sweep(1, &fine_top);
     }
     for (int j = 0; j < tile.ny; ++j) {

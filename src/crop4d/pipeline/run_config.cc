@@ -264,7 +264,8 @@ const std::vector<Key>& Keys() {
         [](RunConfig& c) -> double& { return c.densify_options.stereo.min_score; }, -1.0, 1.0));
     k.push_back(Double(
         "densify", "top_surface_margin",
-        "a peak above the best height scoring at most this much less wins (0: off)",
+        "a green peak above a cell's best height (a top leaf) scoring at most this much "
+        "less wins (0: off)",
         [](RunConfig& c) -> double& { return c.densify_options.stereo.top_surface_margin; }, 0.0,
         2.0));
     k.push_back(Bool("densify", "around_sites", "only discs of radius_m around the sites",

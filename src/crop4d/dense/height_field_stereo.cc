@@ -449,7 +449,8 @@ class Sweeper {
 };
 
 // Excess green 2g − r − b of a colour (chromatic coordinates; 0 for black): ≈ 0 on soil,
-// 0.27–0.34 on the simulator's leaves (analysis/vegetation.h).
+// 0.27–0.34 on the simulator's leaves. The index of analysis::Greenness, written again here
+// because dense runs before, and does not depend on, the analysis.
 double ExcessGreen(const std::array<std::uint8_t, 3>& rgb) {
   const double sum = rgb[0] + rgb[1] + rgb[2];
   return sum > 0 ? (2.0 * rgb[1] - rgb[0] - rgb[2]) / sum : 0.0;

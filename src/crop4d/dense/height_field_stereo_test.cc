@@ -152,12 +152,15 @@ class HeightFieldStereoTest : public ::testing::Test {
     simulator_ = nullptr;
   }
 
-  // Reconstructs `box` (both rows, 1 m along them) in session `session`.
-  Evaluation Reconstruct(int session, const Eigen::AlignedBox2d& box,
-                         HeightFieldStereo::Summary* summary,
-                         HeightFieldStereo::Options options = {}, double top_radius_m = 0.0) {
-    const testing::RenderedSession rs =
-        testing::RenderAround(*simulator_, renderer_, session, box.center(), 4.0);
+  // The images of session `session` that a reconstruction of `box` needs.
+  testing::RenderedSession Render(int session, const Eigen::AlignedBox2d& box) {
+    return testing::RenderAround(*simulator_, renderer_, session, box.center(), 4.0);
+  }
+
+  // Reconstructs `box` (both rows) from `rs` and compares it with the truth.
+  Evaluation Densify(const testing::RenderedSession& rs, const Eigen::AlignedBox2d& box,
+                     HeightFieldStereo::Summary* summary, HeightFieldStereo::Options options = {},
+                     double top_radius_m = 0.0) {
     std::vector<DenseView> views;
     for (const testing::RenderedImage& im : rs.images) {
       views.push_back({im.world_from_camera, std::to_string(im.t)});
@@ -176,6 +179,11 @@ class HeightFieldStereoTest : public ::testing::Test {
         ground);
     *summary = result.summary;
     return Evaluate(world, rs.date, result.cloud, box, top_radius_m);
+  }
+
+  Evaluation Reconstruct(int session, const Eigen::AlignedBox2d& box,
+                         HeightFieldStereo::Summary* summary) {
+    return Densify(Render(session, box), box, summary);
   }
 
   static sim::Simulator* simulator_;
@@ -241,11 +249,12 @@ TEST_F(HeightFieldStereoTest, MidSeasonSoilAndPlantTops) {
 TEST_F(HeightFieldStereoTest, LateSeasonTopLeavesFromTheTopSurface) {
   if (renderer_ == nullptr) GTEST_SKIP() << "no headless OpenGL";
   const Eigen::AlignedBox2d box(Eigen::Vector2d(-0.35, 2.0), Eigen::Vector2d(1.26, 5.0));
+  const testing::RenderedSession rs = Render(2, box);
   HeightFieldStereo::Summary with_summary, without_summary;
-  const Evaluation with = Reconstruct(2, box, &with_summary, {}, 0.08);
+  const Evaluation with = Densify(rs, box, &with_summary, {}, 0.08);
   HeightFieldStereo::Options off;
   off.top_surface_margin = 0;
-  const Evaluation without = Reconstruct(2, box, &without_summary, off, 0.08);
+  const Evaluation without = Densify(rs, box, &without_summary, off, 0.08);
   auto missed = [](const Evaluation& e) {
     int n = 0;
     for (double t : e.top_error) n += t < -0.02;

@@ -76,6 +76,10 @@ std::string LitFragment(const char* body) {
   return std::string("#version 330 core\n") + shaders::kLightingCommon + body;
 }
 
+std::string LitVertex(const char* body) {
+  return std::string("#version 330 core\n") + shaders::kLitVertexCommon + body;
+}
+
 // Normal → 4 signed bytes (w = flag).
 void PackNormal(const Vector3d& n, std::int8_t flag, std::int8_t out[4]) {
   for (int i = 0; i < 3; ++i) {
@@ -87,8 +91,32 @@ void PackNormal(const Vector3d& n, std::int8_t flag, std::int8_t out[4]) {
 struct TerrainVertex {
   float position[3];
   std::int8_t normal[4];
+  std::uint8_t macro[2][4];  // the soil macro texture at its two scales (see BuildTerrain)
 };
-static_assert(sizeof(TerrainVertex) == 16);
+static_assert(sizeof(TerrainVertex) == 24);
+
+// Bilinear sample of an RGBA8 texture with GL_REPEAT wrapping at texture coordinates (u, v),
+// with OpenGL's texel-centre convention.
+void SampleRepeat(const cv::Mat& rgba, double u, double v, std::uint8_t out[4]) {
+  const int w = rgba.cols, h = rgba.rows;
+  const double x = u * w - 0.5, y = v * h - 0.5;
+  const double fx = std::floor(x), fy = std::floor(y);
+  const double ax = x - fx, ay = y - fy;
+  auto wrap = [](double i, int n) {
+    const long k = static_cast<long>(i) % n;
+    return static_cast<int>(k < 0 ? k + n : k);
+  };
+  const int x0 = wrap(fx, w), x1 = wrap(fx + 1, w), y0 = wrap(fy, h), y1 = wrap(fy + 1, h);
+  const cv::Vec4b& p00 = rgba.at<cv::Vec4b>(y0, x0);
+  const cv::Vec4b& p10 = rgba.at<cv::Vec4b>(y0, x1);
+  const cv::Vec4b& p01 = rgba.at<cv::Vec4b>(y1, x0);
+  const cv::Vec4b& p11 = rgba.at<cv::Vec4b>(y1, x1);
+  for (int c = 0; c < 4; ++c) {
+    const double top = p00[c] * (1 - ax) + p10[c] * ax;
+    const double bottom = p01[c] * (1 - ax) + p11[c] * ax;
+    out[c] = static_cast<std::uint8_t>(std::lround(top * (1 - ay) + bottom * ay));
+  }
+}
 
 struct TreeVertex {
   float position[3];
@@ -168,7 +196,7 @@ struct Renderer::Impl {
   std::vector<TerrainTile> tiles;
   GLuint tree_vao = 0, tree_vbo = 0;
   GLsizei tree_count = 0;
-  GLuint soil_texture = 0, macro_texture = 0, foliage_texture = 0;
+  GLuint soil_texture = 0, foliage_texture = 0;
   GLuint shadow_texture = 0, shadow_fbo = 0;
   GLuint msaa_fbo = 0, msaa_color = 0, msaa_depth = 0;
   GLuint resolve_fbo = 0, resolve_color = 0, resolve_depth = 0;
@@ -231,12 +259,14 @@ void Renderer::Impl::Init() {
     options.anisotropy = software ? 1 : 8;
   }
 
-  terrain_program =
-      LinkProgram(shaders::kTerrainVertex, LitFragment(shaders::kTerrainFragment), "terrain");
-  plant_program = LinkProgram(shaders::kPlantVertex, LitFragment(shaders::kPlantFragment), "plant");
+  terrain_program = LinkProgram(LitVertex(shaders::kTerrainVertex),
+                                LitFragment(shaders::kTerrainFragment), "terrain");
+  plant_program =
+      LinkProgram(LitVertex(shaders::kPlantVertex), LitFragment(shaders::kPlantFragment), "plant");
   shadow_program = LinkProgram(shaders::kShadowVertex, shaders::kShadowFragment, "shadow");
   sky_program = LinkProgram(shaders::kSkyVertex, LitFragment(shaders::kSkyFragment), "sky");
-  tree_program = LinkProgram(shaders::kTreeVertex, LitFragment(shaders::kTreeFragment), "tree");
+  tree_program =
+      LinkProgram(LitVertex(shaders::kTreeVertex), LitFragment(shaders::kTreeFragment), "tree");
   glGenVertexArrays(1, &empty_vao);
   mask_program = LinkProgram(shaders::kMaskVertex, shaders::kShadowFragment, "mask");
 
@@ -246,8 +276,6 @@ void Renderer::Impl::Init() {
   BuildTerrain();
   BuildTreeLine();
 
-  glGenTextures(1, &macro_texture);
-  UploadTexture(macro_texture, GenerateSoilMacroTexture(world.options().seed), true, true);
   glGenTextures(1, &foliage_texture);
   UploadTexture(foliage_texture, GenerateFoliageTexture(world.options().seed), true, true);
   glGenTextures(1, &soil_texture);
@@ -453,6 +481,10 @@ void Renderer::Impl::BuildTerrain() {
 
   std::vector<TerrainVertex> vertices(static_cast<std::size_t>(nx) * ny);
   std::vector<float> heights(vertices.size());
+  // The soil's large-scale variation (a 256² texture at 61.7 m and, rotated, 17.3 m per
+  // period, i.e. 24 and 6.8 cm per texel, smooth over metres) is sampled per vertex here once,
+  // not per pixel: two trilinear fetches per soil pixel were ≈15 % of a frame on llvmpipe.
+  const cv::Mat macro = GenerateSoilMacroTexture(world.options().seed);
   cv::parallel_for_(cv::Range(0, ny), [&](const cv::Range& range) {
     for (int j = range.start; j < range.end; ++j) {
       for (int i = 0; i < nx; ++i) {
@@ -463,6 +495,9 @@ void Renderer::Impl::BuildTerrain() {
         v.position[2] = static_cast<float>(z);
         heights[static_cast<std::size_t>(j) * nx + i] = static_cast<float>(z);
         PackNormal(world.TerrainNormal(xs[i], ys[j]), 0, v.normal);
+        SampleRepeat(macro, xs[i] / 61.7, ys[j] / 61.7, v.macro[0]);
+        SampleRepeat(macro, (0.8 * xs[i] - 0.6 * ys[j]) / 17.3 + 0.37,
+                     (0.6 * xs[i] + 0.8 * ys[j]) / 17.3 + 0.71, v.macro[1]);
       }
     }
   });
@@ -551,6 +586,11 @@ void Renderer::Impl::BuildTerrain() {
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(1, 4, GL_BYTE, GL_TRUE, sizeof(TerrainVertex),
                         reinterpret_cast<void*>(offsetof(TerrainVertex, normal)));
+  for (int k = 0; k < 2; ++k) {
+    glEnableVertexAttribArray(2 + k);
+    glVertexAttribPointer(2 + k, 4, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(TerrainVertex),
+                          reinterpret_cast<void*>(offsetof(TerrainVertex, macro) + 4 * k));
+  }
   glGenBuffers(1, &terrain_ibo);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, terrain_ibo);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER, indices.size() * sizeof(std::uint32_t), indices.data(),
@@ -992,10 +1032,7 @@ void Renderer::Impl::RenderFrame(const geometry::Rigid3& world_from_camera, cv::
   set_common(terrain_program);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, soil_texture);
-  glActiveTexture(GL_TEXTURE2);
-  glBindTexture(GL_TEXTURE_2D, macro_texture);
   glUniform1i(glGetUniformLocation(terrain_program, "u_soil"), 0);
-  glUniform1i(glGetUniformLocation(terrain_program, "u_macro"), 2);
   glUniform1f(glGetUniformLocation(terrain_program, "u_soil_extent"),
               static_cast<float>(options.soil_texture_extent_m));
   glUniform1f(glGetUniformLocation(terrain_program, "u_soil_size"),

@@ -4,7 +4,9 @@
 // textured terrain with mipmaps, procedural 3D plants, distant tree line and sky,
 // Lambertian + ambient shading with sun shadows (shadow map), multisample anti-aliasing, and
 // the camera's radial-tangential distortion applied to the final image. Deterministic: the
-// same inputs give byte-identical images.
+// same inputs give byte-identical images. What is smooth across a triangle (lighting, haze,
+// the soil's large-scale colour, the shadow's fade) is computed per vertex; the pixels get the
+// fine soil texture and the shadow-map test (shaders.h).
 
 #include <memory>
 #include <opencv2/core/mat.hpp>

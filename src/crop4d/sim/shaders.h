@@ -15,41 +15,89 @@ uniform vec3 u_haze_color;
 uniform vec3 u_camera_pos;
 uniform float u_brightness;
 uniform sampler2DShadow u_shadow_map;
-uniform float u_shadow_enabled;
 
-float ShadowFactor(vec4 shadow_pos) {
-  vec3 p = shadow_pos.xyz / shadow_pos.w;
-  if (u_shadow_enabled < 0.5 || p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 ||
-      p.z >= 1.0) {
-    return 1.0;
-  }
+// The shadow-map coordinates and the weight of the shadow come from the vertex shader
+// (ShadowCoordinates below).
+in vec4 v_shadow;
+in float v_shadow_weight;
+float ShadowFactor() {
   // One tap: the hardware compares and filters a 2×2 footprint (percentage-closer filtering).
-  float s = texture(u_shadow_map, vec3(p.xy, p.z - 0.0004));
-  // Fade out towards the border of the shadowed region.
-  vec2 edge = min(p.xy, 1.0 - p.xy);
-  return mix(1.0, s, smoothstep(0.0, 0.06, min(edge.x, edge.y)));
+  float s = texture(u_shadow_map, vec3(v_shadow.xy, v_shadow.z - 0.0004));
+  // Clamped: with multisampling, a pixel centre may lie outside the triangle it shades, where
+  // the interpolation extrapolates.
+  return mix(1.0, s, clamp(v_shadow_weight, 0.0, 1.0));
 }
 
-vec3 Haze(vec3 color, vec3 world) {
-  float d = length(world - u_camera_pos);
-  return mix(color, u_haze_color * u_brightness, 1.0 - exp(-d / 450.0));
+// Aerial perspective; the weight comes from the vertex shader (HazeWeight below).
+in float v_haze;
+vec3 Haze(vec3 color) { return mix(color, u_haze_color * u_brightness, v_haze); }
+)";
+
+// Shared by the vertex shaders of the lit surfaces. What varies smoothly over a surface is
+// computed per vertex, not per pixel: on llvmpipe (the renderer's usual target: the CPU) the
+// fragment shaders are most of a frame, and vertices are few next to pixels.
+inline constexpr const char* kLitVertexCommon = R"(
+uniform vec3 u_camera_pos;
+uniform mat4 u_shadow_matrix;
+uniform float u_shadow_enabled;
+out float v_haze;
+out vec4 v_shadow;
+out float v_shadow_weight;
+
+// Aerial perspective: the haze weight of a point (smooth: exp(-d / 450 m)).
+float HazeWeight(vec3 world) { return 1.0 - exp(-length(world - u_camera_pos) / 450.0); }
+
+// Shadow-map coordinates (an orthographic light: w = 1) and the weight of the shadow, which
+// fades out towards the border of the shadowed square and is 0 outside it, beyond the light's
+// far plane, or with shadows off.
+void ShadowCoordinates(vec3 world) {
+  v_shadow = u_shadow_matrix * vec4(world, 1.0);
+  vec2 edge = min(v_shadow.xy, 1.0 - v_shadow.xy);
+  v_shadow_weight = u_shadow_enabled * smoothstep(0.0, 0.06, min(edge.x, edge.y)) *
+                    step(v_shadow.z, 0.9999);
 }
 )";
 
-inline constexpr const char* kTerrainVertex = R"(#version 330 core
+inline constexpr const char* kTerrainVertex = R"(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec4 a_normal;  // xyz normal; w = 1 for skirt vertices
+layout(location = 2) in vec4 a_macro1;  // the soil macro texture at 61.7 m per period
+layout(location = 3) in vec4 a_macro2;  // … and at 17.3 m, rotated
 uniform mat4 u_view_proj;
-uniform mat4 u_shadow_matrix;
+uniform vec3 u_sun_dir;        // unit vector towards the sun (world)
+uniform vec3 u_sun_color;
+uniform vec3 u_ambient_color;
+uniform float u_brightness;
+uniform vec4 u_field_box;      // min x, min y, max x, max y of the cultivated field
+uniform float u_wet;           // 0 dry … 1 just rained
 out vec3 v_world;
-out vec3 v_normal;
-out vec4 v_shadow;
+out vec3 v_soil_tint;   // the soil's albedo factor: large-scale colour, moisture, wetness
+out vec3 v_grass_tint;  // the same for the grass beyond the field
+out float v_grass;      // 0 soil … 1 grass
+out vec3 v_ambient;     // sky light reaching the surface
+out vec3 v_sun;         // sunlight reaching it where unshadowed
 void main() {
   vec3 p = a_position;
   p.z -= a_normal.w * 0.06;
   v_world = p;
-  v_normal = a_normal.xyz;
-  v_shadow = u_shadow_matrix * vec4(p + 0.01 * a_normal.xyz, 1.0);
+  // Two large-scale variation layers at incommensurate scales (the soil macro texture,
+  // sampled per vertex: it is smooth over metres).
+  vec4 m1 = a_macro1, m2 = a_macro2;
+  vec3 tint = (m1.rgb * 1.275) * (0.88 + 0.12 * m2.rgb * 1.275);
+  float moisture = max(m1.a, 0.7 * m2.a);
+  // Grass beyond the cultivated field.
+  vec2 d = max(u_field_box.xy - p.xy, p.xy - u_field_box.zw);
+  float outside = length(max(d, 0.0)) + min(max(d.x, d.y), 0.0);
+  v_grass = smoothstep(0.0, 2.5, outside + 1.5 * (m2.a - 0.5));
+  float wet = mix(1.0, 0.58 + 0.1 * (1.0 - moisture), u_wet * (1.0 - v_grass));
+  v_soil_tint = tint * (1.0 - 0.12 * moisture) * wet;
+  v_grass_tint = tint * wet;
+  // The terrain is smooth at its grid's scale: Gouraud shading.
+  vec3 n = normalize(a_normal.xyz);
+  v_ambient = u_ambient_color * (0.75 + 0.25 * n.z) * u_brightness;
+  v_sun = u_sun_color * max(dot(n, u_sun_dir), 0.0) * u_brightness;
+  v_haze = HazeWeight(p);
+  ShadowCoordinates(p + 0.01 * n);
   gl_Position = u_view_proj * vec4(p, 1.0);
 }
 )";
@@ -57,18 +105,18 @@ void main() {
 // The soil: a large procedural texture hex-tiled with random offsets per tile vertex
 // (Mikkelsen, "Practical Real-Time Hex-Tiling", JCGT 11(2), 2022, after Heitz & Neyret,
 // "High-Performance By-Example Noise using a Histogram-Preserving Blending Operator", 2018),
-// times two large-scale variation layers at incommensurate scales; grass outside the field.
+// times the large-scale variation, or grass outside the field (kTerrainVertex).
 inline constexpr const char* kTerrainFragment = R"(
 uniform sampler2D u_soil;
-uniform sampler2D u_macro;
 uniform float u_soil_extent;   // metres covered by the soil texture
 uniform float u_soil_size;     // its texels per side
 uniform uint u_soil_seed;
-uniform vec4 u_field_box;      // min x, min y, max x, max y of the cultivated field
-uniform float u_wet;           // 0 dry … 1 just rained
 in vec3 v_world;
-in vec3 v_normal;
-in vec4 v_shadow;
+in vec3 v_soil_tint;
+in vec3 v_grass_tint;
+in float v_grass;
+in vec3 v_ambient;
+in vec3 v_sun;
 layout(location = 0) out vec4 out_color;
 
 uint HashU(uint x) {
@@ -109,70 +157,48 @@ void main() {
   w /= (w.x + w.y + w.z);
   vec3 soil = w.x * c1 + w.y * c2 + w.z * c3;
 
-  vec4 m1 = texture(u_macro, v_world.xy / 61.7);
-  vec2 q = mat2(0.8, 0.6, -0.6, 0.8) * v_world.xy / 17.3 + vec2(0.37, 0.71);
-  vec4 m2 = texture(u_macro, q);
-  vec3 tint = (m1.rgb * 1.275) * (0.88 + 0.12 * m2.rgb * 1.275);
-  float moisture = max(m1.a, 0.7 * m2.a);
-  vec3 albedo = soil * tint * (1.0 - 0.12 * moisture);
-
-  // Grass beyond the cultivated field.
-  vec2 d = max(u_field_box.xy - v_world.xy, v_world.xy - u_field_box.zw);
-  float outside = length(max(d, 0.0)) + min(max(d.x, d.y), 0.0);
-  float grass = smoothstep(0.0, 2.5, outside + 1.5 * (m2.a - 0.5));
   float luma = dot(soil, vec3(0.3, 0.55, 0.15));
-  vec3 grass_color = vec3(0.24, 0.36, 0.12) * (0.4 + 1.3 * luma) * tint;
-  albedo = mix(albedo, grass_color, grass);
-  albedo *= mix(1.0, 0.58 + 0.1 * (1.0 - moisture), u_wet * (1.0 - grass));
-
-  vec3 n = normalize(v_normal);
-  float ndl = max(dot(n, u_sun_dir), 0.0);
-  float shadow = ShadowFactor(v_shadow);
-  vec3 light = u_ambient_color * (0.75 + 0.25 * n.z) + u_sun_color * ndl * shadow;
-  out_color = vec4(Haze(albedo * light * u_brightness, v_world), 1.0);
+  vec3 grass = vec3(0.24, 0.36, 0.12) * (0.4 + 1.3 * luma) * v_grass_tint;
+  vec3 albedo = mix(soil * v_soil_tint, grass, v_grass);
+  out_color = vec4(Haze(albedo * (v_ambient + v_sun * ShadowFactor())), 1.0);
 }
 )";
 
-inline constexpr const char* kPlantVertex = R"(#version 330 core
+inline constexpr const char* kPlantVertex = R"(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec4 a_normal;
-layout(location = 2) in vec4 a_color;
+layout(location = 2) in vec4 a_color;  // rgb albedo; a = 1 on leaf blades
 uniform mat4 u_view_proj;
-uniform mat4 u_shadow_matrix;
-out vec3 v_world;
-out vec3 v_normal;
-out vec4 v_color;
-out vec4 v_shadow;
+uniform vec3 u_sun_dir;
+uniform vec3 u_sun_color;
+uniform vec3 u_ambient_color;
+uniform float u_brightness;
+centroid out vec3 v_ambient;  // reflected sky light
+centroid out vec3 v_sun;      // reflected (and transmitted) sunlight where unshadowed
+// Two-sided leaves: the normal faces the camera; the underside is paler and some sunlight
+// shines through a leaf lit from behind. Lit per vertex (leaves are small next to pixels).
 void main() {
-  v_world = a_position;
-  v_normal = a_normal.xyz;
-  v_color = a_color;
-  v_shadow = u_shadow_matrix * vec4(a_position, 1.0);
+  vec3 n = normalize(a_normal.xyz);
+  bool back = dot(n, u_camera_pos - a_position) < 0.0;
+  if (back) n = -n;
+  float blade = a_color.a;
+  vec3 albedo = a_color.rgb;
+  if (back) albedo *= mix(vec3(1.0), vec3(1.2, 1.15, 1.05), blade);
+  float ndl = dot(n, u_sun_dir);
+  float direct = max(ndl, 0.0) + blade * 0.3 * max(-ndl, 0.0);
+  v_ambient = albedo * u_ambient_color * (0.55 + 0.3 * n.z) * u_brightness;
+  v_sun = albedo * u_sun_color * direct * u_brightness;
+  v_haze = HazeWeight(a_position);
+  ShadowCoordinates(a_position);
   gl_Position = u_view_proj * vec4(a_position, 1.0);
 }
 )";
 
-// Two-sided leaves: the normal faces the camera; the underside is paler and some sunlight
-// shines through a leaf lit from behind.
 inline constexpr const char* kPlantFragment = R"(
-in vec3 v_world;
-in vec3 v_normal;
-in vec4 v_color;
-in vec4 v_shadow;
+centroid in vec3 v_ambient;
+centroid in vec3 v_sun;
 layout(location = 0) out vec4 out_color;
-void main() {
-  vec3 n = normalize(v_normal);
-  bool back = dot(n, u_camera_pos - v_world) < 0.0;
-  if (back) n = -n;
-  float blade = v_color.a;
-  vec3 albedo = v_color.rgb;
-  if (back) albedo *= mix(vec3(1.0), vec3(1.2, 1.15, 1.05), blade);
-  float ndl = dot(n, u_sun_dir);
-  float shadow = ShadowFactor(v_shadow);
-  float direct = max(ndl, 0.0) + blade * 0.3 * max(-ndl, 0.0);
-  vec3 light = u_ambient_color * (0.55 + 0.3 * n.z) + u_sun_color * direct * shadow;
-  out_color = vec4(Haze(albedo * light * u_brightness, v_world), 1.0);
-}
+void main() { out_color = vec4(Haze(v_ambient + v_sun * ShadowFactor()), 1.0); }
 )";
 
 inline constexpr const char* kShadowVertex = R"(#version 330 core
@@ -237,34 +263,32 @@ void main() {
 }
 )";
 
-inline constexpr const char* kTreeVertex = R"(#version 330 core
+inline constexpr const char* kTreeVertex = R"(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec2 a_uv;
 layout(location = 2) in vec3 a_normal;
 uniform mat4 u_view_proj;
-out vec3 v_world;
+uniform vec3 u_sun_dir;
+uniform vec3 u_sun_color;
+uniform vec3 u_ambient_color;
+uniform float u_brightness;
 out vec2 v_uv;
-out vec3 v_normal;
+out vec3 v_light;
 void main() {
-  v_world = a_position;
   v_uv = a_uv;
-  v_normal = a_normal;
+  float ndl = abs(dot(normalize(a_normal), u_sun_dir));
+  v_light = (0.9 * u_ambient_color + 0.6 * u_sun_color * ndl) * u_brightness;
+  v_haze = HazeWeight(a_position);
   gl_Position = u_view_proj * vec4(a_position, 1.0);
 }
 )";
 
 inline constexpr const char* kTreeFragment = R"(
 uniform sampler2D u_foliage;
-in vec3 v_world;
 in vec2 v_uv;
-in vec3 v_normal;
+in vec3 v_light;
 layout(location = 0) out vec4 out_color;
-void main() {
-  vec3 albedo = texture(u_foliage, v_uv).rgb;
-  float ndl = abs(dot(normalize(v_normal), u_sun_dir));
-  vec3 light = 0.9 * u_ambient_color + 0.6 * u_sun_color * ndl;
-  out_color = vec4(Haze(albedo * light * u_brightness, v_world), 1.0);
-}
+void main() { out_color = vec4(Haze(texture(u_foliage, v_uv).rgb * v_light), 1.0); }
 )";
 
 }  // namespace crop4d::sim::shaders

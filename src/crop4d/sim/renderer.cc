@@ -95,6 +95,12 @@ struct TerrainVertex {
 };
 static_assert(sizeof(TerrainVertex) == 24);
 
+// The soil macro texture's two layers: metres per texture period, and the second layer's
+// rotation (cos, sin) and offset, at incommensurate scales so that their product never repeats
+// within a field.
+constexpr double kMacroPeriod1 = 61.7, kMacroPeriod2 = 17.3;
+constexpr double kMacroCos2 = 0.8, kMacroSin2 = 0.6, kMacroOffset2[2] = {0.37, 0.71};
+
 // Bilinear sample of an RGBA8 texture with GL_REPEAT wrapping at texture coordinates (u, v),
 // with OpenGL's texel-centre convention.
 void SampleRepeat(const cv::Mat& rgba, double u, double v, std::uint8_t out[4]) {
@@ -481,9 +487,10 @@ void Renderer::Impl::BuildTerrain() {
 
   std::vector<TerrainVertex> vertices(static_cast<std::size_t>(nx) * ny);
   std::vector<float> heights(vertices.size());
-  // The soil's large-scale variation (a 256² texture at 61.7 m and, rotated, 17.3 m per
-  // period, i.e. 24 and 6.8 cm per texel, smooth over metres) is sampled per vertex here once,
-  // not per pixel: two trilinear fetches per soil pixel were ≈15 % of a frame on llvmpipe.
+  // The soil's large-scale variation (a 256² texture at kMacroPeriod1 and, rotated,
+  // kMacroPeriod2 per period: 24 and 6.8 cm per texel, smooth over metres) is sampled per
+  // vertex here once, not per pixel: two trilinear fetches per soil pixel were ≈15 % of a frame
+  // on llvmpipe.
   const cv::Mat macro = GenerateSoilMacroTexture(world.options().seed);
   cv::parallel_for_(cv::Range(0, ny), [&](const cv::Range& range) {
     for (int j = range.start; j < range.end; ++j) {
@@ -495,9 +502,11 @@ void Renderer::Impl::BuildTerrain() {
         v.position[2] = static_cast<float>(z);
         heights[static_cast<std::size_t>(j) * nx + i] = static_cast<float>(z);
         PackNormal(world.TerrainNormal(xs[i], ys[j]), 0, v.normal);
-        SampleRepeat(macro, xs[i] / 61.7, ys[j] / 61.7, v.macro[0]);
-        SampleRepeat(macro, (0.8 * xs[i] - 0.6 * ys[j]) / 17.3 + 0.37,
-                     (0.6 * xs[i] + 0.8 * ys[j]) / 17.3 + 0.71, v.macro[1]);
+        SampleRepeat(macro, xs[i] / kMacroPeriod1, ys[j] / kMacroPeriod1, v.macro[0]);
+        SampleRepeat(macro,
+                     (kMacroCos2 * xs[i] - kMacroSin2 * ys[j]) / kMacroPeriod2 + kMacroOffset2[0],
+                     (kMacroSin2 * xs[i] + kMacroCos2 * ys[j]) / kMacroPeriod2 + kMacroOffset2[1],
+                     v.macro[1]);
       }
     }
   });

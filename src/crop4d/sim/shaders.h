@@ -18,31 +18,35 @@ uniform sampler2DShadow u_shadow_map;
 
 // The shadow-map coordinates and the weight of the shadow come from the vertex shader
 // (ShadowCoordinates below).
-in vec4 v_shadow;
-in float v_shadow_weight;
+in vec4 v_shadow;  // not centroid: exact shadow edges
+centroid in float v_shadow_weight;
 float ShadowFactor() {
   // One tap: the hardware compares and filters a 2×2 footprint (percentage-closer filtering).
   float s = texture(u_shadow_map, vec3(v_shadow.xy, v_shadow.z - 0.0004));
-  // Clamped: with multisampling, a pixel centre may lie outside the triangle it shades, where
-  // the interpolation extrapolates.
-  return mix(1.0, s, clamp(v_shadow_weight, 0.0, 1.0));
+  return mix(1.0, s, v_shadow_weight);
 }
 
 // Aerial perspective; the weight comes from the vertex shader (HazeWeight below).
-in float v_haze;
+centroid in float v_haze;
 vec3 Haze(vec3 color) { return mix(color, u_haze_color * u_brightness, v_haze); }
 )";
 
 // Shared by the vertex shaders of the lit surfaces. What varies smoothly over a surface is
 // computed per vertex, not per pixel: on llvmpipe (the renderer's usual target: the CPU) the
-// fragment shaders are most of a frame, and vertices are few next to pixels.
+// fragment shaders are most of a frame, and vertices are few next to pixels. Such outputs are
+// interpolated at the `centroid`: with multisampling a pixel centre may lie outside the
+// triangle it shades, where plain interpolation extrapolates (negative sunlight at leaf edges).
 inline constexpr const char* kLitVertexCommon = R"(
+uniform vec3 u_sun_dir;        // unit vector towards the sun (world)
+uniform vec3 u_sun_color;
+uniform vec3 u_ambient_color;
+uniform float u_brightness;
 uniform vec3 u_camera_pos;
 uniform mat4 u_shadow_matrix;
 uniform float u_shadow_enabled;
-out float v_haze;
-out vec4 v_shadow;
-out float v_shadow_weight;
+centroid out float v_haze;
+out vec4 v_shadow;  // not centroid: exact shadow edges
+centroid out float v_shadow_weight;
 
 // Aerial perspective: the haze weight of a point (smooth: exp(-d / 450 m)).
 float HazeWeight(vec3 world) { return 1.0 - exp(-length(world - u_camera_pos) / 450.0); }
@@ -61,21 +65,17 @@ void ShadowCoordinates(vec3 world) {
 inline constexpr const char* kTerrainVertex = R"(
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec4 a_normal;  // xyz normal; w = 1 for skirt vertices
-layout(location = 2) in vec4 a_macro1;  // the soil macro texture at 61.7 m per period
-layout(location = 3) in vec4 a_macro2;  // … and at 17.3 m, rotated
+layout(location = 2) in vec4 a_macro1;  // the soil macro texture, layer 1 (kMacroPeriod1)
+layout(location = 3) in vec4 a_macro2;  // … and layer 2 (kMacroPeriod2, rotated)
 uniform mat4 u_view_proj;
-uniform vec3 u_sun_dir;        // unit vector towards the sun (world)
-uniform vec3 u_sun_color;
-uniform vec3 u_ambient_color;
-uniform float u_brightness;
 uniform vec4 u_field_box;      // min x, min y, max x, max y of the cultivated field
 uniform float u_wet;           // 0 dry … 1 just rained
-out vec3 v_world;
-out vec3 v_soil_tint;   // the soil's albedo factor: large-scale colour, moisture, wetness
-out vec3 v_grass_tint;  // the same for the grass beyond the field
-out float v_grass;      // 0 soil … 1 grass
-out vec3 v_ambient;     // sky light reaching the surface
-out vec3 v_sun;         // sunlight reaching it where unshadowed
+out vec3 v_world;  // not centroid: the soil's mip level comes from its derivatives
+centroid out vec3 v_soil_tint;   // the soil's albedo factor: large-scale colour, moisture, wetness
+centroid out vec3 v_grass_tint;  // the same for the grass beyond the field
+centroid out float v_grass;      // 0 soil … 1 grass
+centroid out vec3 v_ambient;     // sky light reaching the surface
+centroid out vec3 v_sun;         // sunlight reaching it where unshadowed
 void main() {
   vec3 p = a_position;
   p.z -= a_normal.w * 0.06;
@@ -112,11 +112,11 @@ uniform float u_soil_extent;   // metres covered by the soil texture
 uniform float u_soil_size;     // its texels per side
 uniform uint u_soil_seed;
 in vec3 v_world;
-in vec3 v_soil_tint;
-in vec3 v_grass_tint;
-in float v_grass;
-in vec3 v_ambient;
-in vec3 v_sun;
+centroid in vec3 v_soil_tint;
+centroid in vec3 v_grass_tint;
+centroid in float v_grass;
+centroid in vec3 v_ambient;
+centroid in vec3 v_sun;
 layout(location = 0) out vec4 out_color;
 
 uint HashU(uint x) {
@@ -169,10 +169,6 @@ layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec4 a_normal;
 layout(location = 2) in vec4 a_color;  // rgb albedo; a = 1 on leaf blades
 uniform mat4 u_view_proj;
-uniform vec3 u_sun_dir;
-uniform vec3 u_sun_color;
-uniform vec3 u_ambient_color;
-uniform float u_brightness;
 centroid out vec3 v_ambient;  // reflected sky light
 centroid out vec3 v_sun;      // reflected (and transmitted) sunlight where unshadowed
 // Two-sided leaves: the normal faces the camera; the underside is paler and some sunlight
@@ -268,12 +264,8 @@ layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec2 a_uv;
 layout(location = 2) in vec3 a_normal;
 uniform mat4 u_view_proj;
-uniform vec3 u_sun_dir;
-uniform vec3 u_sun_color;
-uniform vec3 u_ambient_color;
-uniform float u_brightness;
-out vec2 v_uv;
-out vec3 v_light;
+out vec2 v_uv;  // not centroid: the foliage's mip level comes from its derivatives
+centroid out vec3 v_light;
 void main() {
   v_uv = a_uv;
   float ndl = abs(dot(normalize(a_normal), u_sun_dir));
@@ -286,7 +278,7 @@ void main() {
 inline constexpr const char* kTreeFragment = R"(
 uniform sampler2D u_foliage;
 in vec2 v_uv;
-in vec3 v_light;
+centroid in vec3 v_light;
 layout(location = 0) out vec4 out_color;
 void main() { out_color = vec4(Haze(texture(u_foliage, v_uv).rgb * v_light), 1.0); }
 )";

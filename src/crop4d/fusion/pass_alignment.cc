@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <random>
+#include <stdexcept>
 
 namespace crop4d::fusion {
 namespace {
@@ -89,6 +90,24 @@ PassAlignment AlignPasses4Dof(const std::vector<Eigen::Vector3d>& points_a,
   result.num_inliers = static_cast<int>(best.size());
   result.rms_m = std::sqrt(sum_sq / best.size());
   return result;
+}
+
+PassAlignment AlignPasses4DofNear(const std::vector<ObservedPoint>& a,
+                                  const std::vector<ObservedPoint>& b, double max_range_m,
+                                  const PassAlignmentOptions& options) {
+  if (a.size() != b.size()) {
+    throw std::invalid_argument("AlignPasses4DofNear: the two passes' point lists differ in size");
+  }
+  std::vector<Eigen::Vector3d> points_a, points_b;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if ((a[i].point - a[i].camera).norm() > max_range_m ||
+        (b[i].point - b[i].camera).norm() > max_range_m) {
+      continue;
+    }
+    points_a.push_back(a[i].point);
+    points_b.push_back(b[i].point);
+  }
+  return AlignPasses4Dof(points_a, points_b, options);
 }
 
 }  // namespace crop4d::fusion

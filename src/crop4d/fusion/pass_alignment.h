@@ -10,6 +10,7 @@
 // Used before association (to bound the search when the passes' GPS is poor) and before the
 // joint 4D solve (so that landmarks shared by passes can be triangulated at all).
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <vector>
 
@@ -43,5 +44,23 @@ struct PassAlignment {
 PassAlignment AlignPasses4Dof(const std::vector<Eigen::Vector3d>& points_a,
                               const std::vector<Eigen::Vector3d>& points_b,
                               const PassAlignmentOptions& options = {});
+
+// A ground point as one pass placed it, and the centre of the camera that observed it there.
+struct ObservedPoint {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d camera = Eigen::Vector3d::Zero();
+};
+
+// AlignPasses4Dof on the correspondences whose two points both lie within `max_range_m` of the
+// camera that observed them (lists of different sizes: std::invalid_argument). Distant points (the
+// tree line, scenery beyond the field) are triangulated from baselines of a few metres, so they are
+// metres off along their viewing rays; two passes driven along the same line misplace them alike,
+// and they can outvote the near ground with a transform that is metres wrong in the field. On the
+// demo field's cam+imu+gps passes, the tree line alone decided 5 of the 8 cross-session
+// pre-alignments checked: the 4 across the rain, where no near ground matches, and one that
+// it put 1.5-2 m wrong (bench/RESULTS.md, "Association and 4D fusion").
+PassAlignment AlignPasses4DofNear(const std::vector<ObservedPoint>& a,
+                                  const std::vector<ObservedPoint>& b, double max_range_m,
+                                  const PassAlignmentOptions& options = {});
 
 }  // namespace crop4d::fusion

@@ -34,7 +34,7 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
-constexpr int kAssociateStageRevision = 2;
+constexpr int kAssociateStageRevision = 3;
 
 // A pass loaded for association: features, camera, image files, the landmarks seen in each
 // image, and (for a pass that projects its landmarks) the local planes of its cloud.
@@ -185,17 +185,22 @@ fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
       results[k] = association::NaiveMatch(a.camera, fa, b.camera, fb, options.naive);
     });
   });
-  std::vector<Eigen::Vector3d> points_a, points_b;
+  std::vector<fusion::ObservedPoint> points_a, points_b;
   for (std::size_t k = 0; k < image_pairs.size(); ++k) {
     for (const association::LandmarkMatch& m : results[k].matches) {
       const auto ca = a.cloud_of.find(ImageFeatureKey(image_pairs[k].first, m.feature_a));
       const auto cb = b.cloud_of.find(ImageFeatureKey(image_pairs[k].second, m.feature_b));
       if (ca == a.cloud_of.end() || cb == b.cloud_of.end()) continue;
-      points_a.push_back(a.data.tracks.cloud[ca->second].position_world);
-      points_b.push_back(b.data.tracks.cloud[cb->second].position_world);
+      points_a.push_back({a.data.tracks.cloud[ca->second].position_world,
+                          a.data.poses[image_pairs[k].first].translation()});
+      points_b.push_back({b.data.tracks.cloud[cb->second].position_world,
+                          b.data.poses[image_pairs[k].second].translation()});
     }
   }
-  return fusion::AlignPasses4Dof(points_a, points_b, options.alignment);
+  // Only the ground that the robust search will match (the same range as its landmarks): the
+  // distant tree line, matched just as well, would otherwise decide the alignment.
+  return fusion::AlignPasses4DofNear(points_a, points_b, options.max_landmark_distance_m,
+                                     options.alignment);
 }
 
 // The fingerprint of a pair's inputs: the stage revision, the options and the two passes'

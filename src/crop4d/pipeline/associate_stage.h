@@ -75,8 +75,9 @@ struct AssociateStageOptions {
   // Pre-alignment of pass b onto pass a before the robust search, for poses that a metre-level
   // GPS placed: naive matches between every `prealign_stride`-th image of pass a and every
   // (prealign_stride / 3)-th image of pass b within `prealign_radius_m` give the same ground
-  // points in both passes' clouds, and a 4-DOF alignment of those (fusion/pass_alignment.h)
-  // corrects pass b's poses; the bounded search then uses `prealigned_sigma_position_m`.
+  // points in both passes' clouds (those within `max_landmark_distance_m` of both cameras: not
+  // the tree line), and a 4-DOF alignment of those (fusion/pass_alignment.h) corrects pass b's
+  // poses; the bounded search then uses `prealigned_sigma_position_m`.
   // "auto": across sessions when either pass was not solved with RTK (within a session the
   // passes share the receiver's slowly drifting bias, so their relative error is decimetres:
   // the search box then uses `imprecise_sigma_position_m` instead); "always"; "never".

@@ -101,29 +101,6 @@ static_assert(sizeof(TerrainVertex) == 24);
 constexpr double kMacroPeriod1 = 61.7, kMacroPeriod2 = 17.3;
 constexpr double kMacroCos2 = 0.8, kMacroSin2 = 0.6, kMacroOffset2[2] = {0.37, 0.71};
 
-// Bilinear sample of an RGBA8 texture with GL_REPEAT wrapping at texture coordinates (u, v),
-// with OpenGL's texel-centre convention.
-void SampleRepeat(const cv::Mat& rgba, double u, double v, std::uint8_t out[4]) {
-  const int w = rgba.cols, h = rgba.rows;
-  const double x = u * w - 0.5, y = v * h - 0.5;
-  const double fx = std::floor(x), fy = std::floor(y);
-  const double ax = x - fx, ay = y - fy;
-  auto wrap = [](double i, int n) {
-    const long k = static_cast<long>(i) % n;
-    return static_cast<int>(k < 0 ? k + n : k);
-  };
-  const int x0 = wrap(fx, w), x1 = wrap(fx + 1, w), y0 = wrap(fy, h), y1 = wrap(fy + 1, h);
-  const cv::Vec4b& p00 = rgba.at<cv::Vec4b>(y0, x0);
-  const cv::Vec4b& p10 = rgba.at<cv::Vec4b>(y0, x1);
-  const cv::Vec4b& p01 = rgba.at<cv::Vec4b>(y1, x0);
-  const cv::Vec4b& p11 = rgba.at<cv::Vec4b>(y1, x1);
-  for (int c = 0; c < 4; ++c) {
-    const double top = p00[c] * (1 - ax) + p10[c] * ax;
-    const double bottom = p01[c] * (1 - ax) + p11[c] * ax;
-    out[c] = static_cast<std::uint8_t>(std::lround(top * (1 - ay) + bottom * ay));
-  }
-}
-
 struct TreeVertex {
   float position[3];
   float uv[2];

@@ -43,4 +43,10 @@ cv::Mat GenerateFoliageTexture(std::uint64_t seed, int width_px = 1024, int heig
 // bicubically to `size_px`² texels (size_px a multiple of cells). CV_32F.
 cv::Mat PeriodicValueNoise(int size_px, int cells, std::uint64_t seed);
 
+// Bilinear sample of an RGBA8 texture (CV_8UC4) at texture coordinates (u, v), wrapping as
+// OpenGL's GL_REPEAT does and with its texel-centre convention (texel i covers [i, i + 1) / size
+// and its centre is (i + 0.5) / size), rounded to 8 bits: the renderer samples the soil macro
+// texture once per terrain vertex with it, as the GPU would have per pixel.
+void SampleRepeat(const cv::Mat& rgba, double u, double v, std::uint8_t out[4]);
+
 }  // namespace crop4d::sim

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -83,6 +86,52 @@ TEST(SoilTextureTest, MacroAndFoliage) {
   const cv::Scalar f = cv::mean(foliage);
   EXPECT_GT(f[1], f[0]);  // green
   EXPECT_GT(f[1], f[2]);
+}
+
+// The CPU sampler the renderer uses for the soil macro texture per vertex must sample as the GPU
+// did per pixel: texel centres exact, GL_REPEAT in both directions (negative coordinates too),
+// bilinear between neighbours across the texture's edge.
+TEST(SampleRepeatTest, BilinearWithRepeatWrappingAndTexelCentres) {
+  cv::Mat rgba(6, 8, CV_8UC4);
+  cv::RNG rng(7);
+  rng.fill(rgba, cv::RNG::UNIFORM, 0, 256);
+  const int w = rgba.cols, h = rgba.rows;
+  std::uint8_t out[4];
+  for (int j = 0; j < h; ++j) {
+    for (int i = 0; i < w; ++i) {
+      SampleRepeat(rgba, (i + 0.5) / w, (j + 0.5) / h, out);
+      const cv::Vec4b& texel = rgba.at<cv::Vec4b>(j, i);
+      for (int c = 0; c < 4; ++c) ASSERT_EQ(out[c], texel[c]) << i << "," << j;
+    }
+  }
+  // Half-way between the last and the first column, on the centre of row 2: their mean.
+  SampleRepeat(rgba, 0.0, 2.5 / h, out);
+  for (int c = 0; c < 4; ++c) {
+    const double mean = 0.5 * (rgba.at<cv::Vec4b>(2, w - 1)[c] + rgba.at<cv::Vec4b>(2, 0)[c]);
+    EXPECT_LE(std::abs(out[c] - mean), 0.5) << c;
+  }
+  // Against OpenCV's bilinear remap with wrapping, at coordinates far outside [0, 1) and
+  // negative, which must give what their fraction gives. OpenCV rounds the sampling position to
+  // 1/32 texel, so on this random texture (neighbours up to 255 apart) it may differ by up to 4
+  // levels; half a texel off or a wrong wrap would differ by tens.
+  const double us[] = {-3.17, -0.01, 0.33, 0.999, 1.0, 7.61};
+  const double vs[] = {-11.9, -0.5, 0.07, 0.5, 2.96};
+  for (const double u : us) {
+    for (const double v : vs) {
+      cv::Mat map_x(1, 1, CV_32F), map_y(1, 1, CV_32F), sampled;
+      const double fu = u - std::floor(u), fv = v - std::floor(v);
+      map_x.at<float>(0, 0) = static_cast<float>(fu * w - 0.5);
+      map_y.at<float>(0, 0) = static_cast<float>(fv * h - 0.5);
+      cv::remap(rgba, sampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_WRAP);
+      SampleRepeat(rgba, u, v, out);
+      std::uint8_t in_unit[4];
+      SampleRepeat(rgba, fu, fv, in_unit);
+      for (int c = 0; c < 4; ++c) {
+        EXPECT_EQ(out[c], in_unit[c]) << u << "," << v;
+        EXPECT_LE(std::abs(out[c] - sampled.at<cv::Vec4b>(0, 0)[c]), 4) << u << "," << v;
+      }
+    }
+  }
 }
 
 }  // namespace

@@ -118,6 +118,11 @@ RunFunction SetupSlam(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--threads", o.front_end.num_threads, "Worker threads (0: all cores)")
       ->capture_default_str();
+  app.add_option("--camera-height", o.camera_height_m,
+                 "Camera's optical centre above the ground, m, measured on the rig: sets the "
+                 "scale of passes without RTK (0: unknown)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_flag(
       "--no-motion-constraint", [&o](std::int64_t) { o.motion_constraint = false; },
       "No non-holonomic constraint on row passes (a rig that slides sideways)");

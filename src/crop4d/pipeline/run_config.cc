@@ -175,6 +175,11 @@ const std::vector<Key>& Keys() {
     k.push_back(Bool("slam", "motion_constraint",
                      "the non-holonomic constraint of a vehicle on row passes",
                      [](RunConfig& c) -> bool& { return c.slam.motion_constraint; }));
+    k.push_back(Double(
+        "slam", "camera_height_m",
+        "camera above the ground, measured on the rig: the scale of passes without RTK (0: "
+        "unknown)",
+        [](RunConfig& c) -> double& { return c.slam.camera_height_m; }, 0, 100));
 
     k.push_back(Word("associate", "method",
                      "robust (the paper's), naive (whole-image baseline) or both",

@@ -2,11 +2,14 @@
 
 #include <ceres/ceres.h>
 #include <spdlog/spdlog.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -19,6 +22,76 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Phase 4 (Input::camera_height_m): the soil's depth below the camera gives the pass's scale; the
+// pass (states and landmarks) is scaled about its mean position to it, and solved once more with
+// its length held there.
+void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser::Input& input,
+                       const std::vector<int>& tracks, const std::vector<std::vector<bool>>& masks,
+                       PassGraph* builder, std::vector<StateBlocks>* blocks,
+                       std::vector<Eigen::Vector3d>* landmarks, RowOptimiser::Summary* summary) {
+  const std::vector<geometry::Rigid3> cameras = CameraPoses(*blocks, input.body_from_camera);
+  std::vector<Eigen::Vector3d> centres;
+  for (const geometry::Rigid3& c : cameras) centres.push_back(c.translation());
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::array<std::uint8_t, 3>> colors;
+  if (input.depth_tracks.empty()) {
+    points = *landmarks;
+    for (const int t : tracks) colors.push_back(input.tracks[t].color);
+  } else {
+    std::vector<TriangulationResult> tri(input.depth_tracks.size());
+    tbb::parallel_for(std::size_t{0}, input.depth_tracks.size(), [&](std::size_t i) {
+      std::vector<geometry::Rigid3> views;
+      std::vector<Eigen::Vector2d> pixels;
+      for (const LandmarkObservation& obs : input.depth_tracks[i].observations) {
+        views.push_back(cameras[obs.state]);
+        pixels.push_back(obs.pixel);
+      }
+      tri[i] = TriangulatePoint(*input.camera, views, pixels, options.camera_height.triangulation);
+    });
+    for (std::size_t i = 0; i < tri.size(); ++i) {
+      if (!tri[i].ok()) continue;
+      points.push_back(tri[i].point_world);
+      colors.push_back(input.depth_tracks[i].color);
+    }
+  }
+  const std::optional<SoilDepth> depth =
+      SoilDepthBelowCamera(centres, points, colors, options.camera_height);
+  if (!depth || !(depth->depth_m > 0)) {
+    spdlog::warn(
+        "too few soil landmarks below the camera ({} needed): the camera height does not set "
+        "this pass's scale",
+        options.camera_height.min_points);
+    return;
+  }
+  const double scale = *input.camera_height_m / depth->depth_m;
+  summary->soil_depth_m = depth->depth_m;
+  summary->soil_points = depth->num_points;
+  summary->camera_height_scale = scale;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const StateBlocks& b : *blocks) centre += Eigen::Map<const Eigen::Vector3d>(b.pose);
+  centre /= static_cast<double>(blocks->size());
+  for (StateBlocks& b : *blocks) {
+    Eigen::Map<Eigen::Vector3d> p(b.pose);
+    p = centre + scale * (p - centre);
+    Eigen::Map<Eigen::Vector3d>(b.vel) *= scale;
+  }
+  for (Eigen::Vector3d& l : *landmarks) l = centre + scale * (l - centre);
+  const double length = (Eigen::Map<const Eigen::Vector3d>(blocks->back().pose) -
+                         Eigen::Map<const Eigen::Vector3d>(blocks->front().pose))
+                            .norm();
+  if (!(length > 0)) return;
+  ceres::Problem problem(ProblemOptions());
+  builder->AddMotion(&problem, summary);
+  builder->AddLandmarks(&problem, landmarks, tracks, masks);
+  problem.AddResidualBlock(
+      PassLengthFactor::Create(length, options.camera_height.sigma_relative * length), nullptr,
+      blocks->front().pose, blocks->back().pose);
+  const ceres::Solver::Summary s = RunSolver(options, &problem, landmarks);
+  summary->final_cost = s.final_cost;
+  summary->iterations += static_cast<int>(s.iterations.size());
+  summary->converged = s.termination_type == ceres::CONVERGENCE;
+}
+
 }  // namespace
 
 bool RowOptimiser::Options::Check() const {
@@ -28,7 +101,7 @@ bool RowOptimiser::Options::Check() const {
          bias_prior_sigma_accel > 0 && anchor_sigma_position > 0 && anchor_sigma_rotation > 0 &&
          anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 && max_imu_gap_s > 0 &&
          max_iterations > 0 && max_linear_iterations > 0 && function_tolerance > 0 &&
-         function_tolerance < 1 && num_threads >= 0;
+         function_tolerance < 1 && num_threads >= 0 && camera_height.Check();
 }
 
 RowOptimiser::RowOptimiser(Options options) : options_(std::move(options)) {
@@ -163,6 +236,10 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
       summary.final_cost = s.final_cost;
       summary.iterations += static_cast<int>(s.iterations.size());
       summary.converged = s.termination_type == ceres::CONVERGENCE;
+    }
+    if (input.camera_height_m) {
+      ApplyCameraHeight(options_, input, kept_tracks, kept_masks, &builder, &blocks,
+                        &kept_landmarks, &summary);
     }
     double sum_sq = 0;
     std::int64_t count = 0;

@@ -15,8 +15,9 @@
 // Solving runs in phases: (1) without the camera (IMU + GP + GPS) to refine the initial states;
 // (2) landmarks triangulated from those poses, then the full problem; (3) observations whose
 // reprojection error exceeds 10 px removed, the IMU re-preintegrated at the estimated biases,
-// and a final solve. An IMU gap inside an interval drops that interval's IMU factor (the GP prior
-// bridges it) with a warning.
+// and a final solve; (4) with a known camera height, the scale it implies and one more solve. An
+// IMU gap inside an interval drops that interval's IMU factor (the GP prior bridges it) with a
+// warning.
 
 #include <array>
 #include <cstdint>
@@ -26,6 +27,7 @@
 
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
+#include "crop4d/slam/camera_height_scale.h"
 #include "crop4d/slam/gp_prior.h"
 #include "crop4d/slam/imu_preintegration.h"
 #include "crop4d/slam/initialisation.h"
@@ -100,6 +102,8 @@ class RowOptimiser {
     // function tolerance).
     double function_tolerance = 1e-6;
     int num_threads = 0;
+    // How the soil's depth below the camera is measured and trusted (Input::camera_height_m).
+    CameraHeightOptions camera_height;
 
     bool Check() const;
   };
@@ -129,6 +133,16 @@ class RowOptimiser {
     // biases observable, gives a much tighter prior than a straight pass alone.
     Vector6d bias_prior_mean = Vector6d::Zero();
     std::optional<Vector6d> bias_prior_sigma;
+    // The optical centre's height above the ground the vehicle stands on, m (measured on the
+    // rig). When set, with a camera: after the final solve the pass is rescaled so that its soil
+    // lies this deep below the camera (camera_height_scale.h), and solved once more with its
+    // length held there (PassLengthFactor). For passes without a precise receiver: with RTK the
+    // pass's own scale is better than the soil's depth measures it.
+    std::optional<double> camera_height_m;
+    // The tracks whose points measure the soil's depth for camera_height_m, triangulated from the
+    // solved poses: every track of two or more images gives far more soil than the landmarks
+    // (empty: the landmarks).
+    std::vector<LandmarkTrack> depth_tracks;
   };
 
   struct Summary {
@@ -154,6 +168,12 @@ class RowOptimiser {
     double full_solve_seconds = 0;
     double final_solve_seconds = 0;
     bool converged = false;
+    // With Input::camera_height_m: the soil's depth below the camera before the rescale, the soil
+    // landmarks measured, and the scale applied (1: none; no measurement with too few soil
+    // landmarks).
+    double soil_depth_m = 0;
+    int soil_points = 0;
+    double camera_height_scale = 1.0;
   };
 
   struct Result {

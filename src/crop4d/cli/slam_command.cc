@@ -120,9 +120,13 @@ RunFunction SetupSlam(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--camera-height", o.camera_height_m,
                  "Camera's optical centre above the ground, m, measured on the rig: sets the "
-                 "scale of passes without RTK (0: unknown)")
+                 "scale of passes without RTK (0: the camera's sensor.yaml "
+                 "height_above_ground_m, if any)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_flag(
+      "--no-camera-height", [&o](std::int64_t) { o.use_camera_height = false; },
+      "Do not set the scale of passes from the camera height, even where sensor.yaml gives it");
   app.add_flag(
       "--no-motion-constraint", [&o](std::int64_t) { o.motion_constraint = false; },
       "No non-holonomic constraint on row passes (a rig that slides sideways)");

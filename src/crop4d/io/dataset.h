@@ -57,6 +57,9 @@ struct CameraSensor {
   geometry::PinholeRadTan camera;
   double rate_hz = 7.5;
   geometry::Rigid3 body_from_sensor;  // T_BS
+  // The optical centre's height above the ground the vehicle stands on, m, when measured
+  // (`height_above_ground_m`; slam/camera_height_scale.h).
+  std::optional<double> height_above_ground_m;
 };
 
 struct ImuSensor {

@@ -289,6 +289,15 @@ CameraSensor ReadCameraSensorYaml(const std::string& path, Diagnostics* diag) {
   ReadCommonKeys(root, SensorKind::kCamera);
   ReadTbs(root, &sensor.body_from_sensor, Need::kRequired);
   ReadRate(root, &sensor.rate_hz, Need::kRequired);
+  double height = 0;
+  if (root.Get("height_above_ground_m", &height, Need::kOptional)) {
+    if (height > 0 && height < 100) {
+      sensor.height_above_ground_m = height;
+    } else {
+      file.Error(root.LineOf("height_above_ground_m"),
+                 fmt::format("height_above_ground_m must be in (0, 100) m, found {}", height));
+    }
+  }
   geometry::PinholeRadTan& camera = sensor.camera;
 
   std::vector<double> resolution;

@@ -132,6 +132,10 @@ void WriteCameraSensorYaml(const std::string& path, const CameraSensor& sensor) 
   out += "distortion_model: radial-tangential\n";
   out += fmt::format("distortion_coefficients: [{}, {}, {}, {}, {}]  # k1, k2, p1, p2, k3\n",
                      Num(c.k1), Num(c.k2), Num(c.p1), Num(c.p2), Num(c.k3));
+  if (sensor.height_above_ground_m) {
+    out += fmt::format("height_above_ground_m: {}  # optical centre above the ground\n",
+                       Num(*sensor.height_above_ground_m));
+  }
   WriteFileAtomic(path, out);
 }
 

@@ -136,6 +136,21 @@ TEST(DatasetWriterTest, SensorYamlRoundTrips) {
   EXPECT_EQ(cam_read.camera.p2, -2e-4);
   EXPECT_EQ(cam_read.camera.k3, 0.003);
   EXPECT_TRUE(cam_read.body_from_sensor.Matrix().isApprox(body_from_sensor.Matrix(), 1e-12));
+  EXPECT_FALSE(cam_read.height_above_ground_m.has_value());
+  // The optional camera height round-trips; a height that is not one is an error on its line.
+  cam.height_above_ground_m = 1.42;
+  WriteCameraSensorYaml(dir / "cam0/sensor.yaml", cam);
+  EXPECT_EQ(ReadCameraSensorYaml(dir / "cam0/sensor.yaml", &diag).height_above_ground_m, 1.42);
+  EXPECT_FALSE(diag.HasErrors());
+  cam.height_above_ground_m = -0.5;
+  WriteCameraSensorYaml(dir / "cam0/sensor.yaml", cam);
+  try {
+    Diagnostics bad;
+    ReadCameraSensorYaml(dir / "cam0/sensor.yaml", &bad);
+    ADD_FAILURE() << "a negative camera height was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("height_above_ground_m"), std::string::npos) << e.what();
+  }
 
   ImuSensor imu;
   imu.name = "imu0";

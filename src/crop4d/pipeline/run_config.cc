@@ -177,9 +177,12 @@ const std::vector<Key>& Keys() {
                      [](RunConfig& c) -> bool& { return c.slam.motion_constraint; }));
     k.push_back(Double(
         "slam", "camera_height_m",
-        "camera above the ground, measured on the rig: the scale of passes without RTK (0: "
-        "unknown)",
+        "camera above the ground, measured on the rig: the scale of passes without RTK (0: the "
+        "camera's sensor.yaml height_above_ground_m, if any)",
         [](RunConfig& c) -> double& { return c.slam.camera_height_m; }, 0, 100));
+    k.push_back(Bool("slam", "use_camera_height",
+                     "set the scale of passes without RTK from the camera height, when known",
+                     [](RunConfig& c) -> bool& { return c.slam.use_camera_height; }));
 
     k.push_back(Word("associate", "method",
                      "robust (the paper's), naive (whole-image baseline) or both",

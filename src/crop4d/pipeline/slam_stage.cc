@@ -47,6 +47,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
       {"session_solve_max_sigma_m", o.session_solve_max_sigma_m},
       {"motion_constraint", o.motion_constraint},
       {"camera_height_m", o.camera_height_m},
+      {"use_camera_height", o.use_camera_height},
       {"session_bias_sigma", {o.session_bias_sigma_gyro, o.session_bias_sigma_accel}},
       {"front_end",
        {{"extraction_hash", fe.extraction.Hash()},
@@ -230,6 +231,17 @@ slam::LandmarkTrack ToLandmarkTrack(const features::Track& track,
     t.color[c] = static_cast<std::uint8_t>(color_sum(c) / static_cast<int>(track.size()));
   }
   return t;
+}
+
+// The camera's height above the ground in effect: --camera-height, else the camera's sensor.yaml
+// (height_above_ground_m), else 0 (unknown or not to be used).
+double CameraHeight(const SlamStageOptions& options, const slam::SessionStreams& streams) {
+  if (!options.use_camera_height) return 0;
+  if (options.camera_height_m > 0) return options.camera_height_m;
+  if (streams.camera && streams.camera->sensor.height_above_ground_m) {
+    return *streams.camera->sensor.height_above_ground_m;
+  }
+  return 0;
 }
 
 double MedianSigmaH(const std::vector<slam::GpsFixWorld>& fixes) {
@@ -453,8 +465,9 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   const bool precise_scale =
       info.gps ? info.gps_kind == io::GpsKind::kRtk
                : MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m;
-  if (options.camera_height_m > 0 && camera != nullptr && !precise_scale) {
-    input.camera_height_m = options.camera_height_m;
+  const double camera_height = CameraHeight(options, ctx.streams);
+  if (camera_height > 0 && camera != nullptr && !precise_scale) {
+    input.camera_height_m = camera_height;
     for (const features::Track& track : all_tracks) {
       input.depth_tracks.push_back(ToLandmarkTrack(track, front.features));
     }
@@ -773,7 +786,9 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
     WritePassList((fs::path(workspace) / "sessions" / id / "passes.csv").string(), passes);
     spdlog::info("session {}: {} passes, sensors {}", id, passes.size(),
                  slam::ToString(ctx.sensors));
-    const json options_json = OptionsJson(options, ctx.sensors);
+    json options_json = OptionsJson(options, ctx.sensors);
+    // The height in effect, so that a change of the option or of sensor.yaml solves again.
+    options_json["camera_height_m"] = CameraHeight(options, ctx.streams);
 
     for (const slam::RowPass& pass : passes) {
       if (!PassSelected(options, pass)) continue;

@@ -85,10 +85,12 @@ struct SlamStageOptions {
   // The non-holonomic constraint of a vehicle (slam/motion_constraint_factor.h) on row passes.
   bool motion_constraint = true;
   // The camera's optical centre above the ground the vehicle stands on, m, measured on the rig
-  // (0: unknown). Sets the scale of row passes solved without a precise receiver
-  // (slam/camera_height_scale.h): `cam+imu+gps`, and `cam+imu` when the receiver that anchors it
-  // is not precise (session_solve_max_sigma_m).
+  // (0: the camera's sensor.yaml `height_above_ground_m`, else unknown), and whether to use it at
+  // all. Sets the scale of row
+  // passes solved without a precise receiver (slam/camera_height_scale.h): `cam+imu+gps`, and
+  // `cam+imu` when the receiver that anchors it is not precise (session_solve_max_sigma_m).
   double camera_height_m = 0;
+  bool use_camera_height = true;
   // Recompute passes whose outputs are up to date.
   bool force = false;
   bool show_progress = true;

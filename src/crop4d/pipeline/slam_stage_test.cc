@@ -142,8 +142,11 @@ TEST_F(SlamStageTest, CameraHeightSetsTheScaleOfPassesWithoutRtk) {
   // The metre-level receiver pins a 7 m pass's scale only loosely; the soil's depth below a
   // camera of known height pins it (measured: RPE 0.76 and 2.16 % without, 0.33 and 0.78 % with;
   // ATE aligned 2.0 and 5.7 cm without, 0.7 and 1.1 cm with).
+  // The simulator writes the rig's camera height into cam0/sensor.yaml (1.5 m): used unless
+  // turned off.
+  options_.use_camera_height = false;
   const eval::WorkspaceEval without = RunAndEvaluate(slam::SensorSet::kCamImuGps);
-  options_.camera_height_m = 1.5;  // the simulated rig's
+  options_.use_camera_height = true;
   const eval::WorkspaceEval with = RunAndEvaluate(slam::SensorSet::kCamImuGps);
   double rpe_without = 0, rpe_with = 0;
   for (std::size_t i = 0; i < with.passes.size(); ++i) {
@@ -157,7 +160,7 @@ TEST_F(SlamStageTest, CameraHeightSetsTheScaleOfPassesWithoutRtk) {
     // passes were solved again).
     std::ifstream in(workspace_ + "/sessions/" + p.session + "/rows/" + p.pass + "/summary.json");
     const nlohmann::json h = nlohmann::json::parse(in).at("camera_height");
-    EXPECT_EQ(h.at("height_m").get<double>(), 1.5);
+    EXPECT_EQ(h.at("height_m").get<double>(), 1.5);  // from sensor.yaml
     EXPECT_GE(h.at("soil_points").get<int>(), 50);
     EXPECT_NEAR(h.at("soil_depth_m").get<double>(), 1.5, 0.06);
     EXPECT_NEAR(h.at("scale").get<double>() * h.at("soil_depth_m").get<double>(), 1.5, 1e-9);

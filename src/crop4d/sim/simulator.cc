@@ -457,6 +457,7 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     camera.camera = cfg.camera.Intrinsics();
     camera.rate_hz = cfg.camera.rate_hz;
     camera.body_from_sensor = body_from_camera;
+    camera.height_above_ground_m = cfg.camera.height_m;
     io::WriteCameraSensorYaml(Join(session_dir, "cam0/sensor.yaml"), camera);
     io::WriteImageCsv(Join(session_dir, "cam0/data.csv"), entries);
 

@@ -166,6 +166,18 @@ TEST_F(SlamStageTest, CameraHeightSetsTheScaleOfPassesWithoutRtk) {
     EXPECT_NEAR(h.at("scale").get<double>() * h.at("soil_depth_m").get<double>(), 1.5, 1e-9);
   }
   EXPECT_LT(rpe_with, 0.7 * rpe_without);
+  // A height that is far from what the soil says (twice the rig's) is not applied.
+  options_.camera_height_m = 3.0;
+  options_.pass = "row00";
+  RunSlamStage(TinyField(), workspace_, options_);
+  {
+    std::ifstream in(workspace_ + "/sessions/" + with.passes[0].session +
+                     "/rows/row00/summary.json");
+    const nlohmann::json h = nlohmann::json::parse(in).at("camera_height");
+    EXPECT_EQ(h.at("height_m").get<double>(), 3.0);
+    EXPECT_NEAR(h.at("soil_depth_m").get<double>(), 1.5, 0.06);
+    EXPECT_EQ(h.at("scale").get<double>(), 1.0);
+  }
   // With RTK the camera height is not used: the pass's own scale is better.
   options_.sensors = slam::SensorSet::kCamImuRtk;
   options_.pass = "row00";

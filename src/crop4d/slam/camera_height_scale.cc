@@ -11,7 +11,7 @@ namespace crop4d::slam {
 
 bool CameraHeightOptions::Check() const {
   return std::isfinite(max_excess_green) && max_lateral_m > 0 && quantile >= 0 && quantile <= 1 &&
-         min_points >= 1 && sigma_relative > 0 && triangulation.Check();
+         min_points >= 1 && sigma_relative > 0 && max_scale_change > 0 && triangulation.Check();
 }
 
 std::optional<SoilDepth> SoilDepthBelowCamera(

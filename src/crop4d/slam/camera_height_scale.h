@@ -42,6 +42,10 @@ struct CameraHeightOptions {
   // Relative standard deviation of the scale the depth implies (PassLengthFactor's sigma is this
   // times the pass length).
   double sigma_relative = 0.005;
+  // A scale change beyond this fraction is not applied (a warning instead): no receiver or IMU
+  // leaves a pass that far off, so the soil's depth is what is wrong (a wrong height, a field
+  // without visible soil).
+  double max_scale_change = 0.1;
   // Triangulation of RowOptimiser::Input::depth_tracks from the solved poses (the checks of the
   // row-SLAM output cloud).
   TriangulationOptions triangulation;

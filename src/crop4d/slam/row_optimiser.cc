@@ -66,6 +66,14 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
   const double scale = *input.camera_height_m / depth->depth_m;
   summary->soil_depth_m = depth->depth_m;
   summary->soil_points = depth->num_points;
+  if (std::abs(scale - 1.0) > options.camera_height.max_scale_change) {
+    spdlog::warn(
+        "the soil lies {:.3f} m below the camera, not the {:.3f} m given as the camera height: a "
+        "scale change of {:+.1f} %, beyond {:.0f} %, is not applied (is the height right?)",
+        depth->depth_m, *input.camera_height_m, 100.0 * (scale - 1.0),
+        100.0 * options.camera_height.max_scale_change);
+    return;
+  }
   summary->camera_height_scale = scale;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const StateBlocks& b : *blocks) centre += Eigen::Map<const Eigen::Vector3d>(b.pose);

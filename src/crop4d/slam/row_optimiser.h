@@ -169,8 +169,8 @@ class RowOptimiser {
     double final_solve_seconds = 0;
     bool converged = false;
     // With Input::camera_height_m: the soil's depth below the camera before the rescale, the soil
-    // landmarks measured, and the scale applied (1: none; no measurement with too few soil
-    // landmarks).
+    // points measured, and the scale applied (1: none — too few soil points, or a change beyond
+    // CameraHeightOptions::max_scale_change).
     double soil_depth_m = 0;
     int soil_points = 0;
     double camera_height_scale = 1.0;

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "crop4d/core/color.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
@@ -447,14 +448,6 @@ class Sweeper {
   const std::vector<ViewGeometry>& geometry_;
   const std::vector<ViewImage>& images_;
 };
-
-// Excess green 2g − r − b of a colour (chromatic coordinates; 0 for black): ≈ 0 on soil,
-// 0.27–0.34 on the simulator's leaves. The index of analysis::Greenness, written again here
-// because dense runs before, and does not depend on, the analysis.
-double ExcessGreen(const std::array<std::uint8_t, 3>& rgb) {
-  const double sum = rgb[0] + rgb[1] + rgb[2];
-  return sum > 0 ? (2.0 * rgb[1] - rgb[0] - rgb[2]) / sum : 0.0;
-}
 
 // Sub-step position of a peak from the scores before, at and after it (parabola through three
 // points), in [−0.5, 0.5].

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <stdexcept>
 
+#include "crop4d/core/color.h"
 #include "crop4d/slam/state_layout.h"
 
 namespace crop4d::slam {
@@ -35,11 +35,7 @@ std::optional<SoilDepth> SoilDepthBelowCamera(
   std::sort(track.begin(), track.end());
   std::vector<double> depths;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    const std::array<std::uint8_t, 3>& rgb = colors[i];
-    const double sum = static_cast<double>(rgb[0]) + rgb[1] + rgb[2];
-    if (sum <= 0) continue;
-    const double excess_green = (2.0 * rgb[1] - rgb[0] - rgb[2]) / sum;
-    if (!(excess_green < options.max_excess_green)) continue;
+    if (!(ExcessGreen(colors[i]) < options.max_excess_green)) continue;
     const Eigen::Vector2d d = points[i].head<2>() - origin;
     if (std::abs(across.dot(d)) > options.max_lateral_m) continue;
     const double s = along.dot(d);

@@ -31,7 +31,7 @@
 namespace crop4d::slam {
 
 struct CameraHeightOptions {
-  // A landmark is soil when its excess green (2g − r − b) / (r + g + b) is below this.
+  // A point is soil when its excess green (core/color.h) is below this.
   double max_excess_green = 0.05;
   // Soil within this distance of the camera's track, across it, m.
   double max_lateral_m = 1.0;

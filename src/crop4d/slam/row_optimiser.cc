@@ -32,33 +32,28 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
   const std::vector<geometry::Rigid3> cameras = CameraPoses(*blocks, input.body_from_camera);
   std::vector<Eigen::Vector3d> centres;
   for (const geometry::Rigid3& c : cameras) centres.push_back(c.translation());
+  std::vector<TriangulationResult> tri(input.depth_tracks.size());
+  tbb::parallel_for(std::size_t{0}, input.depth_tracks.size(), [&](std::size_t i) {
+    std::vector<geometry::Rigid3> views;
+    std::vector<Eigen::Vector2d> pixels;
+    for (const LandmarkObservation& obs : input.depth_tracks[i].observations) {
+      views.push_back(cameras[obs.state]);
+      pixels.push_back(obs.pixel);
+    }
+    tri[i] = TriangulatePoint(*input.camera, views, pixels, options.camera_height.triangulation);
+  });
   std::vector<Eigen::Vector3d> points;
   std::vector<std::array<std::uint8_t, 3>> colors;
-  if (input.depth_tracks.empty()) {
-    points = *landmarks;
-    for (const int t : tracks) colors.push_back(input.tracks[t].color);
-  } else {
-    std::vector<TriangulationResult> tri(input.depth_tracks.size());
-    tbb::parallel_for(std::size_t{0}, input.depth_tracks.size(), [&](std::size_t i) {
-      std::vector<geometry::Rigid3> views;
-      std::vector<Eigen::Vector2d> pixels;
-      for (const LandmarkObservation& obs : input.depth_tracks[i].observations) {
-        views.push_back(cameras[obs.state]);
-        pixels.push_back(obs.pixel);
-      }
-      tri[i] = TriangulatePoint(*input.camera, views, pixels, options.camera_height.triangulation);
-    });
-    for (std::size_t i = 0; i < tri.size(); ++i) {
-      if (!tri[i].ok()) continue;
-      points.push_back(tri[i].point_world);
-      colors.push_back(input.depth_tracks[i].color);
-    }
+  for (std::size_t i = 0; i < tri.size(); ++i) {
+    if (!tri[i].ok()) continue;
+    points.push_back(tri[i].point_world);
+    colors.push_back(input.depth_tracks[i].color);
   }
   const std::optional<SoilDepth> depth =
       SoilDepthBelowCamera(centres, points, colors, options.camera_height);
   if (!depth || !(depth->depth_m > 0)) {
     spdlog::warn(
-        "too few soil landmarks below the camera ({} needed): the camera height does not set "
+        "too few soil points below the camera ({} needed): the camera height does not set "
         "this pass's scale",
         options.camera_height.min_points);
     return;

@@ -140,8 +140,8 @@ class RowOptimiser {
     // pass's own scale is better than the soil's depth measures it.
     std::optional<double> camera_height_m;
     // The tracks whose points measure the soil's depth for camera_height_m, triangulated from the
-    // solved poses: every track of two or more images gives far more soil than the landmarks
-    // (empty: the landmarks).
+    // solved poses: every track of two or more images (the landmarks alone hold too little soil
+    // for a quantile: bench/RESULTS.md, "Row SLAM ablation").
     std::vector<LandmarkTrack> depth_tracks;
   };
 

@@ -69,6 +69,15 @@ RunFunction SetupFuse(CLI::App& app) {
                  "Cross matches of one image pair used at most (the best, spread over the image; "
                  "0: all)")
       ->capture_default_str();
+  app.add_flag(
+      "--no-ground-ties", [&o](std::int64_t) { o.ground_ties = false; },
+      "No ground ties between the two dates of a row that association left without cross "
+      "matches (docs/fusion.md#ground-ties)");
+  app.add_option("--ground-tie-max-matches", o.ground_tie_max_matches,
+                 "Pairs of passes of two sessions with fewer cross matches than this get ground "
+                 "ties")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--max-reprojection-error", o.optimiser.row.max_reprojection_error_px,
                  "Observations above this error (px) are removed before the final solve")
       ->capture_default_str();

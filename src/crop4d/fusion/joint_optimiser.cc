@@ -8,10 +8,13 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <numeric>
 #include <optional>
+#include <set>
 #include <stdexcept>
 
 #include "crop4d/core/stopwatch.h"
+#include "crop4d/fusion/ground_tie_factor.h"
 #include "crop4d/slam/pass_graph.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/triangulation.h"
@@ -27,12 +30,22 @@ bool SameCamera(const geometry::PinholeRadTan& a, const geometry::PinholeRadTan&
          a.p2 == b.p2 && a.k3 == b.k3;
 }
 
-// Everything the phases share: the state blocks and graph of every pass.
+// A ground tie with its point in the body frame of each state.
+struct BodyTie {
+  int pass_a, state_a, pass_b, state_b;
+  Eigen::Vector3d point_a, point_b, across;
+};
+
+// Everything the phases share: the state blocks and graph of every pass, and the ground ties.
 class JointProblem {
  public:
-  JointProblem(const slam::RowOptimiser::Options& options,
-               const std::vector<JointOptimiser::Pass>& passes)
-      : options_(options), passes_(passes), blocks_(passes.size()) {
+  JointProblem(const JointOptimiser::Options& options,
+               const std::vector<JointOptimiser::Pass>& passes, std::vector<BodyTie> ties)
+      : joint_options_(options),
+        options_(options.row),
+        passes_(passes),
+        ties_(std::move(ties)),
+        blocks_(passes.size()) {
     for (std::size_t p = 0; p < passes.size(); ++p) {
       for (const slam::RowState& s : passes[p].initial_states) {
         blocks_[p].push_back(slam::ToBlocks(s));
@@ -84,7 +97,27 @@ class JointProblem {
       }
     }
     if (num_observations != nullptr) *num_observations = count;
+    for (const BodyTie& tie : ties_) {
+      problem.AddResidualBlock(GroundTieFactor::Create(tie.point_a, tie.point_b, tie.across,
+                                                       joint_options_.ground_tie_sigma_across_m,
+                                                       joint_options_.ground_tie_sigma_vertical_m),
+                               new ceres::HuberLoss(joint_options_.ground_tie_loss_scale),
+                               blocks_[tie.pass_a][tie.state_a].pose,
+                               blocks_[tie.pass_b][tie.state_b].pose);
+    }
     return slam::RunSolver(options_, &problem, landmarks);
+  }
+
+  // RMS disagreement of the ties across the row and vertically, m.
+  Eigen::Vector2d TieRms() const {
+    Eigen::Vector2d sum = Eigen::Vector2d::Zero();
+    for (const BodyTie& tie : ties_) {
+      const Eigen::Vector3d d =
+          slam::BlockToPose(blocks_[tie.pass_b][tie.state_b].pose) * tie.point_b -
+          slam::BlockToPose(blocks_[tie.pass_a][tie.state_a].pose) * tie.point_a;
+      sum += Eigen::Vector2d(std::pow(d.dot(tie.across), 2), d.z() * d.z());
+    }
+    return ties_.empty() ? sum : Eigen::Vector2d((sum / ties_.size()).cwiseSqrt());
   }
 
   std::vector<std::vector<slam::RowState>> States() const {
@@ -98,8 +131,10 @@ class JointProblem {
   }
 
  private:
+  const JointOptimiser::Options& joint_options_;
   const slam::RowOptimiser::Options& options_;
   const std::vector<JointOptimiser::Pass>& passes_;
+  std::vector<BodyTie> ties_;
   std::vector<std::vector<slam::StateBlocks>> blocks_;
   std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
 };
@@ -109,12 +144,38 @@ bool IsCross(const JointLandmark& landmark, std::size_t o) {
   return landmark.observations[o].pass != landmark.observations.front().pass;
 }
 
-double MedianGpsSigma(const JointOptimiser::Pass& pass) {
-  if (pass.gps_fixes.empty()) return std::numeric_limits<double>::infinity();
-  std::vector<double> sigmas;
-  for (const slam::GpsFixWorld& fix : pass.gps_fixes) sigmas.push_back(fix.sigma_h);
-  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-  return sigmas[sigmas.size() / 2];
+// The rigid motion (b_from_a) that carries pass a's placement of its ties' ground points onto
+// pass b's across the row and vertically: across offset = α + β s along the track (β a yaw
+// about the vertical through the ties' centroid), vertical offset = their median.
+geometry::Rigid3 TieAlignment(const std::vector<const GroundTie*>& ties) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Vector3d across = Eigen::Vector3d::Zero();
+  for (const GroundTie* t : ties) {  // (the sign of `across` varies with the pair)
+    centroid += t->point_a;
+    across += t->across.dot(ties.front()->across) < 0 ? -t->across : t->across;
+  }
+  centroid /= static_cast<double>(ties.size());
+  across.z() = 0;
+  across.normalize();
+  const Eigen::Vector3d along(across.y(), -across.x(), 0.0);  // across = up × along
+  Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
+  std::vector<double> vertical;
+  for (const GroundTie* t : ties) {
+    const Eigen::Vector2d row(1.0, along.dot(t->point_a - centroid));
+    normal += row * row.transpose();
+    rhs += row * across.dot(t->point_b - t->point_a);
+    vertical.push_back(t->point_b.z() - t->point_a.z());
+  }
+  // Too short a stretch of ties for a slope: a translation only.
+  Eigen::Vector2d line(rhs(0) / normal(0, 0), 0.0);
+  if (ties.size() >= 3 && normal(1, 1) > 1.0) line = normal.ldlt().solve(rhs);
+  std::nth_element(vertical.begin(), vertical.begin() + vertical.size() / 2, vertical.end());
+  const double dz = vertical[vertical.size() / 2];
+  const Eigen::Matrix3d yaw =
+      Eigen::AngleAxisd(line(1), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return geometry::Rigid3(
+      yaw, centroid + line(0) * across + dz * Eigen::Vector3d::UnitZ() - yaw * centroid);
 }
 
 // Step (0): each landmark seen from several passes is triangulated by each pass alone; pairs of
@@ -123,6 +184,7 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
 // passes (or from the first pass of a group without any).
 void AlignPasses(const JointOptimiser::Options& options,
                  const std::vector<JointLandmark>& landmarks,
+                 const std::vector<JointGroundTie>& ground_ties,
                  std::vector<JointOptimiser::Pass>* passes_io, JointOptimiser::Summary* summary) {
   std::vector<JointOptimiser::Pass>& passes = *passes_io;
   const std::size_t n = passes.size();
@@ -175,8 +237,23 @@ void AlignPasses(const JointOptimiser::Options& options,
     const PassAlignment a = AlignPasses4Dof(c.first, c.second, options.alignment);
     if (a.ok) edges.push_back({key.first, key.second, a});
   }
+  const std::size_t num_landmark_edges = edges.size();
+  // Ground ties: a rotation about the vertical and a translation across the row and vertically
+  // (the across offsets of a pair's ties fitted as a line along the track, the median of their
+  // vertical offsets), supported by as many inliers as ties — so they join passes that share
+  // no landmarks rather than overrule the landmarks.
+  std::map<std::pair<int, int>, std::vector<const GroundTie*>> tie_offsets;
+  for (const JointGroundTie& t : ground_ties) tie_offsets[{t.pass_a, t.pass_b}].push_back(&t.tie);
+  for (const auto& [key, ties] : tie_offsets) {
+    PassAlignment a;
+    a.ok = true;
+    a.b_from_a = TieAlignment(ties);
+    a.num_inliers = static_cast<int>(ties.size());
+    edges.push_back({key.first, key.second, a});
+  }
   // Prim's algorithm from the precise passes, best-supported edge first.
   std::vector<std::optional<geometry::Rigid3>> correction(n);
+  std::vector<bool> frame_pass = precise;  // passes that stay where they are
   for (std::size_t p = 0; p < n; ++p) {
     if (precise[p]) correction[p] = geometry::Rigid3();
   }
@@ -197,6 +274,7 @@ void AlignPasses(const JointOptimiser::Options& options,
       }
       if (start == n) break;
       correction[start] = geometry::Rigid3();
+      frame_pass[start] = true;
       continue;
     }
     // x_q = A x_p: C_q = C_p A⁻¹, C_p = C_q A.
@@ -205,6 +283,62 @@ void AlignPasses(const JointOptimiser::Options& options,
       correction[best->q] = *correction[best->p] * A.Inverse();
     } else {
       correction[best->p] = *correction[best->q] * A;
+    }
+  }
+  // A group of passes that only ties join to the passes defining the frame is moved by the
+  // alignment of all its ties with the passes outside it (the spanning tree used one pair's),
+  // then slid along the row back to the mean position its own GPS gave it: ties say nothing
+  // along the row.
+  if (!tie_offsets.empty()) {
+    std::vector<int> group(n);
+    std::iota(group.begin(), group.end(), 0);
+    const auto find = [&](int x) {
+      while (group[x] != x) x = group[x] = group[group[x]];
+      return x;
+    };
+    for (std::size_t e = 0; e < num_landmark_edges; ++e) group[find(edges[e].p)] = find(edges[e].q);
+    std::set<int> anchored, tied;
+    for (std::size_t p = 0; p < n; ++p) {
+      if (frame_pass[p]) anchored.insert(find(static_cast<int>(p)));
+    }
+    for (const JointGroundTie& t : ground_ties) {
+      tied.insert(find(t.pass_a));
+      tied.insert(find(t.pass_b));
+    }
+    for (const int g : tied) {
+      if (anchored.count(g)) continue;
+      // The ties between the group and the rest, as the corrected passes place them, the
+      // group's side as b.
+      std::vector<GroundTie> outside;
+      for (const JointGroundTie& t : ground_ties) {
+        const bool a_in = find(t.pass_a) == g, b_in = find(t.pass_b) == g;
+        if (a_in == b_in || !correction[t.pass_a] || !correction[t.pass_b]) continue;
+        GroundTie c = t.tie;
+        c.point_a = *correction[t.pass_a] * t.tie.point_a;
+        c.point_b = *correction[t.pass_b] * t.tie.point_b;
+        if (a_in) std::swap(c.point_a, c.point_b);
+        outside.push_back(c);
+      }
+      if (outside.empty()) continue;
+      std::vector<const GroundTie*> views;
+      for (const GroundTie& c : outside) views.push_back(&c);
+      const geometry::Rigid3 fix = TieAlignment(views).Inverse();
+      const Eigen::Vector3d& across = outside.front().across;
+      const Eigen::Vector3d along = Eigen::Vector3d(-across.y(), across.x(), 0).normalized();
+      double shift = 0;
+      int count = 0;
+      for (std::size_t p = 0; p < n; ++p) {
+        if (find(static_cast<int>(p)) != g || !correction[p]) continue;
+        correction[p] = fix * *correction[p];
+        for (const geometry::Rigid3& c : cameras[p]) {
+          shift += along.dot(c.translation() - (*correction[p]) * c.translation());
+          ++count;
+        }
+      }
+      const geometry::Rigid3 slide(Eigen::Quaterniond::Identity(), along * (shift / count));
+      for (std::size_t p = 0; p < n; ++p) {
+        if (find(static_cast<int>(p)) == g && correction[p]) correction[p] = slide * *correction[p];
+      }
     }
   }
   for (std::size_t p = 0; p < n; ++p) {
@@ -230,12 +364,21 @@ void AlignPasses(const JointOptimiser::Options& options,
 
 }  // namespace
 
+double MedianGpsSigma(const JointOptimiser::Pass& pass) {
+  if (pass.gps_fixes.empty()) return std::numeric_limits<double>::infinity();
+  std::vector<double> sigmas;
+  for (const slam::GpsFixWorld& fix : pass.gps_fixes) sigmas.push_back(fix.sigma_h);
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
+}
+
 JointOptimiser::JointOptimiser(Options options) : options_(std::move(options)) {
   if (!options_.Check()) throw std::invalid_argument("JointOptimiser: invalid options");
 }
 
 JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
-                                             const std::vector<JointLandmark>& landmarks) const {
+                                             const std::vector<JointLandmark>& landmarks,
+                                             const std::vector<JointGroundTie>& ground_ties) const {
   const slam::RowOptimiser::Options& op = options_.row;
   Result result;
   Summary& summary = result.summary;
@@ -265,10 +408,30 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
     }
   }
 
+  // The ties' points in the body frames of the given initial states (which the pre-alignment
+  // may move: a body-frame point moves with its pass).
+  std::vector<BodyTie> ties;
+  for (const JointGroundTie& t : ground_ties) {
+    const auto valid = [&](int pass, int state) {
+      return pass >= 0 && pass < static_cast<int>(passes.size()) && state >= 0 &&
+             state < static_cast<int>(passes[pass].initial_states.size());
+    };
+    if (!valid(t.pass_a, t.tie.state_a) || !valid(t.pass_b, t.tie.state_b)) {
+      throw std::invalid_argument("JointOptimiser: a ground tie out of range");
+    }
+    const auto body = [&](int pass, int state, const Eigen::Vector3d& p) {
+      return passes[pass].initial_states[state].nav.world_from_body.Inverse() * p;
+    };
+    ties.push_back({t.pass_a, t.tie.state_a, t.pass_b, t.tie.state_b,
+                    body(t.pass_a, t.tie.state_a, t.tie.point_a),
+                    body(t.pass_b, t.tie.state_b, t.tie.point_b), t.tie.across});
+  }
+  summary.num_ground_ties = static_cast<int>(ties.size());
+
   // (0) Pre-alignment, on a copy of the inputs whose initial states it moves.
   std::vector<Pass> aligned = passes;
-  if (options_.align_passes) AlignPasses(options_, landmarks, &aligned, &summary);
-  JointProblem problem(op, aligned);
+  if (options_.align_passes) AlignPasses(options_, landmarks, ground_ties, &aligned, &summary);
+  JointProblem problem(options_, aligned, std::move(ties));
   problem.Preintegrate();
 
   // (1) Landmarks from the row-SLAM poses. Pixels of a pass whose camera differs from the
@@ -388,6 +551,9 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   summary.reprojection_rms_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
   summary.cross_reprojection_rms_px = cross > 0 ? std::sqrt(cross_sq / cross) : 0.0;
   summary.num_landmarks = static_cast<int>(kept_points.size());
+  const Eigen::Vector2d tie_rms = problem.TieRms();
+  summary.ground_tie_rms_across_m = tie_rms.x();
+  summary.ground_tie_rms_vertical_m = tie_rms.y();
 
   result.states = problem.States();
   result.landmarks_world = std::move(kept_points);

@@ -9,17 +9,21 @@
 // that share landmarks: its cost grows with the number of associated pairs, not with the square
 // of the number of passes.
 //
+// Ground ties (fusion/ground_ties.h) join pairs of passes that share no landmarks through the
+// ground they both see: pose-to-pose factors across the row and vertically.
+//
 // Solving, initialised from row SLAM: (0) passes with an imprecise GPS aligned rigidly onto their
-// neighbours through the shared landmarks (Options::align_passes), (1) every landmark triangulated
-// from the row-SLAM poses (its worst views dropped while the reprojection bound fails), (2)
-// Levenberg–Marquardt on the whole problem, (3) observations whose reprojection error exceeds the
-// bound removed — a cross match that stays inconsistent with the rest goes here — the IMU
-// re-preintegrated at the estimated biases and a final solve.
+// neighbours through the shared landmarks and the ground ties (Options::align_passes), (1) every
+// landmark triangulated from the row-SLAM poses (its worst views dropped while the reprojection
+// bound fails), (2) Levenberg–Marquardt on the whole problem, (3) observations whose reprojection
+// error exceeds the bound removed — a cross match that stays inconsistent with the rest goes
+// here — the IMU re-preintegrated at the estimated biases and a final solve.
 
 #include <array>
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/fusion/ground_ties.h"
 #include "crop4d/fusion/pass_alignment.h"
 #include "crop4d/slam/row_optimiser.h"
 
@@ -32,10 +36,21 @@ struct JointObservation {
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
 };
 
+// A ground tie (fusion/ground_ties.h) between two passes, in the world frame of their initial
+// states.
+struct JointGroundTie {
+  int pass_a = -1;
+  int pass_b = -1;
+  GroundTie tie;
+};
+
 struct JointLandmark {
   std::vector<JointObservation> observations;
   std::array<std::uint8_t, 3> color{128, 128, 128};
 };
+
+// The median horizontal standard deviation of a pass's GPS fixes, m (infinity without GPS).
+double MedianGpsSigma(const slam::RowOptimiser::Input& pass);
 
 class JointOptimiser {
  public:
@@ -51,8 +66,18 @@ class JointOptimiser {
     bool align_passes = true;
     double precise_gps_sigma_m = 0.1;
     PassAlignmentOptions alignment;
+    // Ground ties: standard deviation of one tie across the row (how closely the vehicle
+    // follows the row from one date to the next) and vertically (a segment's median height
+    // difference), m; Huber loss beyond this many standard deviations.
+    double ground_tie_sigma_across_m = 0.05;
+    double ground_tie_sigma_vertical_m = 0.01;
+    double ground_tie_loss_scale = 3.0;
 
-    bool Check() const { return row.Check() && alignment.Check() && precise_gps_sigma_m > 0; }
+    bool Check() const {
+      return row.Check() && alignment.Check() && precise_gps_sigma_m > 0 &&
+             ground_tie_sigma_across_m > 0 && ground_tie_sigma_vertical_m > 0 &&
+             ground_tie_loss_scale > 0;
+    }
   };
 
   // One pass: its row-SLAM problem (initial_states from row SLAM; `tracks` is ignored, the
@@ -80,6 +105,11 @@ class JointOptimiser {
     int iterations = 0;
     double reprojection_rms_px = 0;
     double cross_reprojection_rms_px = 0;
+    // Ground ties in the problem, and their RMS disagreement after the final solve across the
+    // row and vertically, m.
+    int num_ground_ties = 0;
+    double ground_tie_rms_across_m = 0;
+    double ground_tie_rms_vertical_m = 0;
     double triangulation_seconds = 0;
     double solve_seconds = 0;
     double final_solve_seconds = 0;
@@ -100,8 +130,10 @@ class JointOptimiser {
   explicit JointOptimiser(Options options);
 
   // Throws std::invalid_argument for inconsistent input (a pass with fewer than 2 states or
-  // unsorted times, an observation of a pass without camera or out of range).
-  Result Solve(const std::vector<Pass>& passes, const std::vector<JointLandmark>& landmarks) const;
+  // unsorted times, an observation of a pass without camera or out of range, a tie out of
+  // range).
+  Result Solve(const std::vector<Pass>& passes, const std::vector<JointLandmark>& landmarks,
+               const std::vector<JointGroundTie>& ground_ties = {}) const;
 
   const Options& options() const { return options_; }
 

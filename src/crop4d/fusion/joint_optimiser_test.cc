@@ -162,6 +162,76 @@ TEST(JointOptimiser, WithoutSharedLandmarksThePassesStayApart) {
   EXPECT_GT(PositionRms(tp, 1, result.states[1]), 0.3);
 }
 
+// Mean of (estimate − truth) over a pass's states.
+Eigen::Vector3d MeanError(const TwoPasses& tp, const std::vector<slam::RowState>& states) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const slam::RowState& st : states) {
+    sum += st.nav.world_from_body.translation() - TrueBody(tp.s, st.t).translation();
+  }
+  return sum / static_cast<double>(states.size());
+}
+
+// Ground ties as the ground would give them: every metre along pass 0, the ground point below
+// its camera as pass 0 places it (at the truth) and as pass 1 places it (shifted by the bias of
+// its receiver), attached to pass 1's state nearest along the row.
+std::vector<JointGroundTie> TruthTies(const TwoPasses& tp) {
+  std::vector<JointGroundTie> ties;
+  double last_y = -1e9;
+  for (std::size_t i = 0; i < tp.times[0].size(); ++i) {
+    const Eigen::Vector3d c = TrueBody(tp.s, tp.times[0][i]).translation();
+    if (std::abs(c.y() - last_y) < 1.0) continue;
+    last_y = c.y();
+    JointGroundTie t;
+    t.pass_a = 0;
+    t.pass_b = 1;
+    t.tie.state_a = static_cast<int>(i);
+    t.tie.point_a = Eigen::Vector3d(c.x(), c.y(), 0.0);
+    t.tie.point_b = t.tie.point_a + kGpsBias;
+    double best = 1e9;
+    for (std::size_t j = 0; j < tp.times[1].size(); ++j) {
+      const double d = std::abs(TrueBody(tp.s, tp.times[1][j]).translation().y() - c.y());
+      if (d < best) {
+        best = d;
+        t.tie.state_b = static_cast<int>(j);
+      }
+    }
+    t.tie.across = Eigen::Vector3d::UnitX();
+    ties.push_back(t);
+  }
+  return ties;
+}
+
+TEST(JointOptimiser, GroundTiesRegisterAPassAcrossTheRowAndVerticallyOnly) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  // The rows run north.
+  const Eigen::Vector3d dir = TrueBody(tp.s, tp.times[0].back()).translation() -
+                              TrueBody(tp.s, tp.times[0].front()).translation();
+  ASSERT_GT(std::abs(dir.normalized().y()), 0.99);
+  const std::vector<JointGroundTie> ties = TruthTies(tp);
+  ASSERT_GE(ties.size(), 5u);
+  const JointOptimiser::Result result =
+      JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, Landmarks(tp, false), ties);
+  const JointOptimiser::Summary& s = result.summary;
+  EXPECT_EQ(s.num_shared_landmarks, 0);
+  EXPECT_EQ(s.num_ground_ties, static_cast<int>(ties.size()));
+  EXPECT_LT(s.ground_tie_rms_across_m, 0.02);
+  EXPECT_LT(s.ground_tie_rms_vertical_m, 0.01);
+  EXPECT_LT(PositionRms(tp, 0, result.states[0]), 0.02);
+  // Across the row (east) and vertically pass 1 lands on pass 0; along the row it keeps what
+  // its receiver says (the ties know nothing there).
+  const Eigen::Vector3d error = MeanError(tp, result.states[1]);
+  EXPECT_LT(std::abs(error.x()), 0.02) << error.transpose();
+  EXPECT_LT(std::abs(error.z()), 0.02) << error.transpose();
+  EXPECT_GT(std::abs(error.y()), 0.15) << error.transpose();
+  // Without the ties pass 1 stays where its receiver put it.
+  const Eigen::Vector3d apart = MeanError(
+      tp,
+      JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, Landmarks(tp, false)).states[1]);
+  EXPECT_GT(std::abs(apart.x()), 0.2) << apart.transpose();
+  EXPECT_GT(std::abs(apart.z()), 0.1) << apart.transpose();
+}
+
 TEST(JointOptimiser, RejectsInconsistentInput) {
   TwoPasses tp;
   MakeTwoPasses(tp);
@@ -172,6 +242,10 @@ TEST(JointOptimiser, RejectsInconsistentInput) {
   std::vector<JointOptimiser::Pass> passes = tp.passes;
   passes[1].initial_states.resize(1);
   EXPECT_THROW(JointOptimiser(JointOptimiser::Options()).Solve(passes, {}), std::invalid_argument);
+  std::vector<JointGroundTie> ties = TruthTies(tp);
+  ties.back().tie.state_b = 100000;
+  EXPECT_THROW(JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, {}, ties),
+               std::invalid_argument);
 }
 
 }  // namespace

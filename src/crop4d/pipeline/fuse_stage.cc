@@ -15,6 +15,7 @@
 #include <numeric>
 #include <set>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 
 #include "crop4d/association/association_file.h"
@@ -42,7 +43,7 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
-constexpr int kFuseStageRevision = 1;
+constexpr int kFuseStageRevision = 2;
 
 // One (pass, image, feature) as a node of the landmark graph.
 struct Node {
@@ -191,7 +192,20 @@ json OptionsJson(const FuseStageOptions& o) {
           {"gps_loss_scale", r.gps_loss_scale},
           {"cloud_min_parallax_deg", o.cloud.min_parallax_deg},
           {"cloud_max_reprojection_error_px", o.cloud.max_reprojection_error_px},
-          {"write_colmap", o.write_colmap}};
+          {"write_colmap", o.write_colmap},
+          {"ground_ties", o.ground_ties},
+          {"ground_tie_max_matches", o.ground_tie_max_matches},
+          {"ground_tie",
+           {{"max_excess_green", o.ground_tie.max_excess_green},
+            {"band_half_width_m", o.ground_tie.band_half_width_m},
+            {"min_depth_below_camera_m", o.ground_tie.min_depth_below_camera_m},
+            {"segment_m", o.ground_tie.segment_m},
+            {"cell_along_m", o.ground_tie.cell_along_m},
+            {"cell_across_m", o.ground_tie.cell_across_m},
+            {"min_points", o.ground_tie.min_points},
+            {"max_heading_difference_deg", o.ground_tie.max_heading_difference_deg},
+            {"sigma_across_m", o.optimiser.ground_tie_sigma_across_m},
+            {"sigma_vertical_m", o.optimiser.ground_tie_sigma_vertical_m}}}};
 }
 
 // The image file names of a camera stream by timestamp.
@@ -203,6 +217,41 @@ std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams)
   return names;
 }
 
+// Every cloud track of a pass triangulated from the given cameras (one per image).
+std::vector<slam::TriangulationResult> TriangulateCloudTracks(
+    const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
+    const slam::TriangulationOptions& options) {
+  const PassData& data = pass.data;
+  const std::vector<PassTrack>& tracks = data.tracks.cloud;
+  std::vector<slam::TriangulationResult> tri(tracks.size());
+  tbb::parallel_for(std::size_t{0}, tracks.size(), [&](std::size_t i) {
+    std::vector<geometry::Rigid3> views;
+    std::vector<Eigen::Vector2d> pixels;
+    for (const features::Observation& o : tracks[i].observations) {
+      views.push_back(cameras[o.image]);
+      pixels.push_back(data.features[o.image].Point(o.feature));
+    }
+    tri[i] = slam::TriangulatePoint(*pass.input.camera, views, pixels, options);
+  });
+  return tri;
+}
+
+// A pass as the ground ties see it: its row-SLAM cameras and cloud.
+fusion::GroundTiePass TiePass(const LoadedPass& pass, const slam::TriangulationOptions& options) {
+  fusion::GroundTiePass tie;
+  for (const slam::RowState& state : pass.input.initial_states) {
+    tie.cameras.push_back(state.nav.world_from_body * pass.input.body_from_camera);
+  }
+  const std::vector<slam::TriangulationResult> tri =
+      TriangulateCloudTracks(pass, tie.cameras, options);
+  for (std::size_t i = 0; i < tri.size(); ++i) {
+    if (!tri[i].ok()) continue;
+    tie.points.push_back(tri[i].point_world);
+    tie.colors.push_back(pass.data.tracks.cloud[i].color);
+  }
+  return tie;
+}
+
 io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
                                const std::vector<std::vector<geometry::Rigid3>>& cameras,
                                const slam::TriangulationOptions& options) {
@@ -210,18 +259,9 @@ io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
   io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
   io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
   for (std::size_t p = 0; p < passes.size(); ++p) {
-    const PassData& data = passes[p]->data;
-    const std::vector<PassTrack>& tracks = data.tracks.cloud;
-    std::vector<slam::TriangulationResult> tri(tracks.size());
-    tbb::parallel_for(std::size_t{0}, tracks.size(), [&](std::size_t i) {
-      std::vector<geometry::Rigid3> views;
-      std::vector<Eigen::Vector2d> pixels;
-      for (const features::Observation& o : tracks[i].observations) {
-        views.push_back(cameras[p][o.image]);
-        pixels.push_back(data.features[o.image].Point(o.feature));
-      }
-      tri[i] = slam::TriangulatePoint(*passes[p]->input.camera, views, pixels, options);
-    });
+    const std::vector<PassTrack>& tracks = passes[p]->data.tracks.cloud;
+    const std::vector<slam::TriangulationResult> tri =
+        TriangulateCloudTracks(*passes[p], cameras[p], options);
     for (std::size_t i = 0; i < tracks.size(); ++i) {
       if (!tri[i].ok()) continue;
       cloud.points.push_back(tri[i].point_world);
@@ -278,7 +318,7 @@ std::vector<association::CrossMatch> ThinMatches(const std::vector<association::
 
 bool FuseStageOptions::Check() const {
   return (method == "robust" || method == "naive") && max_matches_per_image_pair >= 0 &&
-         optimiser.Check() && cloud.Check();
+         ground_tie_max_matches >= 0 && ground_tie.Check() && optimiser.Check() && cloud.Check();
 }
 
 FuseReport RunFuseStage(const std::string& field_folder, const std::string& workspace,
@@ -402,6 +442,8 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   // Each cross match: its edges (match and the tracks it joins).
   std::vector<std::vector<std::pair<int, int>>> match_edges;
   std::vector<float> match_distances;
+  // Pairs of passes of two sessions, with their number of cross matches.
+  std::vector<std::tuple<int, int, std::int64_t>> session_pairs;
   for (const fs::path& path : association_files) {
     association::PassAssociation assoc;
     std::string detail;
@@ -418,6 +460,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       continue;
     }
     const int pa = ia->second, pb = ib->second;
+    if (assoc.a.session != assoc.b.session) {
+      session_pairs.emplace_back(pa, pb, static_cast<std::int64_t>(assoc.matches.size()));
+    }
     const std::vector<association::CrossMatch> matches =
         ThinMatches(assoc.matches, *passes[pa]->input.camera, options.max_matches_per_image_pair);
     report.num_cross_matches += static_cast<std::int64_t>(assoc.matches.size());
@@ -532,11 +577,44 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       passes.size(), sessions.size(), landmarks.size(), report.num_cross_matches,
       report.num_association_files, report.num_conflicting_matches);
 
+  // Ground ties where appearance left two dates of a row without cross matches.
+  std::vector<fusion::JointGroundTie> ties;
+  if (options.ground_ties) {
+    std::map<int, fusion::GroundTiePass> tie_passes;
+    const auto precise = [&](int p) {
+      return fusion::MedianGpsSigma(passes[p]->input) <= options.optimiser.precise_gps_sigma_m;
+    };
+    for (const auto& [pa, pb, matches] : session_pairs) {
+      // Two precise receivers register the passes better than the ground can.
+      if (matches >= options.ground_tie_max_matches || (precise(pa) && precise(pb))) continue;
+      for (int p : {pa, pb}) {
+        if (!tie_passes.count(p)) tie_passes[p] = TiePass(*passes[p], options.cloud);
+      }
+      FuseTiePairReport pair{passes[pa]->data.label(), passes[pb]->data.label(), matches, {}};
+      const std::vector<fusion::GroundTie> found =
+          fusion::ComputeGroundTies(tie_passes[pa], tie_passes[pb], options.ground_tie, &pair.ties);
+      for (const fusion::GroundTie& tie : found) ties.push_back({pa, pb, tie});
+      if (found.empty()) {
+        spdlog::warn(
+            "fuse: {} ~ {}: {} cross matches and no ground tie (tracks not parallel or no common "
+            "soil): nothing but the GPS relates them",
+            pair.a, pair.b, matches);
+      } else {
+        spdlog::info(
+            "fuse: {} ~ {}: {} cross matches; {} ground ties (b lies {:+.2f} m across, {:+.2f} m "
+            "up; spread {:.1f} cm)",
+            pair.a, pair.b, matches, pair.ties.ties, pair.ties.median_across_m,
+            pair.ties.median_vertical_m, 100 * pair.ties.median_spread_m);
+      }
+      report.tie_pairs.push_back(std::move(pair));
+    }
+  }
+
   // The joint problem.
   std::vector<fusion::JointOptimiser::Pass> inputs;
   for (const auto& pass : passes) inputs.push_back(pass->input);
   const fusion::JointOptimiser optimiser(options.optimiser);
-  const fusion::JointOptimiser::Result result = optimiser.Solve(inputs, landmarks);
+  const fusion::JointOptimiser::Result result = optimiser.Solve(inputs, landmarks, ties);
   report.joint = result.summary;
 
   // Outputs.
@@ -682,7 +760,24 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
                       {"iterations", s.iterations},
                       {"reprojection_rms_px", s.reprojection_rms_px},
                       {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
+                      {"ground_ties", s.num_ground_ties},
+                      {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
+                      {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
                       {"converged", s.converged}};
+  json tie_list = json::array();
+  for (const FuseTiePairReport& t : report.tie_pairs) {
+    tie_list.push_back({{"a", t.a},
+                        {"b", t.b},
+                        {"cross_matches", t.cross_matches},
+                        {"soil_points_a", t.ties.soil_points_a},
+                        {"soil_points_b", t.ties.soil_points_b},
+                        {"segments", t.ties.segments},
+                        {"ties", t.ties.ties},
+                        {"median_across_m", t.ties.median_across_m},
+                        {"median_vertical_m", t.ties.median_vertical_m},
+                        {"median_spread_m", t.ties.median_spread_m}});
+  }
+  summary["ground_ties"] = tie_list;
   json pass_list = json::array();
   for (const FusePassReport& pr : report.passes) {
     pass_list.push_back(
@@ -722,6 +817,12 @@ std::string FormatFuseReport(const FuseReport& report) {
   out << std::setprecision(2) << "  reprojection RMS " << s.reprojection_rms_px << " px (cross "
       << s.cross_reprojection_rms_px << " px), cost " << std::setprecision(1) << s.initial_cost
       << " -> " << s.final_cost << ", " << s.iterations << " iterations\n";
+  if (s.num_ground_ties > 0) {
+    out << std::setprecision(2) << "  ground ties " << s.num_ground_ties << " on "
+        << report.tie_pairs.size() << " pairs of passes without cross matches, RMS after fusion "
+        << 100 * s.ground_tie_rms_across_m << " cm across, " << 100 * s.ground_tie_rms_vertical_m
+        << " cm vertical\n";
+  }
   out << "  session      pass     shift east/north/up [cm]   rotation [deg]\n";
   for (const FusePassReport& pr : report.passes) {
     char line[160];

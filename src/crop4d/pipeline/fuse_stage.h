@@ -19,7 +19,8 @@
 //   colmap/               the whole 4D reconstruction as a COLMAP text model (one camera per
 //                         session, images named <session>/<pass>/<image file>, the joint
 //                         landmarks as 3D points);
-//   summary.json          counts, costs, times, per-pass corrections, and a fingerprint of the
+//   summary.json          counts, costs, times, per-pass corrections, the ground ties per pair
+//                         of passes, and a fingerprint of the
 //                         inputs: an unchanged workspace is not fused again (unless `force`).
 
 #include <string>
@@ -47,7 +48,15 @@ struct FuseStageOptions {
     o.row.function_tolerance = 1e-4;
     return o;
   }();
-  // Re-triangulation of the per-session clouds from the fused poses.
+  // Ground ties (fusion/ground_ties.h) between the two passes of a row on two dates whose
+  // association kept fewer than `ground_tie_max_matches` cross matches (after rain, appearance
+  // matches nothing near the camera), unless both have a precise GPS: their soil surfaces
+  // register them across the row and vertically. Off with `ground_ties = false`.
+  bool ground_ties = true;
+  int ground_tie_max_matches = 50;
+  fusion::GroundTieOptions ground_tie;
+  // Re-triangulation of the per-session clouds from the fused poses (and of the row-SLAM
+  // clouds the ground ties are measured on).
   slam::TriangulationOptions cloud;
   bool write_colmap = true;
   bool force = false;
@@ -66,6 +75,13 @@ struct FusePassReport {
   double rotation_change_deg = 0;
 };
 
+// The ground ties of one pair of passes.
+struct FuseTiePairReport {
+  std::string a, b;  // session/pass
+  std::int64_t cross_matches = 0;
+  fusion::GroundTieSummary ties;
+};
+
 struct FuseReport {
   bool skipped = false;  // up to date
   int num_sessions = 0;
@@ -79,6 +95,7 @@ struct FuseReport {
   std::int64_t num_conflicting_matches = 0;
   std::int64_t num_invalid_matches = 0;
   fusion::JointOptimiser::Summary joint;
+  std::vector<FuseTiePairReport> tie_pairs;
   std::vector<FusePassReport> passes;
   double seconds = 0;
 };

@@ -47,6 +47,24 @@ const std::string& Field() {
   return path;
 }
 
+// The tiny preset as it is: two rows, rain between its two sessions (new soil texture).
+const std::string& RainField() {
+  static const std::string path = [] {
+    const fs::path folder = fs::path(CROP4D_BINARY_DIR) / "test_data" / "tiny_rain";
+    if (fs::exists(folder / "field.yaml")) return folder.string();
+    const sim::SimConfig config = sim::PresetConfig("tiny");
+    const fs::path tmp = folder.string() + ".tmp." + std::to_string(getpid());
+    fs::remove_all(tmp);
+    sim::Simulator(config).Write(tmp.string());
+    fs::create_directories(folder.parent_path());
+    std::error_code ec;
+    fs::rename(tmp, folder, ec);
+    fs::remove_all(tmp);
+    return folder.string();
+  }();
+  return path;
+}
+
 class FusionStagesTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -58,11 +76,11 @@ class FusionStagesTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(workspace_); }
 
-  void Slam(const std::string& sensors) {
+  void Slam(const std::string& sensors, const std::string& field = Field()) {
     SlamStageOptions o;
     o.show_progress = false;
     o.sensors = slam::ParseSensorSet(sensors);
-    for (const PassReport& r : RunSlamStage(Field(), workspace_, o)) {
+    for (const PassReport& r : RunSlamStage(field, workspace_, o)) {
       ASSERT_FALSE(r.failed) << r.session << "/" << r.pass.id << ": " << r.message;
     }
   }
@@ -179,6 +197,42 @@ TEST_F(FusionStagesTest, LowAccuracyGpsSessionsAreRegisteredByAssociation) {
   // sessions agrees to the 5 cm.
   EXPECT_GT(row_slam->misalignment.pooled.median_m, 0.1);
   EXPECT_LT(after->misalignment.pooled.median_m, 0.05);
+}
+
+TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) {
+  Slam("cam+imu+gps", RainField());
+  AssociateStageOptions ao;
+  ao.show_progress = false;
+  ao.image_pairs.stride = 2;
+  RunAssociateStage(RainField(), workspace_, ao);
+  FuseStageOptions fo;
+  fo.show_progress = false;
+  const FuseReport fused = RunFuseStage(RainField(), workspace_, fo);
+  // After the rain nothing matches: each row's two dates are tied through the ground.
+  ASSERT_EQ(fused.tie_pairs.size(), 2u);
+  for (const FuseTiePairReport& t : fused.tie_pairs) {
+    EXPECT_LT(t.cross_matches, fo.ground_tie_max_matches);
+    EXPECT_GE(t.ties.ties, 5) << t.a << " ~ " << t.b;
+  }
+  EXPECT_EQ(fused.joint.num_ground_ties,
+            fused.tie_pairs[0].ties.ties + fused.tie_pairs[1].ties.ties);
+  EXPECT_LT(fused.joint.ground_tie_rms_vertical_m, 0.03);
+
+  eval::WorkspaceEvalOptions eo;
+  eo.associations = false;
+  const eval::WorkspaceEval with_ties = eval::EvaluateWorkspace(workspace_, RainField(), eo);
+  // Without the ties the receivers' errors stay between the two dates.
+  fo.ground_ties = false;
+  fo.force = true;
+  const FuseReport apart = RunFuseStage(RainField(), workspace_, fo);
+  EXPECT_EQ(apart.joint.num_ground_ties, 0);
+  const eval::WorkspaceEval without = eval::EvaluateWorkspace(workspace_, RainField(), eo);
+  const eval::CloudSetEval* tied = Clouds(with_ties, "fused");
+  const eval::CloudSetEval* untied = Clouds(without, "fused");
+  ASSERT_NE(tied, nullptr);
+  ASSERT_NE(untied, nullptr);
+  EXPECT_GT(untied->misalignment.pooled.median_m, 0.1);
+  EXPECT_LT(tied->misalignment.pooled.median_m, 0.05);
 }
 
 }  // namespace

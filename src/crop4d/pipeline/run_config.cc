@@ -253,6 +253,14 @@ const std::vector<Key>& Keys() {
         }));
     k.push_back(Bool("fuse", "colmap", "write the COLMAP text model of the fused reconstruction",
                      [](RunConfig& c) -> bool& { return c.fuse.write_colmap; }));
+    k.push_back(Bool("fuse", "ground_ties",
+                     "tie the two dates of a row through their soil where association found "
+                     "no cross matches",
+                     [](RunConfig& c) -> bool& { return c.fuse.ground_ties; }));
+    k.push_back(Int(
+        "fuse", "ground_tie_max_matches",
+        "pairs of passes of two sessions with fewer cross matches than this get ground ties",
+        [](RunConfig& c) -> int& { return c.fuse.ground_tie_max_matches; }, 0, 1000000));
 
     k.push_back(Double(
         "densify", "cell_m", "cell of the height-field grid",

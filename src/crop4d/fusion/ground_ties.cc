@@ -197,7 +197,9 @@ std::vector<GroundTie> ComputeGroundTies(const GroundTiePass& a, const GroundTie
   std::vector<double> across_offsets, vertical_offsets, spreads;
   const Eigen::Vector3d across(frame.across.x(), frame.across.y(), 0.0);
   for (int k = 0; k < num_segments; ++k) {
-    if (static_cast<int>(differences[k].size()) < options.min_points) continue;
+    if (static_cast<int>(differences[k].size()) < options.min_points || heights_a[k].empty()) {
+      continue;
+    }
     const double dz = Median(differences[k]);
     std::vector<double> deviations;
     for (double d : differences[k]) deviations.push_back(std::abs(d - dz));

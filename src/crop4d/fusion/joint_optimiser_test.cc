@@ -232,6 +232,31 @@ TEST(JointOptimiser, GroundTiesRegisterAPassAcrossTheRowAndVerticallyOnly) {
   EXPECT_GT(std::abs(apart.z()), 0.1) << apart.transpose();
 }
 
+double PassLength(const std::vector<slam::RowState>& states) {
+  return (states.back().nav.world_from_body.translation() -
+          states.front().nav.world_from_body.translation())
+      .norm();
+}
+
+TEST(JointOptimiser, APassKeepsTheLengthItsRowSlamHeldItAt) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  const std::vector<JointLandmark> landmarks = Landmarks(tp, false);
+  const JointOptimiser::Result free =
+      JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, landmarks);
+  // A length 1 % longer than the solve finds on its own, held to 2 mm.
+  const double target = 1.01 * PassLength(free.states[1]);
+  ASSERT_GT(target - PassLength(free.states[1]), 0.03);
+  std::vector<JointOptimiser::Pass> passes = tp.passes;
+  passes[1].length_prior_m = target;
+  passes[1].length_prior_sigma_m = 0.002;
+  const JointOptimiser::Result held =
+      JointOptimiser(JointOptimiser::Options()).Solve(passes, landmarks);
+  EXPECT_NEAR(PassLength(held.states[1]), target, 0.006);
+  // The other pass is untouched by it.
+  EXPECT_NEAR(PassLength(held.states[0]), PassLength(free.states[0]), 0.002);
+}
+
 TEST(JointOptimiser, RejectsInconsistentInput) {
   TwoPasses tp;
   MakeTwoPasses(tp);

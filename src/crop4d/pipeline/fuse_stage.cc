@@ -167,6 +167,14 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     input.forward_axis_body = Eigen::Vector3d(a.at(0), a.at(1), a.at(2));
   }
   input.anchor_state = problem.value("anchor_state", 0);
+  if (problem.contains("length_prior") && !problem.at("length_prior").is_null()) {
+    const json& prior = problem.at("length_prior");
+    input.length_prior_m = prior.at("length_m").get<double>();
+    input.length_prior_sigma_m = prior.at("sigma_m").get<double>();
+    if (!(*input.length_prior_m > 0) || !(input.length_prior_sigma_m > 0)) {
+      throw InputError(where + ": a length prior that is not positive");
+    }
+  }
   const std::vector<double> mean = problem.at("bias_prior_mean");
   for (int k = 0; k < 6; ++k) input.bias_prior_mean(k) = mean.at(k);
   if (!problem.at("bias_prior_sigma").is_null()) {

@@ -81,7 +81,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 5;
+constexpr int kSlamStageRevision = 6;
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
@@ -519,6 +519,10 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
         input.bias_prior_sigma ? json(std::vector<double>(input.bias_prior_sigma->data(),
                                                           input.bias_prior_sigma->data() + 6))
                                : json();
+    // The length the camera-height step held the pass at (null: none).
+    problem["length_prior"] = s.length_prior_m > 0 ? json{{"length_m", s.length_prior_m},
+                                                          {"sigma_m", s.length_prior_sigma_m}}
+                                                   : json();
     summary["problem"] = problem;
   }
 

@@ -159,11 +159,21 @@ TEST_F(SlamStageTest, CameraHeightSetsTheScaleOfPassesWithoutRtk) {
     // The summary says what was measured and applied (the option is in the fingerprint, so the
     // passes were solved again).
     std::ifstream in(workspace_ + "/sessions/" + p.session + "/rows/" + p.pass + "/summary.json");
-    const nlohmann::json h = nlohmann::json::parse(in).at("camera_height");
+    const nlohmann::json summary = nlohmann::json::parse(in);
+    const nlohmann::json& h = summary.at("camera_height");
     EXPECT_EQ(h.at("height_m").get<double>(), 1.5);  // from sensor.yaml
     EXPECT_GE(h.at("soil_points").get<int>(), 50);
     EXPECT_NEAR(h.at("soil_depth_m").get<double>(), 1.5, 0.06);
     EXPECT_NEAR(h.at("scale").get<double>() * h.at("soil_depth_m").get<double>(), 1.5, 1e-9);
+    // The length the pass was held at, for the joint problem (σ 0.5 % of it): the distance
+    // between its first and last camera within a few σ.
+    const nlohmann::json& prior = summary.at("problem").at("length_prior");
+    const double length = prior.at("length_m").get<double>();
+    EXPECT_NEAR(prior.at("sigma_m").get<double>(), 0.005 * length, 1e-9);
+    const std::vector<io::StampedPose> poses =
+        io::ReadTum(workspace_ + "/sessions/" + p.session + "/rows/" + p.pass + "/poses.tum");
+    EXPECT_NEAR(length, (poses.back().pose.translation() - poses.front().pose.translation()).norm(),
+                0.05);
   }
   EXPECT_LT(rpe_with, 0.7 * rpe_without);
   // A height that is far from what the soil says (twice the rig's) is not applied.
@@ -183,7 +193,9 @@ TEST_F(SlamStageTest, CameraHeightSetsTheScaleOfPassesWithoutRtk) {
   options_.pass = "row00";
   RunSlamStage(TinyField(), workspace_, options_);
   std::ifstream in(workspace_ + "/sessions/" + with.passes[0].session + "/rows/row00/summary.json");
-  EXPECT_FALSE(nlohmann::json::parse(in).contains("camera_height"));
+  const nlohmann::json rtk = nlohmann::json::parse(in);
+  EXPECT_FALSE(rtk.contains("camera_height"));
+  EXPECT_TRUE(rtk.at("problem").at("length_prior").is_null());
 }
 
 TEST_F(SlamStageTest, CamImuDriftsLittleFromItsAnchor) {

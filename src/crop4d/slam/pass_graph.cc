@@ -7,6 +7,7 @@
 #include <cmath>
 #include <thread>
 
+#include "crop4d/slam/camera_height_scale.h"
 #include "crop4d/slam/gps_factor.h"
 #include "crop4d/slam/motion_constraint_factor.h"
 #include "crop4d/slam/pose_prior_factor.h"
@@ -122,6 +123,11 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
     }
   }
   if (n == 0) return;
+  if (input_.length_prior_m && n >= 2) {
+    problem->AddResidualBlock(
+        PassLengthFactor::Create(*input_.length_prior_m, input_.length_prior_sigma_m), nullptr,
+        blocks_.front().pose, blocks_.back().pose);
+  }
   if (input_.forward_axis_body) {
     for (StateBlocks& b : blocks_) {
       problem->AddResidualBlock(MotionConstraintFactor::Create(*input_.forward_axis_body,

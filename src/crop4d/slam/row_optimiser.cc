@@ -83,12 +83,13 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
                          Eigen::Map<const Eigen::Vector3d>(blocks->front().pose))
                             .norm();
   if (!(length > 0)) return;
+  summary->length_prior_m = length;
+  summary->length_prior_sigma_m = options.camera_height.sigma_relative * length;
   ceres::Problem problem(ProblemOptions());
   builder->AddMotion(&problem, summary);
   builder->AddLandmarks(&problem, landmarks, tracks, masks);
-  problem.AddResidualBlock(
-      PassLengthFactor::Create(length, options.camera_height.sigma_relative * length), nullptr,
-      blocks->front().pose, blocks->back().pose);
+  problem.AddResidualBlock(PassLengthFactor::Create(length, summary->length_prior_sigma_m), nullptr,
+                           blocks->front().pose, blocks->back().pose);
   const ceres::Solver::Summary s = RunSolver(options, &problem, landmarks);
   summary->final_cost = s.final_cost;
   summary->iterations += static_cast<int>(s.iterations.size());

@@ -143,6 +143,12 @@ class RowOptimiser {
     // solved poses: every track of two or more images (the landmarks alone hold too little soil
     // for a quantile: bench/RESULTS.md, "Row SLAM ablation").
     std::vector<LandmarkTrack> depth_tracks;
+    // A prior on the distance between the first and the last state (PassLengthFactor), m, and its
+    // standard deviation: how the joint 4D problem keeps the scale that the camera-height step
+    // set (Summary::length_prior_m, recorded in the pass's summary.json). Row SLAM leaves it
+    // unset.
+    std::optional<double> length_prior_m;
+    double length_prior_sigma_m = 0;
   };
 
   struct Summary {
@@ -174,6 +180,9 @@ class RowOptimiser {
     double soil_depth_m = 0;
     int soil_points = 0;
     double camera_height_scale = 1.0;
+    // The length the pass was held at after the rescale and its standard deviation, m (0: none).
+    double length_prior_m = 0;
+    double length_prior_sigma_m = 0;
   };
 
   struct Result {

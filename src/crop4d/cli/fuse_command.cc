@@ -3,9 +3,11 @@
 // docs/cli.md#fuse).
 
 #include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "crop4d/cli/command.h"
@@ -36,6 +38,9 @@ int RunFuse(FuseArgs& args) {
     throw InputError("--method", 0, "expected robust or naive, got '" + o.method + "'");
   }
   if (!o.Check()) throw InputError("crop4d fuse", 0, "invalid options");
+  // Ceres follows num_threads; the stage's parallel loops (triangulation, ties) follow this.
+  std::optional<tbb::global_control> limit;
+  if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, args.threads);
   const pipeline::FuseReport report = pipeline::RunFuseStage(args.field, args.workspace, o);
   if (!IsQuiet()) {
     std::fputs(pipeline::FormatFuseReport(report).c_str(), stdout);

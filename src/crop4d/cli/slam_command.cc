@@ -2,9 +2,11 @@
 // WS/sessions/<session>/rows/<pass>/ (pipeline/slam_stage.h, docs/cli.md).
 
 #include <spdlog/spdlog.h>
+#include <tbb/global_control.h>
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -51,6 +53,11 @@ int RunSlam(SlamArgs& args) {
   }
   for (const std::string& text : args.gps_outages) o.gps_outages.push_back(ParseOutage(text));
   if (!o.Check()) throw InputError("crop4d slam", 0, "invalid options");
+  // The stage's own thread pools follow num_threads; its parallel loops follow this.
+  std::optional<tbb::global_control> limit;
+  if (o.front_end.num_threads > 0) {
+    limit.emplace(tbb::global_control::max_allowed_parallelism, o.front_end.num_threads);
+  }
   const std::vector<pipeline::PassReport> reports =
       pipeline::RunSlamStage(args.field, args.workspace, o);
   int failed = 0, skipped = 0;

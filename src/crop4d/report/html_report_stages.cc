@@ -192,6 +192,9 @@ Section Builder::AssociationSection() {
 
 Section Builder::FusionSection() {
   Section s{{"fusion", "4D fusion", false}, ""};
+  const auto Cm = [](std::optional<double> m) {
+    return m ? std::optional<double>(100.0 * *m) : std::nullopt;
+  };
   auto j = ReadJson(WsPath("fused/summary.json"));
   if (!j) {
     s.html = Empty("4D fusion has not run: no WS/fused/summary.json.");
@@ -231,6 +234,10 @@ Section Builder::FusionSection() {
            ")"},
       {"cross matches read (files)", I(Num(f, {"associations", "cross_matches"})) + " (" +
                                          I(Num(f, {"associations", "files"})) + ")"},
+      {"ground ties (RMS after fusion across / vertically [cm])",
+       I(Num(f, {"joint", "ground_ties"})) + " (" +
+           F(Cm(Num(f, {"joint", "ground_tie_rms_across_m"})), 1) + " / " +
+           F(Cm(Num(f, {"joint", "ground_tie_rms_vertical_m"})), 1) + ")"},
       {"time: solve / final solve / total", Duration(Num(f, {"seconds", "solve"})) + " / " +
                                                 Duration(Num(f, {"seconds", "final_solve"})) +
                                                 " / " + Duration(Num(f, {"seconds", "total"}))},

@@ -101,7 +101,9 @@ void MakeWorkspace(const TempDir& dir) {
             R"({"sessions": ["2016-06-01", "2016-06-15"], "joint": {"passes": 4,
                 "converged": true, "landmarks": 2000, "shared_landmarks": 300,
                 "observations": 9000, "cross_observations": 800, "iterations": 12,
-                "reprojection_rms_px": 0.41, "initial_cost": 100.0, "final_cost": 50.0},
+                "reprojection_rms_px": 0.41, "initial_cost": 100.0, "final_cost": 50.0,
+                "ground_ties": 73, "ground_tie_rms_across_m": 0.1045,
+                "ground_tie_rms_vertical_m": 0.0261},
                 "seconds": {"solve": 4.0, "final_solve": 1.0, "total": 6.5},
                 "passes": [{"session": "2016-06-01", "pass": "row00", "images": 41,
                 "mean_shift_m": [0.001, 0.002, 0.0], "rotation_change_deg": 0.05}]})");
@@ -207,6 +209,7 @@ TEST(HtmlReportTest, ReportOfAHandWrittenWorkspace) {
   EXPECT_EQ(Count(html, "<g class=\"track\""), 2);
   EXPECT_NE(html.find("class=\"scale\""), std::string::npos);
   EXPECT_NE(html.find("2016-06-15 (fused)"), std::string::npos);
+  EXPECT_NE(html.find("73 (10.4 / 2.6)"), std::string::npos);  // the ground ties
   // Run record: stage table, messages, timings; what was skipped, escaped.
   EXPECT_NE(html.find("pass row02 of 2016-06-15 failed"), std::string::npos);
   EXPECT_NE(html.find("10 min 00 s"), std::string::npos);  // 600.25 s of slam

@@ -179,9 +179,9 @@ geometry::Rigid3 TieAlignment(const std::vector<const GroundTie*>& ties) {
 }
 
 // Step (0): each landmark seen from several passes is triangulated by each pass alone; pairs of
-// passes with enough common points are aligned (4 DOF), and the passes without a precise GPS
-// are moved along a spanning tree of the best-supported alignments, grown from the precise
-// passes (or from the first pass of a group without any).
+// passes with enough common points are aligned (4 DOF), pairs with ground ties by their ties,
+// and the passes without a precise GPS are moved along a spanning tree of the best-supported
+// alignments, grown from the precise passes (or from the first pass of a group without any).
 void AlignPasses(const JointOptimiser::Options& options,
                  const std::vector<JointLandmark>& landmarks,
                  const std::vector<JointGroundTie>& ground_ties,
@@ -242,9 +242,9 @@ void AlignPasses(const JointOptimiser::Options& options,
   // (the across offsets of a pair's ties fitted as a line along the track, the median of their
   // vertical offsets), supported by as many inliers as ties — so they join passes that share
   // no landmarks rather than overrule the landmarks.
-  std::map<std::pair<int, int>, std::vector<const GroundTie*>> tie_offsets;
-  for (const JointGroundTie& t : ground_ties) tie_offsets[{t.pass_a, t.pass_b}].push_back(&t.tie);
-  for (const auto& [key, ties] : tie_offsets) {
+  std::map<std::pair<int, int>, std::vector<const GroundTie*>> pair_ties;
+  for (const JointGroundTie& t : ground_ties) pair_ties[{t.pass_a, t.pass_b}].push_back(&t.tie);
+  for (const auto& [key, ties] : pair_ties) {
     PassAlignment a;
     a.ok = true;
     a.b_from_a = TieAlignment(ties);
@@ -289,7 +289,7 @@ void AlignPasses(const JointOptimiser::Options& options,
   // alignment of all its ties with the passes outside it (the spanning tree used one pair's),
   // then slid along the row back to the mean position its own GPS gave it: ties say nothing
   // along the row.
-  if (!tie_offsets.empty()) {
+  if (!pair_ties.empty()) {
     std::vector<int> group(n);
     std::iota(group.begin(), group.end(), 0);
     const auto find = [&](int x) {

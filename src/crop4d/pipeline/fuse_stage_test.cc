@@ -19,27 +19,13 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/pipeline/associate_stage.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
-#include "crop4d/sim/simulator.h"
 
 namespace crop4d::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-
-// A field simulated once per build tree (written to a temporary folder and renamed into place).
-std::string CachedField(const std::string& name, const sim::SimConfig& config) {
-  const fs::path folder = fs::path(CROP4D_BINARY_DIR) / "test_data" / name;
-  if (fs::exists(folder / "field.yaml")) return folder.string();
-  const fs::path tmp = folder.string() + ".tmp." + std::to_string(getpid());
-  fs::remove_all(tmp);
-  sim::Simulator(config).Write(tmp.string());
-  fs::create_directories(folder.parent_path());
-  std::error_code ec;
-  fs::rename(tmp, folder, ec);
-  fs::remove_all(tmp);
-  return folder.string();
-}
 
 // The tiny preset with three rows and no rain between its two sessions.
 const std::string& Field() {
@@ -47,14 +33,15 @@ const std::string& Field() {
     sim::SimConfig config = sim::PresetConfig("tiny");
     config.world.num_rows = 3;
     config.sessions.at(1).rain_before = false;
-    return CachedField("tiny_three_rows", config);
+    return sim::testing::CachedSimulatedField("tiny_three_rows", config);
   }();
   return path;
 }
 
 // The tiny preset as it is: two rows, rain between its two sessions (new soil texture).
 const std::string& RainField() {
-  static const std::string path = CachedField("tiny_rain", sim::PresetConfig("tiny"));
+  static const std::string path =
+      sim::testing::CachedSimulatedField("tiny_rain", sim::PresetConfig("tiny"));
   return path;
 }
 

@@ -23,8 +23,8 @@
 #include <vector>
 
 #include "crop4d/pipeline/run_log.h"
+#include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
-#include "crop4d/sim/simulator.h"
 
 extern char** environ;
 
@@ -43,18 +43,9 @@ std::string Binary() {
 // build tree.
 const fs::path& ThreeSessionField() {
   static const fs::path path = [] {
-    const fs::path folder = fs::path(CROP4D_BINARY_DIR) / "test_data" / "tiny_three_sessions";
-    if (fs::exists(folder / "field.yaml")) return folder;
     sim::SimConfig config = sim::PresetConfig("tiny");
     config.sessions = {{"2016-06-10", false}, {"2016-06-24", false}, {"2016-07-08", false}};
-    const fs::path tmp = folder.string() + ".tmp." + std::to_string(getpid());
-    fs::remove_all(tmp);
-    sim::Simulator(config).Write(tmp.string());
-    fs::create_directories(folder.parent_path());
-    std::error_code ec;
-    fs::rename(tmp, folder, ec);
-    fs::remove_all(tmp);
-    return folder;
+    return fs::path(sim::testing::CachedSimulatedField("tiny_three_sessions", config));
   }();
   return path;
 }

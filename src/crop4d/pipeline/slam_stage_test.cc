@@ -16,31 +16,20 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
-#include "crop4d/sim/simulator.h"
 
 namespace crop4d::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
 
-// The tiny preset's first session, simulated once per build tree and shared by the tests (each
-// test is its own process under ctest): written to a temporary folder and renamed into place,
-// so concurrent tests never see a half-written field.
+// The tiny preset's first session, simulated once per build tree.
 const std::string& TinyField() {
   static const std::string path = [] {
-    const fs::path folder = fs::path(CROP4D_BINARY_DIR) / "test_data" / "tiny_one_session";
-    if (fs::exists(folder / "field.yaml")) return folder.string();
     sim::SimConfig config = sim::PresetConfig("tiny");
     config.sessions.resize(1);
-    const fs::path tmp = folder.string() + ".tmp." + std::to_string(getpid());
-    fs::remove_all(tmp);
-    sim::Simulator(config).Write(tmp.string());
-    fs::create_directories(folder.parent_path());
-    std::error_code ec;
-    fs::rename(tmp, folder, ec);  // another process may have won the race: keep its field
-    fs::remove_all(tmp);
-    return folder.string();
+    return sim::testing::CachedSimulatedField("tiny_one_session", config);
   }();
   return path;
 }

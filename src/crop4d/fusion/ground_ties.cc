@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "crop4d/core/color.h"
+#include "crop4d/slam/track_profile.h"
 
 namespace crop4d::fusion {
 namespace {
@@ -18,22 +19,6 @@ double Median(std::vector<double> values) {
   std::nth_element(values.begin(), mid, values.end());
   return *mid;
 }
-
-// Pass a's track frame: s along the track, l across it (both horizontal), z up.
-struct TrackFrame {
-  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
-  Eigen::Vector2d along = Eigen::Vector2d::UnitY();
-  Eigen::Vector2d across = -Eigen::Vector2d::UnitX();
-
-  Eigen::Vector2d SL(const Eigen::Vector3d& p) const {
-    const Eigen::Vector2d d = p.head<2>() - origin;
-    return {d.dot(along), d.dot(across)};
-  }
-  Eigen::Vector3d Point(double s, double l, double z) const {
-    const Eigen::Vector2d xy = origin + s * along + l * across;
-    return {xy.x(), xy.y(), z};
-  }
-};
 
 // The horizontal principal direction of the camera positions (the heading of a straight pass),
 // pointing the way the pass was driven.
@@ -54,62 +39,32 @@ Eigen::Vector2d Heading(const std::vector<geometry::Rigid3>& cameras, Eigen::Vec
                                                    : Eigen::Vector2d(eig.eigenvectors().col(1));
 }
 
-// A pass's track in a's frame: l and the camera height as piecewise-linear functions of s.
-class Track {
- public:
-  Track(const TrackFrame& frame, const std::vector<geometry::Rigid3>& cameras) {
-    for (const geometry::Rigid3& c : cameras) {
-      const Eigen::Vector2d sl = frame.SL(c.translation());
-      samples_.push_back({sl.x(), sl.y(), c.translation().z()});
-    }
-    std::sort(samples_.begin(), samples_.end(),
-              [](const Sample& x, const Sample& y) { return x.s < y.s; });
-  }
-  double min_s() const { return samples_.front().s; }
-  double max_s() const { return samples_.back().s; }
-  // l and camera z at s (clamped to the ends).
-  void At(double s, double* l, double* z) const {
-    const auto it = std::lower_bound(samples_.begin(), samples_.end(), s,
-                                     [](const Sample& x, double v) { return x.s < v; });
-    if (it == samples_.begin() || it == samples_.end()) {
-      const Sample& e = it == samples_.begin() ? samples_.front() : samples_.back();
-      *l = e.l;
-      *z = e.z;
-      return;
-    }
-    const Sample& hi = *it;
-    const Sample& lo = *(it - 1);
-    const double w = hi.s > lo.s ? (s - lo.s) / (hi.s - lo.s) : 0.0;
-    *l = lo.l + w * (hi.l - lo.l);
-    *z = lo.z + w * (hi.z - lo.z);
-  }
-
- private:
-  struct Sample {
-    double s, l, z;
-  };
-  std::vector<Sample> samples_;
-};
-
 // A soil point in a's frame, l relative to its own pass's track.
 struct Soil {
   double s, l_rel, z;
 };
 
-std::vector<Soil> SoilPoints(const GroundTiePass& pass, const TrackFrame& frame, const Track& track,
+// The soil beside a pass's own track (in pass a's frame).
+std::vector<Soil> SoilPoints(const GroundTiePass& pass, const slam::TrackProfile& track,
                              const GroundTieOptions& o) {
   std::vector<Soil> soil;
   for (std::size_t i = 0; i < pass.points.size(); ++i) {
     if (ExcessGreen(pass.colors[i]) > o.max_excess_green) continue;
-    const Eigen::Vector2d sl = frame.SL(pass.points[i]);
-    if (sl.x() < track.min_s() || sl.x() > track.max_s()) continue;
-    double l = 0, z_camera = 0;
-    track.At(sl.x(), &l, &z_camera);
-    if (std::abs(sl.y() - l) > o.band_half_width_m) continue;
-    if (pass.points[i].z() > z_camera - o.min_depth_below_camera_m) continue;
-    soil.push_back({sl.x(), sl.y() - l, pass.points[i].z()});
+    const double s = track.Along(pass.points[i]);
+    if (s < track.min_s() || s > track.max_s()) continue;
+    const slam::TrackProfile::Position camera = track.At(s);
+    const double l = track.Across(pass.points[i]) - camera.l;
+    if (std::abs(l) > o.band_half_width_m) continue;
+    if (pass.points[i].z() > camera.z - o.min_depth_below_camera_m) continue;
+    soil.push_back({s, l, pass.points[i].z()});
   }
   return soil;
+}
+
+std::vector<Eigen::Vector3d> Centres(const std::vector<geometry::Rigid3>& cameras) {
+  std::vector<Eigen::Vector3d> centres;
+  for (const geometry::Rigid3& c : cameras) centres.push_back(c.translation());
+  return centres;
 }
 
 int NearestState(const std::vector<geometry::Rigid3>& cameras, const Eigen::Vector3d& p) {
@@ -146,21 +101,21 @@ std::vector<GroundTie> ComputeGroundTies(const GroundTiePass& a, const GroundTie
   std::vector<GroundTie> ties;
   if (a.cameras.size() < 2 || b.cameras.size() < 2) return ties;
 
-  TrackFrame frame;
-  frame.along = Heading(a.cameras, &frame.origin);
-  frame.across = Eigen::Vector2d(-frame.along.y(), frame.along.x());
-  const Eigen::Vector2d heading_b = Heading(b.cameras, nullptr);
-  if (std::abs(heading_b.dot(frame.along)) <
+  // Pass a's track frame: s along its heading, l across it (to its left), z up.
+  Eigen::Vector2d origin;
+  const Eigen::Vector2d along = Heading(a.cameras, &origin);
+  if (std::abs(Heading(b.cameras, nullptr).dot(along)) <
       std::cos(options.max_heading_difference_deg * M_PI / 180.0)) {
     return ties;
   }
-  const Track track_a(frame, a.cameras), track_b(frame, b.cameras);
+  const slam::TrackProfile track_a(Centres(a.cameras), origin, along);
+  const slam::TrackProfile track_b(Centres(b.cameras), origin, along);
   const double lo = std::max(track_a.min_s(), track_b.min_s());
   const double hi = std::min(track_a.max_s(), track_b.max_s());
   if (hi - lo < options.segment_m) return ties;
 
-  const std::vector<Soil> soil_a = SoilPoints(a, frame, track_a, options);
-  const std::vector<Soil> soil_b = SoilPoints(b, frame, track_b, options);
+  const std::vector<Soil> soil_a = SoilPoints(a, track_a, options);
+  const std::vector<Soil> soil_b = SoilPoints(b, track_b, options);
   sum.soil_points_a = static_cast<int>(soil_a.size());
   sum.soil_points_b = static_cast<int>(soil_b.size());
 
@@ -195,7 +150,7 @@ std::vector<GroundTie> ComputeGroundTies(const GroundTiePass& a, const GroundTie
   }
 
   std::vector<double> across_offsets, vertical_offsets, spreads;
-  const Eigen::Vector3d across(frame.across.x(), frame.across.y(), 0.0);
+  const Eigen::Vector3d across(track_a.across().x(), track_a.across().y(), 0.0);
   for (int k = 0; k < num_segments; ++k) {
     if (static_cast<int>(differences[k].size()) < options.min_points || heights_a[k].empty()) {
       continue;
@@ -204,11 +159,9 @@ std::vector<GroundTie> ComputeGroundTies(const GroundTiePass& a, const GroundTie
     std::vector<double> deviations;
     for (double d : differences[k]) deviations.push_back(std::abs(d - dz));
     const double s = lo + (k + 0.5) * options.segment_m;
-    double l_a = 0, l_b = 0, z_unused = 0;
-    track_a.At(s, &l_a, &z_unused);
-    track_b.At(s, &l_b, &z_unused);
+    const double l_a = track_a.At(s).l, l_b = track_b.At(s).l;
     GroundTie tie;
-    tie.point_a = frame.Point(s, l_a, Median(heights_a[k]));
+    tie.point_a = track_a.Point(s, l_a, Median(heights_a[k]));
     tie.point_b = tie.point_a + (l_b - l_a) * across + dz * Eigen::Vector3d::UnitZ();
     tie.state_a = NearestState(a.cameras, tie.point_a);
     tie.state_b = NearestState(b.cameras, tie.point_b);

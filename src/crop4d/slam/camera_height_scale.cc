@@ -6,6 +6,7 @@
 
 #include "crop4d/core/color.h"
 #include "crop4d/slam/state_layout.h"
+#include "crop4d/slam/track_profile.h"
 
 namespace crop4d::slam {
 
@@ -22,34 +23,17 @@ std::optional<SoilDepth> SoilDepthBelowCamera(
     throw std::invalid_argument("SoilDepthBelowCamera: one colour per point");
   }
   if (camera_centres.size() < 2) return std::nullopt;
-  // The track's horizontal direction, and each camera's coordinate along it.
-  Eigen::Vector2d along = (camera_centres.back() - camera_centres.front()).head<2>();
+  // The track's horizontal direction, from the first camera to the last.
+  const Eigen::Vector2d along = (camera_centres.back() - camera_centres.front()).head<2>();
   if (!(along.norm() > 0)) return std::nullopt;
-  along.normalize();
-  const Eigen::Vector2d across(-along.y(), along.x());
-  const Eigen::Vector2d origin = camera_centres.front().head<2>();
-  std::vector<std::pair<double, double>> track;  // (along, camera z), sorted by along
-  for (const Eigen::Vector3d& c : camera_centres) {
-    track.emplace_back(along.dot(c.head<2>() - origin), c.z());
-  }
-  std::sort(track.begin(), track.end());
+  const TrackProfile track(camera_centres, camera_centres.front().head<2>(), along);
   std::vector<double> depths;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!(ExcessGreen(colors[i]) < options.max_excess_green)) continue;
-    const Eigen::Vector2d d = points[i].head<2>() - origin;
-    if (std::abs(across.dot(d)) > options.max_lateral_m) continue;
-    const double s = along.dot(d);
-    if (s < track.front().first || s > track.back().first) continue;
-    const auto next = std::lower_bound(
-        track.begin(), track.end(), s,
-        [](const std::pair<double, double>& e, double value) { return e.first < value; });
-    double camera_z = next->second;
-    if (next != track.begin() && next->first > s) {
-      const auto prev = next - 1;
-      const double w = (s - prev->first) / (next->first - prev->first);
-      camera_z = prev->second + w * (next->second - prev->second);
-    }
-    depths.push_back(camera_z - points[i].z());
+    if (std::abs(track.Across(points[i])) > options.max_lateral_m) continue;
+    const double s = track.Along(points[i]);
+    if (s < track.min_s() || s > track.max_s()) continue;
+    depths.push_back(track.At(s).z - points[i].z());
   }
   if (static_cast<int>(depths.size()) < options.min_points) return std::nullopt;
   const auto k = static_cast<std::size_t>(

@@ -7,8 +7,8 @@
 // scene seen by a vehicle's forward-and-down camera is, to a good approximation, a height field
 // over the ground: soil, and the tops of the plants.
 //
-// For every cell of a regular ENU xy grid (default 0.75 cm, about the ground footprint of one
-// pixel near the cameras) candidate heights z are swept between bounds from a coarse ground model
+// For every cell of a regular ENU xy grid (default 0.5 cm: a matching patch then fits on a
+// leaflet) candidate heights z are swept between bounds from a coarse ground model
 // (ground − below_ground_m .. ground + max_canopy_height_m). The photo-consistency of height z is
 // the zero-mean normalised cross-correlation (ZNCC) of a 5 × 5 patch of samples, one cell apart,
 // on the horizontal plane at height z around the cell, sampled bilinearly in every view, between
@@ -89,12 +89,14 @@ struct DenseRegion {
 class HeightFieldStereo {
  public:
   struct Options {
-    // Grid cell, m; also the spacing of a patch's samples. 0.75 cm is about the ground footprint
-    // of a pixel in the views that serve as references (0.6 cm at the bottom of a 640-px image
-    // with fx = 280, 1.6 m away), and keeps a 5 × 5 patch (3.75 cm) as small as a top leaflet:
-    // 1 cm cells (5 cm patches) flatten the tops of small plants by 1–3 cm (measured on the demo
-    // field), 0.5 cm cells cost twice as much for no further gain.
-    double cell_m = 0.0075;
+    // Grid cell, m; also the spacing of a patch's samples, so the 5 × 5 patch spans 5 cells. The
+    // patch must fit on a top leaflet (peanut leaflets are 2–5 cm long): a larger one also holds
+    // the canopy a few centimetres below, which matches better and wins, and the plant's top is
+    // lost. 0.5 cm cells (2.5 cm patches) gave the lowest canopy-height error on three 640×480
+    // fields and on one 1280×960 field, against 0.75, 0.6 and 0.4 cm (and 0.375 cm at 1280×960):
+    // bench/RESULTS.md, "Update (session 13)". 1 cm cells flatten the tops of small plants by
+    // 1–3 cm. The cost grows with the number of cells: 0.5 cm costs 2.1× as much as 0.75 cm.
+    double cell_m = 0.005;
     // Cells per side of a tile, the unit of parallel work and of view selection.
     int tile_cells = 32;
     // Radius of a patch in samples, (2r+1)² samples, in the coarse sweep.

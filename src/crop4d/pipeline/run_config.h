@@ -11,7 +11,7 @@
 //   slam:      {sensors: auto, neighbors: 4, min_track_length: 7, ...}
 //   associate: {method: robust, session_gap: 1, ...}
 //   fuse:      {matches_per_image_pair: 30, max_iterations: 30, linear_solver: iterative}
-//   densify:   {cell_m: 0.0075, max_views: 7, min_score: 0.5, margin_m: 0.6, ...}
+//   densify:   {cell_m: 0.005, max_views: 7, min_score: 0.5, margin_m: 0.6, ...}
 //   analyze:   {sites: "", cloud: auto, greenness: exg, canopy_top: plant-tops, ...}
 //   eval:      {canopy_max_error_m: 0.04, depth_cache: ""}
 //

@@ -98,8 +98,9 @@ RunFunction SetupDensify(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   app.add_option("--session", o.sessions, "Session to densify (repeatable; default: all fused)");
-  app.add_option("--cell", o.stereo.cell_m,
-                 "Grid cell size, m; the 5 × 5 matching patch spans 5 cells and must fit on a top leaflet")
+  app.add_option(
+         "--cell", o.stereo.cell_m,
+         "Grid cell size, m; the 5x5 matching patch spans 5 cells and must fit on a top leaflet")
       ->capture_default_str();
   app.add_option("--max-canopy-height", o.stereo.max_canopy_height_m,
                  "Highest plant top searched above the ground, m")

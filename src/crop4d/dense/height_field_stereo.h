@@ -93,9 +93,11 @@ class HeightFieldStereo {
     // patch must fit on a top leaflet (peanut leaflets are 2–5 cm long): a larger one also holds
     // the canopy a few centimetres below, which matches better and wins, and the plant's top is
     // lost. 0.5 cm cells (2.5 cm patches) gave the lowest canopy-height error on three 640×480
-    // fields and on one 1280×960 field, against 0.75, 0.6 and 0.4 cm (and 0.375 cm at 1280×960):
-    // bench/RESULTS.md, "Update (session 13)". 1 cm cells flatten the tops of small plants by
-    // 1–3 cm. The cost grows with the number of cells: 0.5 cm costs 2.1× as much as 0.75 cm.
+    // fields and on one 1280×960 field, against 0.75, 0.6 and 0.4 cm (and 0.375 cm at 1280×960);
+    // on a fourth field, held out from that choice, the gain over 0.75 cm was small (1.93 →
+    // 1.87 cm): bench/RESULTS.md, "Update (session 13)". 1 cm cells flatten the tops of small
+    // plants by 1–3 cm. The cost grows with the number of cells: 0.5 cm costs 2.1× as much as
+    // 0.75 cm.
     double cell_m = 0.005;
     // Cells per side of a tile, the unit of parallel work and of view selection.
     int tile_cells = 32;

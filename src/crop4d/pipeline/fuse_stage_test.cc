@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "crop4d/eval/workspace_eval.h"
@@ -77,6 +78,28 @@ class FusionStagesTest : public ::testing::Test {
       if (c.label == label) return &c;
     }
     return nullptr;
+  }
+
+  // Associates every other image (half the time, the same kind of result) with the robust method.
+  std::vector<PassPairReport> Associate(const std::string& field) {
+    AssociateStageOptions ao;
+    ao.show_progress = false;
+    ao.image_pairs.stride = 2;
+    return RunAssociateStage(field, workspace_, ao);
+  }
+
+  // The median cross-session ground misalignment of a cloud set of the workspace (NaN, and a
+  // failure, when it was not evaluated).
+  double MedianMisalignment(const std::string& field, const std::string& label) {
+    eval::WorkspaceEvalOptions eo;
+    eo.associations = false;
+    const eval::CloudSetEval* clouds =
+        Clouds(eval::EvaluateWorkspace(workspace_, field, eo), label);
+    if (clouds == nullptr) {
+      ADD_FAILURE() << "no " << label << " clouds evaluated";
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+    return clouds->misalignment.pooled.median_m;
   }
 
   std::string workspace_;
@@ -154,10 +177,7 @@ TEST_F(FusionStagesTest, RtkAssociationIsPreciseAndFusionKeepsTheAccuracy) {
 
 TEST_F(FusionStagesTest, LowAccuracyGpsSessionsAreRegisteredByAssociation) {
   Slam("cam+imu+gps");
-  AssociateStageOptions ao;
-  ao.show_progress = false;
-  ao.image_pairs.stride = 2;
-  const std::vector<PassPairReport> reports = RunAssociateStage(Field(), workspace_, ao);
+  const std::vector<PassPairReport> reports = Associate(Field());
   int prealigned = 0;
   for (const PassPairReport& r : reports) prealigned += r.prealigned ? 1 : 0;
   EXPECT_GE(prealigned, 3);  // at least the cross-session pairs
@@ -165,26 +185,15 @@ TEST_F(FusionStagesTest, LowAccuracyGpsSessionsAreRegisteredByAssociation) {
   fo.show_progress = false;
   const FuseReport fused = RunFuseStage(Field(), workspace_, fo);
   EXPECT_GE(fused.joint.num_passes_aligned, 1);
-
-  eval::WorkspaceEvalOptions eo;
-  eo.associations = false;
-  const eval::WorkspaceEval e = eval::EvaluateWorkspace(workspace_, Field(), eo);
-  const eval::CloudSetEval* row_slam = Clouds(e, "row_slam");
-  const eval::CloudSetEval* after = Clouds(e, "fused");
-  ASSERT_NE(row_slam, nullptr);
-  ASSERT_NE(after, nullptr);
   // Each session sits where its biased receiver put it; after fusion the ground of the two
   // sessions agrees to the 5 cm.
-  EXPECT_GT(row_slam->misalignment.pooled.median_m, 0.1);
-  EXPECT_LT(after->misalignment.pooled.median_m, 0.05);
+  EXPECT_GT(MedianMisalignment(Field(), "row_slam"), 0.1);
+  EXPECT_LT(MedianMisalignment(Field(), "fused"), 0.05);
 }
 
 TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) {
   Slam("cam+imu+gps", RainField());
-  AssociateStageOptions ao;
-  ao.show_progress = false;
-  ao.image_pairs.stride = 2;
-  RunAssociateStage(RainField(), workspace_, ao);
+  Associate(RainField());
   FuseStageOptions fo;
   fo.show_progress = false;
   const FuseReport fused = RunFuseStage(RainField(), workspace_, fo);
@@ -197,22 +206,13 @@ TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) 
   EXPECT_EQ(fused.joint.num_ground_ties,
             fused.tie_pairs[0].ties.ties + fused.tie_pairs[1].ties.ties);
   EXPECT_LT(fused.joint.ground_tie_rms_vertical_m, 0.03);
-
-  eval::WorkspaceEvalOptions eo;
-  eo.associations = false;
-  const eval::WorkspaceEval with_ties = eval::EvaluateWorkspace(workspace_, RainField(), eo);
+  EXPECT_LT(MedianMisalignment(RainField(), "fused"), 0.05);
   // Without the ties the receivers' errors stay between the two dates.
   fo.ground_ties = false;
   fo.force = true;
   const FuseReport apart = RunFuseStage(RainField(), workspace_, fo);
   EXPECT_EQ(apart.joint.num_ground_ties, 0);
-  const eval::WorkspaceEval without = eval::EvaluateWorkspace(workspace_, RainField(), eo);
-  const eval::CloudSetEval* tied = Clouds(with_ties, "fused");
-  const eval::CloudSetEval* untied = Clouds(without, "fused");
-  ASSERT_NE(tied, nullptr);
-  ASSERT_NE(untied, nullptr);
-  EXPECT_GT(untied->misalignment.pooled.median_m, 0.1);
-  EXPECT_LT(tied->misalignment.pooled.median_m, 0.05);
+  EXPECT_GT(MedianMisalignment(RainField(), "fused"), 0.1);
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
 #include "crop4d/analysis/plants.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <opencv2/imgproc.hpp>
 
 #include "crop4d/core/error.h"
@@ -10,7 +12,8 @@ namespace crop4d::analysis {
 
 bool PlantDetectionOptions::Check() const {
   return cell_m > 0.0 && min_cells >= 1 && max_area_m2 > 0.0 && top_fraction > 0.0 &&
-         top_fraction <= 1.0 && min_spacing_m >= 0.0;
+         top_fraction <= 1.0 && min_spacing_m >= 0.0 && min_prominence_m >= 0.0 &&
+         min_prominence_fraction >= 0.0;
 }
 
 std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
@@ -43,32 +46,108 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
   cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
                    cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
   cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
-  std::vector<float> top(n, 0.0f);
+  cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+
+  // Peaks: two young plants whose leaves touch make one island, and its one stem would lose the
+  // smaller plant. Each island is split at its saddles by topological persistence: the cells,
+  // highest first, join the components of their already visited neighbours; where two
+  // components meet, the one with the lower peak ends there, and it stays a plant of its own
+  // when its peak rises at least the prominence (see PlantDetectionOptions) above that saddle.
+  // Cells the closing filled take the highest of their neighbours, so that a gap in the cloud is
+  // no saddle.
+  cv::Mat filled;
+  cv::dilate(height, filled, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+  std::vector<int> order;
   for (int r = 0; r < rows; ++r) {
-    const int* lr = labels.ptr<int>(r);
-    const float* hr = height.ptr<float>(r);
-    for (int c = 0; c < cols; ++c) top[lr[c]] = std::max(top[lr[c]], hr[c]);
-  }
-  std::vector<Eigen::Vector3d> sums(n, Eigen::Vector3d::Zero());  // x, y, count of top cells
-  for (int r = 0; r < rows; ++r) {
-    const int* lr = labels.ptr<int>(r);
-    const float* hr = height.ptr<float>(r);
+    const std::uint8_t* mr = mask.ptr<std::uint8_t>(r);
     for (int c = 0; c < cols; ++c) {
-      const int l = lr[c];
-      if (l == 0 || hr[c] < o.top_fraction * top[l]) continue;
-      sums[l] += Eigen::Vector3d(c + 0.5, r + 0.5, 1.0);
+      if (mr[c] == 0) continue;
+      if (height.at<float>(r, c) > 0.0f) filled.at<float>(r, c) = height.at<float>(r, c);
+      order.push_back(r * cols + c);
+    }
+  }
+  const auto value = [&](int k) { return filled.at<float>(k / cols, k % cols); };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return value(a) > value(b); });
+  // Peaks are numbered as they appear. owner: the peak whose component a cell joined (−1: not
+  // visited); parent: union-find over peaks; merged_into: where an insignificant peak's cells go.
+  cv::Mat owner(rows, cols, CV_32S, cv::Scalar(-1));
+  std::vector<int> parent, merged_into, first_cell;
+  std::vector<char> significant;
+  const auto find = [&](int a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  };
+  for (const int k : order) {
+    const int r = k / cols, c = k % cols;
+    std::array<int, 8> roots{};
+    int num_roots = 0, best = -1;
+    for (int dr = -1; dr <= 1; ++dr) {
+      for (int dc = -1; dc <= 1; ++dc) {
+        const int rr = r + dr, cc = c + dc;
+        if ((dr == 0 && dc == 0) || rr < 0 || cc < 0 || rr >= rows || cc >= cols) continue;
+        const int peak = owner.at<int>(rr, cc);
+        if (peak < 0) continue;
+        const int root = find(peak);
+        if (std::find(roots.begin(), roots.begin() + num_roots, root) !=
+            roots.begin() + num_roots) {
+          continue;
+        }
+        roots[num_roots++] = root;
+        if (best < 0 || value(first_cell[root]) > value(first_cell[best])) best = root;
+      }
+    }
+    if (best < 0) {  // a new peak
+      owner.at<int>(r, c) = static_cast<int>(parent.size());
+      parent.push_back(static_cast<int>(parent.size()));
+      merged_into.push_back(-1);
+      first_cell.push_back(k);
+      significant.push_back(1);
+      continue;
+    }
+    const float saddle = value(k);
+    for (int i = 0; i < num_roots; ++i) {
+      const int root = roots[i];
+      if (root == best) continue;
+      const float peak = value(first_cell[root]);
+      if (peak - saddle < std::max(o.min_prominence_m, o.min_prominence_fraction * peak)) {
+        significant[root] = 0;
+        merged_into[root] = best;
+      }
+      parent[root] = best;
+    }
+    owner.at<int>(r, c) = best;
+  }
+
+  struct Peak {
+    int island = 0;
+    int cells = 0;
+    Eigen::Vector3d sums = Eigen::Vector3d::Zero();  // x, y, count of top cells
+  };
+  std::vector<Peak> peaks(parent.size());
+  for (const int k : order) {
+    int p = owner.at<int>(k / cols, k % cols);
+    while (merged_into[p] >= 0) p = merged_into[p];  // the plant an insignificant peak is part of
+    Peak& peak = peaks[p];
+    peak.island = labels.at<int>(k / cols, k % cols);
+    ++peak.cells;
+    if (height.at<float>(k / cols, k % cols) >= o.top_fraction * value(first_cell[p])) {
+      peak.sums += Eigen::Vector3d(k % cols + 0.5, k / cols + 0.5, 1.0);
     }
   }
   const double cell_area = o.cell_m * o.cell_m;
-  for (int l = 1; l < n; ++l) {
-    const int cells = stats.at<int>(l, cv::CC_STAT_AREA);
-    if (cells < o.min_cells || cells * cell_area > o.max_area_m2 || sums[l].z() == 0) continue;
-    DetectedPlant p;
-    p.stem = area.min() + o.cell_m * sums[l].head<2>() / sums[l].z();
-    p.height_m = top[l];
-    p.area_m2 = cells * cell_area;
-    plants.push_back(p);
+  for (std::size_t p = 0; p < peaks.size(); ++p) {
+    const Peak& peak = peaks[p];
+    if (!significant[p]) continue;
+    const int island_cells = stats.at<int>(peak.island, cv::CC_STAT_AREA);
+    if (island_cells < o.min_cells || island_cells * cell_area > o.max_area_m2 ||
+        peak.cells < o.min_cells || peak.sums.z() == 0) {
+      continue;
+    }
+    DetectedPlant plant;
+    plant.stem = area.min() + o.cell_m * peak.sums.head<2>() / peak.sums.z();
+    plant.height_m = value(first_cell[p]);
+    plant.area_m2 = peak.cells * cell_area;
+    plants.push_back(plant);
   }
   // Largest islands first, then drop those within min_spacing_m of a kept one.
   std::sort(plants.begin(), plants.end(),

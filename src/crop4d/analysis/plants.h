@@ -3,12 +3,14 @@
 // Individual plants, "separated by colour" as in the paper (Dong et al. 2017, §V): early in the
 // season the plants are small islands of vegetation on bare soil. Each island of canopy cells
 // (vegetation at least CanopyOptions::min_height_m above the ground, binned into `cell_m` cells,
-// 8-connected after closing gaps of one cell) is one plant — two plants that touch count as one —
-// and its stem lies under its top: the centroid of the island's cells within `top_fraction` of
-// its highest. Later, when the canopy closes and islands merge, the stems found early keep
-// identifying the plants: a site's canopy height is then the mean over the plants whose stems lie
-// in the site of each plant's top (the highest canopy within `top_radius_m` of its stem) — what a
-// person with a ruler measures, plant by plant (analysis/canopy.h, CanopyTop::kPlantTops).
+// 8-connected after closing gaps of one cell) is a plant, and its stem lies under its top: the
+// centroid of the plant's cells within `top_fraction` of its highest. Two plants whose leaves
+// touch make one island; it is split at the saddle between their tops when the lower top rises
+// above it by the prominence (`min_prominence_m`, `min_prominence_fraction`). Later, when the
+// canopy closes and islands merge, the stems found early keep identifying the plants: a site's
+// canopy height is then the mean over the plants whose stems lie in the site of each plant's top
+// (the highest canopy within `top_radius_m` of its stem) — what a person with a ruler measures,
+// plant by plant (analysis/canopy.h, CanopyTop::kPlantTops).
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -21,12 +23,18 @@ namespace crop4d::analysis {
 struct PlantDetectionOptions {
   // Cell size of the vegetation mask, metres.
   double cell_m = 0.01;
-  // Smallest island that is a plant, in cells (noise and lone green points are not plants).
+  // Smallest island, and smallest plant split from one, in cells (noise and lone green points
+  // are not plants).
   int min_cells = 3;
   // Islands larger than this (m²) are a closed canopy, not one plant: not used for stems.
   double max_area_m2 = 0.09;
-  // The stem is the centroid of the island's cells at least this fraction of its top height.
+  // The stem is the centroid of the plant's cells at least this fraction of its top height.
   double top_fraction = 0.8;
+  // Two touching plants make one island; it is split at a saddle when the lower top rises at
+  // least this much above it, m (bench/RESULTS.md, crop analysis, "Update (session 14)")...
+  double min_prominence_m = 0.01;
+  // ...and at least this fraction of its own height.
+  double min_prominence_fraction = 0.15;
   // Stems closer than this are one plant (an island split in two by a gap in the cloud),
   // metres.
   double min_spacing_m = 0.08;
@@ -36,8 +44,8 @@ struct PlantDetectionOptions {
 
 struct DetectedPlant {
   Eigen::Vector2d stem = Eigen::Vector2d::Zero();  // ENU xy
-  double height_m = 0.0;                           // highest canopy of the island
-  double area_m2 = 0.0;                            // island area
+  double height_m = 0.0;                           // its top above the ground
+  double area_m2 = 0.0;                            // area of its canopy cells
 };
 
 // The plants of one session's cloud within `area`, heights above `ground`; plants closer than

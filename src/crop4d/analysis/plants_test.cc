@@ -79,6 +79,56 @@ TEST(DetectPlantsTest, NoiseAndClosedCanopiesAreNotPlants) {
   EXPECT_TRUE(DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{}).empty());
 }
 
+TEST(DetectPlantsTest, TouchingPlantsAreSplitAtTheirSaddle) {
+  // Two young plants 12 cm apart whose leaves overlap by 1 cm make one island of canopy; the
+  // lower one's top rises 3 cm above the saddle between them. Each keeps its own stem.
+  const std::vector<Eigen::Vector3d> plants = {{0.91, 0.80, 0.10}, {0.91, 0.92, 0.09}};
+  const SessionCloud cloud = Domes(plants, 0.065);
+  const Eigen::AlignedBox2d area(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2));
+  const std::vector<DetectedPlant> found =
+      DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{});
+  ASSERT_EQ(found.size(), 2u);
+  for (const Eigen::Vector3d& p : plants) {
+    const auto match = std::min_element(
+        found.begin(), found.end(), [&](const DetectedPlant& a, const DetectedPlant& b) {
+          return (a.stem - p.head<2>()).norm() < (b.stem - p.head<2>()).norm();
+        });
+    EXPECT_LT((match->stem - p.head<2>()).norm(), 0.01);
+    EXPECT_NEAR(match->height_m, p.z(), 0.003);
+  }
+  // Without the split (a prominence no saddle reaches), one island is one plant, at the taller.
+  PlantDetectionOptions whole;
+  whole.min_prominence_m = 1.0;
+  const std::vector<DetectedPlant> one = DetectPlants(cloud, Truth(), area, CanopyOptions{}, whole);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_NEAR(one[0].height_m, 0.10, 0.003);
+}
+
+TEST(DetectPlantsTest, ALowBumpOnAPlantIsNotAPlant) {
+  // A broad plant (12 cm radius, 10 cm tall) with a small leaf 9 cm from its stem (2 cm radius,
+  // 9.5 cm high). The leaf rises 1.2 cm above the saddle between them, less than 15 % of its
+  // height: one plant.
+  SessionCloud cloud = Domes({{0.91, 1.0, 0.10}}, 0.12);
+  const SessionCloud leaf = Domes({{0.91, 1.09, 0.095}}, 0.02);
+  for (std::size_t i = 0; i < leaf.points.size(); ++i) {
+    if (!leaf.is_vegetation[i]) continue;
+    cloud.points.push_back(leaf.points[i]);
+    cloud.colors.push_back(leaf.colors[i]);
+    cloud.is_vegetation.push_back(1);
+  }
+  const Eigen::AlignedBox2d area(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2));
+  const std::vector<DetectedPlant> found =
+      DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{});
+  ASSERT_EQ(found.size(), 1u);
+  EXPECT_LT((found[0].stem - Eigen::Vector2d(0.91, 1.0)).norm(), 0.01);
+  EXPECT_NEAR(found[0].height_m, 0.10, 0.003);
+  // With a prominence of 0.5 cm the leaf would pass for a second plant.
+  PlantDetectionOptions low;
+  low.min_prominence_m = 0.005;
+  low.min_prominence_fraction = 0.0;
+  EXPECT_EQ(DetectPlants(cloud, Truth(), area, CanopyOptions{}, low).size(), 2u);
+}
+
 TEST(MeasureSiteTest, PlantTopsAreTheMeanOfThePlantsInTheSite) {
   // Three plants in the site (0.08, 0.10, 0.12 m) and a taller one just outside it.
   const SessionCloud cloud =

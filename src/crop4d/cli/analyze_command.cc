@@ -124,6 +124,13 @@ RunFunction SetupAnalyze(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--plant-cell", o.plants.cell_m, "Cell of the plant detection mask, m")
       ->capture_default_str();
+  app.add_option("--plant-min-prominence", o.plants.min_prominence_m,
+                 "An island of canopy is split into two plants where the lower top rises at "
+                 "least this much above the saddle between them, m...")
+      ->capture_default_str();
+  app.add_option("--plant-min-prominence-fraction", o.plants.min_prominence_fraction,
+                 "...and at least this fraction of its own height")
+      ->capture_default_str();
   app.add_option("--crown-radius", o.canopy.crown_radius_m,
                  "crown-peaks: a crown top is the highest canopy within this radius, m")
       ->capture_default_str();

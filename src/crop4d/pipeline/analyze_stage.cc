@@ -32,7 +32,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 // Bump when the stage's outputs change for the same inputs and options.
-constexpr int kAnalyzeStageRevision = 1;
+constexpr int kAnalyzeStageRevision = 2;  // 2: touching plants split at their saddles
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 json OptionsJson(const AnalyzeStageOptions& o) {
@@ -69,7 +69,9 @@ json OptionsJson(const AnalyzeStageOptions& o) {
             {"min_cells", o.plants.min_cells},
             {"max_area_m2", o.plants.max_area_m2},
             {"top_fraction", o.plants.top_fraction},
-            {"min_spacing_m", o.plants.min_spacing_m}}},
+            {"min_spacing_m", o.plants.min_spacing_m},
+            {"min_prominence_m", o.plants.min_prominence_m},
+            {"min_prominence_fraction", o.plants.min_prominence_fraction}}},
           {"plane",
            {{"inlier_threshold_m", o.plane.inlier_threshold_m},
             {"iterations", o.plane.iterations},

@@ -59,14 +59,17 @@ const char* CanopyTopName(CanopyTop top) {
 bool CanopyOptions::Check() const {
   return min_height_m >= 0.0 && min_height_any_colour_m >= min_height_m && cell_m > 0.0 &&
          crown_radius_m >= 0.0 && top_radius_m >= 0.0 && plant_top_quantile >= 0.0 &&
-         plant_top_quantile <= 1.0 && min_peak_fraction >= 0.0 && min_peak_fraction <= 1.0 &&
-         top_quantile > 0.0 && top_quantile <= 1.0 && min_canopy_cells >= 1;
+         plant_top_quantile <= 1.0 && std::isfinite(max_shrink_m) && min_peak_fraction >= 0.0 &&
+         min_peak_fraction <= 1.0 && top_quantile > 0.0 && top_quantile <= 1.0 &&
+         min_canopy_cells >= 1;
 }
 
 SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
                        const io::Site& site, const CanopyOptions& o,
-                       const std::vector<Eigen::Vector2d>* stems) {
+                       const std::vector<Eigen::Vector2d>* stems,
+                       const std::vector<double>* max_tops) {
   CROP4D_CHECK(o.Check());
+  CROP4D_CHECK(max_tops == nullptr || (stems != nullptr && max_tops->size() == stems->size()));
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
   SiteCanopy result;
   const double radius = site.radius_m;
@@ -133,7 +136,9 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
     const int r_cells = static_cast<int>(std::ceil(o.top_radius_m / o.cell_m)) + 1;
     double sum = 0.0;
     std::vector<float> near;
-    for (const Eigen::Vector2d& stem : *stems) {
+    result.plant_tops.assign(stems->size(), kNaN);
+    for (std::size_t n = 0; n < stems->size(); ++n) {
+      const Eigen::Vector2d& stem = (*stems)[n];
       if ((stem - site.center_enu).norm() > radius) continue;
       const int k0 = cells.Index(stem.x(), stem.y());
       if (k0 < 0) continue;
@@ -149,11 +154,21 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
         }
       }
       if (near.empty()) continue;  // the plant is not seen in this cloud
+      const double bound = max_tops != nullptr ? (*max_tops)[n] : kNaN;
+      if (std::isfinite(bound)) {
+        const auto above =
+            std::partition(near.begin(), near.end(), [&](float h) { return h <= bound; });
+        if (above != near.begin() && above != near.end()) {
+          near.erase(above, near.end());
+          ++result.n_lowered;
+        }
+      }
       const auto nth =
           near.begin() +
           static_cast<std::ptrdiff_t>(std::floor(o.plant_top_quantile * (near.size() - 1) + 0.5));
       std::nth_element(near.begin(), nth, near.end());
       sum += *nth;
+      result.plant_tops[n] = *nth;
       ++result.n_peaks;
     }
     if (result.n_peaks > 0) {

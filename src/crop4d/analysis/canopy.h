@@ -81,6 +81,12 @@ struct CanopyOptions {
   // kPlantTops: 1 takes the highest cell. Lower values discount one noisy cell, but the top of a
   // plant covers few cells of a dense cloud (0.9: 37 mm RMSE on the demo against 18 mm).
   double plant_top_quantile = 1.0;
+  // kPlantTops, across sessions: plants grow, so a plant's top is searched no higher than its top
+  // in the next session plus this, m (negative: off). A false match that floats above a plant in
+  // one session is then not taken for its top. Where a crop really shrinks between sessions
+  // (lodging after a storm, wilting), set it to that loss or turn it off. On six fields only one
+  // site/session changed, with 3 or 5 cm: bench/RESULTS.md, crop analysis, "Update (session 14)".
+  double max_shrink_m = 0.05;
   // kCrownPeaks: a crown top is the highest canopy within this radius, metres (about half the
   // distance between neighbouring plants' tops).
   double crown_radius_m = 0.08;
@@ -103,14 +109,21 @@ struct SiteCanopy {
   int n_cells = 0;         // cells with points within the site
   int n_canopy_cells = 0;  // of which canopy
   int n_peaks = 0;         // plant tops (kPlantTops) or crown tops (kCrownPeaks) averaged
+  int n_lowered = 0;       // plant tops lowered to their bound (max_tops)
   std::string note;        // why there is no height, empty otherwise
+  // kPlantTops with stems: each stem's top, in the order of the stems (NaN: outside the site or
+  // not seen).
+  std::vector<double> plant_tops;
 };
 
 // Measures one site of one session's cloud above `ground`; `stems` (ENU xy, any extent; may be
-// null) are the plants' stems for kPlantTops.
+// null) are the plants' stems for kPlantTops. `max_tops` (null, or one per stem; NaN: none)
+// bounds each plant's top above the ground: canopy cells above it are left out of the plant's
+// top unless no other cell remains (see CanopyOptions::max_shrink_m).
 SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
                        const io::Site& site, const CanopyOptions& options,
-                       const std::vector<Eigen::Vector2d>* stems = nullptr);
+                       const std::vector<Eigen::Vector2d>* stems = nullptr,
+                       const std::vector<double>* max_tops = nullptr);
 
 // The canopy height model of a session over `num_cells` raster cells, `cell_of` giving the cell
 // of an ENU xy (−1 outside the raster): per cell the highest canopy point above `ground`, 0 where

@@ -152,5 +152,37 @@ TEST(MeasureSiteTest, PlantTopsAreTheMeanOfThePlantsInTheSite) {
   EXPECT_NEAR(peaks.height_m, 0.10, 0.01);
 }
 
+TEST(MeasureSiteTest, AFalseMatchAboveAPlantIsBoundedByItsTopInTheNextSession) {
+  // Two plants, 10 and 12 cm tall; five points of a false match float 15 cm above the first.
+  SessionCloud cloud = Domes({{0.91, 0.9, 0.10}, {0.91, 1.1, 0.12}}, 0.05);
+  for (int i = 0; i < 5; ++i) {
+    const double x = 0.92 + 0.005 * i, y = 0.91;
+    cloud.points.emplace_back(x, y, BedHeight(x, y) + 0.25);
+    cloud.colors.push_back({70, 100, 50});
+    cloud.is_vegetation.push_back(1);
+  }
+  io::Site site;
+  site.center_enu = {0.91, 1.0};
+  site.radius_m = 0.35;
+  const std::vector<Eigen::Vector2d> stems = {{0.91, 0.9}, {0.91, 1.1}};
+  const SiteCanopy alone = MeasureSite(cloud, Truth(), site, CanopyOptions{}, &stems);
+  EXPECT_NEAR(alone.height_m, (0.25 + 0.12) / 2, 0.003);
+  EXPECT_EQ(alone.n_lowered, 0);
+  // The next session's tops (13 and 15 cm) bound these ones (with CanopyOptions::max_shrink_m):
+  // the false match is left out, the second plant is below its bound anyway.
+  const std::vector<double> bounds = {0.13 + 0.05, 0.15 + 0.05};
+  const SiteCanopy bounded = MeasureSite(cloud, Truth(), site, CanopyOptions{}, &stems, &bounds);
+  EXPECT_NEAR(bounded.height_m, (0.10 + 0.12) / 2, 0.003);
+  EXPECT_EQ(bounded.n_lowered, 1);
+  ASSERT_EQ(bounded.plant_tops.size(), 2u);
+  EXPECT_NEAR(bounded.plant_tops[0], 0.10, 0.003);
+  EXPECT_NEAR(bounded.plant_tops[1], 0.12, 0.003);
+  // A bound below every cell of a plant leaves it as it is (the later session lost its top).
+  const std::vector<double> below = {0.04, std::nan("")};
+  const SiteCanopy kept = MeasureSite(cloud, Truth(), site, CanopyOptions{}, &stems, &below);
+  EXPECT_NEAR(kept.plant_tops[0], 0.25, 0.003);
+  EXPECT_EQ(kept.n_lowered, 0);
+}
+
 }  // namespace
 }  // namespace crop4d::analysis

@@ -119,6 +119,10 @@ RunFunction SetupAnalyze(CLI::App& app) {
   app.add_option("--plant-top-quantile", o.canopy.plant_top_quantile,
                  "plant-tops: quantile of the canopy cells within --top-radius that is the top")
       ->capture_default_str();
+  app.add_option("--max-shrink", o.canopy.max_shrink_m,
+                 "plant-tops: a plant's top is searched no higher than its top in the next "
+                 "session plus this, m (plants grow; negative: off)")
+      ->capture_default_str();
   app.add_option("--plant-min-cells", o.plants.min_cells,
                  "Smallest island of canopy that is a plant, in cells of --plant-cell")
       ->capture_default_str();

@@ -32,7 +32,7 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 // Bump when the stage's outputs change for the same inputs and options.
-constexpr int kAnalyzeStageRevision = 2;  // 2: touching plants split at their saddles
+constexpr int kAnalyzeStageRevision = 3;  // 2: touching plants split; 3: tops bounded by the next
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 json OptionsJson(const AnalyzeStageOptions& o) {
@@ -60,6 +60,7 @@ json OptionsJson(const AnalyzeStageOptions& o) {
             {"top", analysis::CanopyTopName(o.canopy.top)},
             {"top_radius_m", o.canopy.top_radius_m},
             {"plant_top_quantile", o.canopy.plant_top_quantile},
+            {"max_shrink_m", o.canopy.max_shrink_m},
             {"crown_radius_m", o.canopy.crown_radius_m},
             {"min_peak_fraction", o.canopy.min_peak_fraction},
             {"top_quantile", o.canopy.top_quantile},
@@ -416,16 +417,28 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
         if ((p.stem - site.center_enu).norm() <= site.radius_m) stems.push_back(p.stem);
       }
     }
-    for (std::size_t k = 0; k < clouds.size(); ++k) {
+    // Latest session first: each plant's top bounds its top in the session before (plants grow;
+    // CanopyOptions::max_shrink_m). The paper's method measures every session alone.
+    std::vector<double> max_tops(stems.size(), kNaN);
+    for (std::size_t k = clouds.size(); k-- > 0;) {
       SiteResult& r = report.sites[i * clouds.size() + k];
       r.site_id = site.id;
       r.session = inputs[k].id;
       r.date = inputs[k].date;
-      r.ours = analysis::MeasureSite(clouds[k], dtm_ground, site, options.canopy, &stems);
+      r.ours = analysis::MeasureSite(clouds[k], dtm_ground, site, options.canopy, &stems,
+                                     options.canopy.max_shrink_m >= 0 ? &max_tops : nullptr);
+      for (std::size_t n = 0; n < stems.size() && !r.ours.plant_tops.empty(); ++n) {
+        if (std::isfinite(r.ours.plant_tops[n])) {
+          max_tops[n] = r.ours.plant_tops[n] + options.canopy.max_shrink_m;
+        }
+      }
       r.single_plane = analysis::MeasureSite(clouds[k], plane_ground, site, options.canopy, &stems);
       if (!plane) r.single_plane.note = "no ground plane at the site";
     }
   });
+  for (std::size_t n = 0; n < report.sites.size(); ++n) {
+    report.sessions[n % clouds.size()].plant_tops_lowered += report.sites[n].ours.n_lowered;
+  }
 
   // 4. Growth: days since the first session.
   const Timestamp day0 = inputs.front().date;
@@ -510,6 +523,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
          {"dense", r.dense},
          {"points", r.points},
          {"plants", r.plants},
+         {"plant_tops_lowered", r.plant_tops_lowered},
          {"vegetation_fraction",
           static_cast<double>(r.vegetation.num_vegetation) / std::max<std::size_t>(1, r.points)},
          {"vegetation_threshold", r.vegetation.threshold},

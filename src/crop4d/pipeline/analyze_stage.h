@@ -75,8 +75,9 @@ struct AnalyzeSessionReport {
   Timestamp date = 0;
   std::string cloud_path;  // the cloud analysed
   bool dense = false;
-  std::size_t points = 0;                         // within the analysed area
-  std::size_t plants = 0;                         // plants found (analysis/plants.h)
+  std::size_t points = 0;              // within the analysed area
+  std::size_t plants = 0;              // plants found (analysis/plants.h)
+  std::size_t plant_tops_lowered = 0;  // tops bounded by the next session's (max_shrink_m)
   analysis::VegetationClassification vegetation;  // `index` and flags cleared after use
 };
 

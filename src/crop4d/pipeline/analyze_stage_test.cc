@@ -212,6 +212,56 @@ TEST_F(AnalyzeStageTest, HeightsMatchTheTruthOnTwoWorlds) {
   }
 }
 
+TEST_F(AnalyzeStageTest, AFalseMatchAboveAPlantIsNotItsTop) {
+  // The true clouds, and in the third session a false match of 3 × 3 points (1 cm²) floating
+  // above one plant of site r1y4, 10 cm above the plant's top in the last session. That top
+  // bounds the plant's top in the sessions before (CanopyOptions::max_shrink_m, 5 cm).
+  const sim::World world(SmallWorld(3));
+  WriteTruthWorkspace(world, field_, workspace_);
+  const Eigen::Vector2d center(world.RowX(1), 4.5);
+  const sim::Plant* plant = nullptr;
+  for (const sim::Plant& p : world.plants()) {
+    if (plant == nullptr || (p.xy - center).norm() < (plant->xy - center).norm()) plant = &p;
+  }
+  ASSERT_LT((plant->xy - center).norm(), 0.3);
+  const std::string id = kSessions[2];
+  Timestamp date = 0, last = 0;
+  ASSERT_TRUE(ParseDate(id, &date));
+  ASSERT_TRUE(ParseDate(kSessions[3], &last));
+  const std::string ply = workspace_ + "/dense/" + id + ".ply";
+  io::PlyPointCloud cloud = io::ReadPly(ply);
+  const double top =
+      world.TerrainHeight(plant->xy.x(), plant->xy.y()) + world.StateAt(*plant, last).height_m;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      cloud.points.emplace_back(plant->xy.x() + 0.01 + 0.005 * i, plant->xy.y() + 0.005 * j,
+                                top + 0.10);
+      cloud.colors.push_back({70, 110, 50});
+    }
+  }
+  io::WritePly(ply, cloud);
+  const double truth = world.TrueCanopyHeight(center, 0.4, date);
+  const auto error_at_site = [&](const AnalyzeReport& report) {
+    for (const SiteResult& r : report.sites) {
+      if (r.site_id == "r1y4" && r.session == id) return r.ours.height_m - truth;
+    }
+    ADD_FAILURE() << "no result for r1y4 on " << id;
+    return std::nan("");
+  };
+  AnalyzeStageOptions options;
+  options.write_plots = false;
+  options.write_rasters = false;
+  const AnalyzeReport bounded = RunAnalyzeStage(field_, workspace_, options);
+  EXPECT_LT(std::abs(error_at_site(bounded)), 0.02);
+  ASSERT_EQ(bounded.sessions.size(), 4u);
+  EXPECT_GE(bounded.sessions[2].plant_tops_lowered, 1u);
+  // Each session alone takes the false match for the plant's top.
+  options.canopy.max_shrink_m = -1;
+  const AnalyzeReport alone = RunAnalyzeStage(field_, workspace_, options);
+  EXPECT_GT(error_at_site(alone), 0.025);
+  EXPECT_EQ(alone.sessions[2].plant_tops_lowered, 0u);
+}
+
 TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   const sim::World world(SmallWorld(5));
   WriteTruthWorkspace(world, field_, workspace_);

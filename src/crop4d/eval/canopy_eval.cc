@@ -323,6 +323,17 @@ bool EvaluateWorkspaceCanopy(const std::string& workspace, const std::string& fi
     m.file = file;
     eval->methods.push_back(std::move(m));
   }
+  PlantEvalOptions plant_options;
+  plant_options.max_top_error_m = options.max_error_m;
+  plant_options.sessions = options.sessions;
+  PlantEval plants;
+  try {
+    if (EvaluateSitePlants(workspace, field, plant_options, &plants, &eval->plants_skipped)) {
+      eval->plants = std::move(plants);
+    }
+  } catch (const InputError& e) {
+    eval->plants_skipped = e.what();
+  }
   return true;
 }
 
@@ -406,6 +417,11 @@ std::string FormatCanopyTable(const CanopyEval& eval, int max_listed) {
       out += fmt::format("{}: {} estimate rows without truth (ignored)\n", m.method,
                          m.num_without_truth);
     }
+  }
+  if (eval.plants) {
+    out += FormatPlantTable(*eval.plants);
+  } else if (!eval.plants_skipped.empty()) {
+    out += "plants of the sites: not evaluated, " + eval.plants_skipped + "\n";
   }
   return out;
 }

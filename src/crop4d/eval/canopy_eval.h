@@ -19,8 +19,11 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
+
+#include "crop4d/eval/plant_eval.h"
 
 namespace crop4d::eval {
 
@@ -113,19 +116,26 @@ struct CanopyEval {
   std::string truth_file;  // relative to the field: ground_truth/site_truth.csv
   CanopyEvalOptions options;
   std::vector<CanopyMethodEval> methods;  // "ours", then "single_plane" when its file exists
+  // The plants of the sites (WS/analysis/site_plants.csv, plant_eval.h; tops judged by
+  // options.max_error_m), when the file and the true plants are there...
+  std::optional<PlantEval> plants;
+  // ...else why not (one line).
+  std::string plants_skipped;
 };
 
 // Evaluates WS/analysis/site_heights.csv ("ours") and, when it exists,
 // WS/analysis/site_heights_single_plane.csv ("single_plane") against
 // FIELD/ground_truth/site_truth.csv. Returns false with `why` set (one line) when
 // site_heights.csv or the truth file does not exist: the section is skipped. A malformed
-// estimate file is that method's error; a malformed truth file is every method's error.
+// estimate file is that method's error; a malformed truth file is every method's error. The
+// plants of the sites are evaluated too (EvaluateSitePlants); a malformed file skips them with
+// the error in plants_skipped.
 bool EvaluateWorkspaceCanopy(const std::string& workspace, const std::string& field,
                              const CanopyEvalOptions& options, CanopyEval* eval, std::string* why);
 
 // A table for people: per method pairs, missing, RMSE, bias, MAE, worst pair and the failure
 // count; the failures (up to `max_listed` per method); then one line per session and method
-// (n, missing, RMSE, bias, max |error|).
+// (n, missing, RMSE, bias, max |error|); then the plants of the sites (FormatPlantTable).
 std::string FormatCanopyTable(const CanopyEval& eval, int max_listed = 10);
 
 }  // namespace crop4d::eval

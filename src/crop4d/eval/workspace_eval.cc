@@ -395,6 +395,35 @@ json CanopyJson(const CanopyEval& canopy) {
     item["pairs"] = std::move(pairs);
     j[m.method] = std::move(item);
   }
+  if (canopy.plants) {
+    const PlantEval& p = *canopy.plants;
+    const auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+    json sites = json::array();
+    for (const SitePlantCounts& c : p.sites) {
+      sites.push_back({{"site_id", c.site_id},
+                       {"true", c.num_true},
+                       {"found", c.num_found},
+                       {"matched", c.num_matched}});
+    }
+    j["plants"] = {{"file", p.file},
+                   {"truth_session", p.truth_session},
+                   {"max_stem_offset_m", p.options.max_stem_offset_m},
+                   {"true", p.num_true},
+                   {"found", p.num_found},
+                   {"matched", p.num_matched},
+                   {"recall", number(p.recall)},
+                   {"precision", number(p.precision)},
+                   {"median_stem_offset_m", number(p.median_stem_offset_m)},
+                   {"tops", p.num_tops},
+                   {"top_rmse_m", number(p.top_rmse_m)},
+                   {"top_bias_m", number(p.top_bias_m)},
+                   {"top_failures", p.num_top_failures},
+                   {"sites_unknown", p.num_sites_unknown},
+                   {"sites", std::move(sites)}};
+  } else {
+    j["plants"] = nullptr;
+    j["plants_skipped"] = canopy.plants_skipped;
+  }
   return j;
 }
 

@@ -166,6 +166,21 @@ void WriteSiteCsv(const fs::path& path, const std::vector<SiteResult>& results, 
   io::WriteFileAtomic(path.string(), text);
 }
 
+// The plants of each site and their tops: one row per plant and session, in the order of
+// `results` (site-major); an empty top_m where the plant was not seen (or, with another
+// --canopy-top than plant-tops, not measured).
+void WriteSitePlantsCsv(const fs::path& path, const std::vector<SiteResult>& results) {
+  std::string text = "site_id,plant,x_m,y_m,session,date,top_m\n";
+  for (const SiteResult& r : results) {
+    for (std::size_t n = 0; n < r.stems.size(); ++n) {
+      const double top = n < r.ours.plant_tops.size() ? r.ours.plant_tops[n] : kNaN;
+      text += fmt::format("{},{},{:.3f},{:.3f},{},{},{}\n", r.site_id, n + 1, r.stems[n].x(),
+                          r.stems[n].y(), r.session, FormatDate(r.date), Fixed(top, 4));
+    }
+  }
+  io::WriteFileAtomic(path.string(), text);
+}
+
 void WriteGrowthCsv(const fs::path& path, const std::vector<SiteGrowth>& growth,
                     const std::vector<SessionInput>& sessions, Timestamp day0) {
   std::string text =
@@ -425,6 +440,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
       r.site_id = site.id;
       r.session = inputs[k].id;
       r.date = inputs[k].date;
+      r.stems = stems;
       r.ours = analysis::MeasureSite(clouds[k], dtm_ground, site, options.canopy, &stems,
                                      options.canopy.max_shrink_m >= 0 ? &max_tops : nullptr);
       for (std::size_t n = 0; n < stems.size() && !r.ours.plant_tops.empty(); ++n) {
@@ -455,9 +471,10 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   fs::create_directories(out);
   WriteSiteCsv(out / "site_heights.csv", report.sites, true);
   WriteSiteCsv(out / "site_heights_single_plane.csv", report.sites, false);
+  WriteSitePlantsCsv(out / "site_plants.csv", report.sites);
   WriteGrowthCsv(out / "growth.csv", report.growth, inputs, day0);
   report.outputs = {"analysis/site_heights.csv", "analysis/site_heights_single_plane.csv",
-                    "analysis/growth.csv"};
+                    "analysis/site_plants.csv", "analysis/growth.csv"};
   if (options.write_rasters) {
     const io::FieldUtm utm(field.info().origin);
     const io::UtmGrid grid = utm.GridCovering(area, options.raster_cell_m);

@@ -87,6 +87,9 @@ struct SiteResult {
   Timestamp date = 0;
   analysis::SiteCanopy ours;          // above the DTM
   analysis::SiteCanopy single_plane;  // above the paper's plane
+  // The site's plants (stems, ENU xy; analysis/plants.h), the same in every session; their tops
+  // are ours.plant_tops.
+  std::vector<Eigen::Vector2d> stems;
 };
 
 struct SiteGrowth {

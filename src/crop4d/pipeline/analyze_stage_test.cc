@@ -14,6 +14,7 @@
 #include <random>
 
 #include "crop4d/core/error.h"
+#include "crop4d/eval/plant_eval.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/dataset_writer.h"
 #include "crop4d/io/geotiff.h"
@@ -300,6 +301,29 @@ TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   EXPECT_EQ(rows, 12);
   EXPECT_EQ(empty_heights, 8);
   EXPECT_TRUE(fs::exists(out / "site_heights_single_plane.csv"));
+  // site_plants.csv: the plants of site "row" (the others have none), each in every session,
+  // each within 6 cm of a true stem, and its top in the last session within 4 cm of the plant's
+  // true height.
+  const std::vector<eval::SitePlantRow> plants =
+      eval::ReadSitePlants((out / "site_plants.csv").string());
+  ASSERT_FALSE(plants.empty());
+  EXPECT_EQ(plants.size() % 4, 0u);
+  Timestamp last_date = 0;
+  ASSERT_TRUE(ParseDate("2016-07-13", &last_date));
+  for (const eval::SitePlantRow& p : plants) {
+    EXPECT_EQ(p.site_id, "row");
+    const sim::Plant* nearest = nullptr;
+    for (const sim::Plant& q : world.plants()) {
+      if (nearest == nullptr || (q.xy - Eigen::Vector2d(p.x_m, p.y_m)).norm() <
+                                    (nearest->xy - Eigen::Vector2d(p.x_m, p.y_m)).norm()) {
+        nearest = &q;
+      }
+    }
+    EXPECT_LT((nearest->xy - Eigen::Vector2d(p.x_m, p.y_m)).norm(), 0.06) << p.plant;
+    if (p.session == "2016-07-13") {
+      EXPECT_NEAR(p.top_m, world.StateAt(*nearest, last_date).height_m, 0.04) << p.plant;
+    }
+  }
   EXPECT_TRUE(fs::exists(out / "growth.csv"));
   EXPECT_TRUE(fs::exists(out / "plots" / "heights.png"));
   EXPECT_TRUE(fs::exists(out / "plots" / "height_row.png"));

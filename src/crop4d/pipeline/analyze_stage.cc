@@ -452,8 +452,31 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
       if (!plane) r.single_plane.note = "no ground plane at the site";
     }
   });
+  std::vector<std::size_t> measured(clouds.size(), 0);  // plant tops per session
   for (std::size_t n = 0; n < report.sites.size(); ++n) {
     report.sessions[n % clouds.size()].plant_tops_lowered += report.sites[n].ours.n_lowered;
+    for (const double top : report.sites[n].ours.plant_tops) {
+      measured[n % clouds.size()] += std::isfinite(top) ? 1 : 0;
+    }
+  }
+  for (std::size_t k = 0; k + 1 < clouds.size(); ++k) {
+    const std::size_t lowered = report.sessions[k].plant_tops_lowered;
+    if (lowered == 0) continue;
+    // A few: points floating above single plants. Many: the crop itself was taller than in the
+    // next session (lodging, wilting), which the bound would hide.
+    const bool many = lowered >= 5 && lowered * 5 >= measured[k];
+    const std::string text = fmt::format(
+        "analyze: {}: {} of {} plant tops lowered to the plant's top on {} + {:g} cm "
+        "(--max-shrink){}",
+        inputs[k].id, lowered, measured[k], inputs[k + 1].id, 100.0 * options.canopy.max_shrink_m,
+        many ? "; so many that the crop may have lost height (lodging, wilting): if so, raise "
+               "--max-shrink or set it to -1"
+             : "");
+    if (many) {
+      spdlog::warn("{}", text);
+    } else {
+      spdlog::info("{}", text);
+    }
   }
 
   // 4. Growth: days since the first session.

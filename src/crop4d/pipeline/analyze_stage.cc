@@ -353,7 +353,8 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   fingerprint.AddString(fs::exists(measurements) ? FileHash(measurements) : "");
   const std::string stamp = std::to_string(fingerprint.hash());
   if (!options.force && SummaryFingerprint(out / "summary.json") == stamp &&
-      fs::exists(out / "site_heights.csv") && fs::exists(out / "growth.csv")) {
+      fs::exists(out / "site_heights.csv") && fs::exists(out / "site_plants.csv") &&
+      fs::exists(out / "growth.csv")) {
     spdlog::info("analyze: up to date, skipped (--force to analyse again)");
     report.skipped = true;
     report.sites = ReadSiteCsvs(out);

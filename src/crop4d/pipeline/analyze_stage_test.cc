@@ -363,6 +363,10 @@ TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   ASSERT_EQ(again.sites.size(), report.sites.size());
   EXPECT_NEAR(again.sites[0].ours.height_m, report.sites[0].ours.height_m, 1e-4);
   EXPECT_NE(FormatAnalyzeReport(again).find("up to date"), std::string::npos);
+  // A removed output: analysed again, and written again.
+  fs::remove(out / "site_plants.csv");
+  EXPECT_FALSE(RunAnalyzeStage(field_, workspace_, options).skipped);
+  EXPECT_TRUE(fs::exists(out / "site_plants.csv"));
   io::PlyPointCloud cloud = io::ReadPly(workspace_ + "/dense/2016-06-01.ply");
   cloud.points.resize(cloud.points.size() / 2);
   cloud.colors.resize(cloud.colors.size() / 2);

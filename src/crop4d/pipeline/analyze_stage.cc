@@ -471,7 +471,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
         "(--max-shrink){}",
         inputs[k].id, lowered, measured[k], inputs[k + 1].id, 100.0 * options.canopy.max_shrink_m,
         many ? "; so many that the crop may have lost height (lodging, wilting): if so, raise "
-               "--max-shrink or set it to -1"
+               "--max-shrink (analyze.max_shrink_m of crop4d run) or set it to -1"
              : "");
     if (many) {
       spdlog::warn("{}", text);

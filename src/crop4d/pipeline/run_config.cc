@@ -319,6 +319,14 @@ const std::vector<Key>& Keys() {
         "analyze", "plant_top_quantile", "quantile of a plant's canopy cells",
         [](RunConfig& c) -> double& { return c.analyze.canopy.plant_top_quantile; }, 0.0, 1.0));
     k.push_back(Double(
+        "analyze", "max_shrink_m",
+        "a plant's top is at most its top in the next session plus this (-1: off)",
+        [](RunConfig& c) -> double& { return c.analyze.canopy.max_shrink_m; }, -1.0, 10));
+    k.push_back(Double(
+        "analyze", "plant_min_prominence_m",
+        "touching plants are split where the lower top rises this much above the saddle",
+        [](RunConfig& c) -> double& { return c.analyze.plants.min_prominence_m; }, 0.0, 10));
+    k.push_back(Double(
         "analyze", "min_canopy_height_m", "vegetation this far above the terrain is canopy",
         [](RunConfig& c) -> double& { return c.analyze.canopy.min_height_m; }, 0.0, 10));
     k.push_back(Double(

@@ -52,7 +52,8 @@ TEST(RunConfigTest, KeysSetTheStageOptions) {
                                      "fuse: {linear_solver: exact, matches_per_image_pair: 0}\n"
                                      "densify: {cell_m: 0.01, max_views: 5}\n"
                                      "analyze: {canopy_top: crown-peaks, greenness: exgr, "
-                                     "sites: my_sites.csv}\n"
+                                     "sites: my_sites.csv, max_shrink_m: -1, "
+                                     "plant_min_prominence_m: 0.02}\n"
                                      "eval: {canopy_max_error_m: 0.03, associations: false}\n");
   EXPECT_EQ(c.threads, 2);
   EXPECT_FALSE(c.densify);
@@ -71,6 +72,8 @@ TEST(RunConfigTest, KeysSetTheStageOptions) {
   EXPECT_EQ(c.analyze.canopy.top, analysis::CanopyTop::kCrownPeaks);
   EXPECT_EQ(c.analyze.vegetation.index, analysis::GreennessIndex::kExGR);
   EXPECT_EQ(c.analyze.sites_file, "my_sites.csv");
+  EXPECT_DOUBLE_EQ(c.analyze.canopy.max_shrink_m, -1.0);
+  EXPECT_DOUBLE_EQ(c.analyze.plants.min_prominence_m, 0.02);
   EXPECT_DOUBLE_EQ(c.eval_options.canopy_options.max_error_m, 0.03);
   EXPECT_FALSE(c.eval_options.associations);
 }

@@ -382,6 +382,24 @@ Section Builder::EvalSection() {
                   srows, "lrrrrr"));
       }
     }
+    // The plants of the sites (analysis/site_plants.csv against the true stems).
+    if (const json* p = At(*c, {"plants"}); p != nullptr && p->is_object()) {
+      auto pmm = [&](const char* k) {
+        std::optional<double> v = Num(*p, {k});
+        return v ? std::optional<double>(1000 * *v) : std::nullopt;
+      };
+      s.html += "<h3>Plants of the sites</h3>\n";
+      s.html +=
+          Table({"true plants", "found", "recall", "listed", "precision", "median stem offset [mm]",
+                 "tops", "top RMSE [mm]", "top bias [mm]",
+                 fmt::format("tops off &gt; {:.0f} mm",
+                             1000 * Num(*c, {"options", "max_error_m"}).value_or(NAN))},
+                {{I(Num(*p, {"true"})), I(Num(*p, {"matched"})), Percent(Num(*p, {"recall"})),
+                  I(Num(*p, {"found"})), Percent(Num(*p, {"precision"})),
+                  F(pmm("median_stem_offset_m"), 1), I(Num(*p, {"tops"})), F(pmm("top_rmse_m"), 1),
+                  F(pmm("top_bias_m"), 1), I(Num(*p, {"top_failures"}))}},
+                "rrrrrrrrrr");
+    }
   }
   return s;
 }

@@ -138,7 +138,9 @@ void MakeWorkspace(const TempDir& dir) {
                 "canopy": {"options": {"max_error_m": 0.04}, "ours": {"file":
                 "analysis/site_heights.csv", "error": null, "num_pairs": 3, "rmse_m": 0.0213,
                 "bias_m": -0.011, "mae_m": 0.0157, "max_abs_error_m": 0.0508,
-                "num_failures": 1}}})");
+                "num_failures": 1}, "plants": {"true": 44, "found": 45, "matched": 42,
+                "recall": 0.9545, "precision": 0.9333, "median_stem_offset_m": 0.0177,
+                "tops": 168, "top_rmse_m": 0.0224, "top_bias_m": -0.0014, "top_failures": 13}}})");
   WriteText(ws + "/run.json",
             R"({"crop4d_version": "0.1.0", "field": "field", "workspace": "ws",
                 "started": "2016-07-20T10:00:00Z", "finished": "2016-07-20T10:30:00Z",
@@ -233,6 +235,9 @@ TEST(HtmlReportTest, ReportOfAHandWrittenWorkspace) {
   EXPECT_NE(html.find("2016-06-01 &rarr; 2016-06-15 [m/day]"), std::string::npos);
   EXPECT_NE(html.find("few points on 2016-06-01"), std::string::npos);
   EXPECT_NE(html.find(">21.3<"), std::string::npos);  // canopy RMSE in mm
+  EXPECT_NE(html.find("Plants of the sites"), std::string::npos);
+  EXPECT_NE(html.find(">95.5 %<"), std::string::npos) << "recall";
+  EXPECT_NE(html.find(">22.4<"), std::string::npos);  // plant top RMSE in mm
   // The load/error marker script.
   EXPECT_NE(html.find("data-report-loaded"), std::string::npos);
   EXPECT_NE(html.find("data-js-errors"), std::string::npos);

@@ -69,10 +69,10 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
   const auto value = [&](int k) { return filled.at<float>(k / cols, k % cols); };
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return value(a) > value(b); });
   // Peaks are numbered as they appear. owner: the peak whose component a cell joined (−1: not
-  // visited); parent: union-find over peaks; merged_into: where an insignificant peak's cells go.
+  // visited); parent: union-find over peaks; merged_into: where an insignificant peak's cells go
+  // (−1: the peak is a plant of its own).
   cv::Mat owner(rows, cols, CV_32S, cv::Scalar(-1));
   std::vector<int> parent, merged_into, first_cell;
-  std::vector<char> significant;
   const auto find = [&](int a) {
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
@@ -101,7 +101,6 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
       parent.push_back(static_cast<int>(parent.size()));
       merged_into.push_back(-1);
       first_cell.push_back(k);
-      significant.push_back(1);
       continue;
     }
     const float saddle = value(k);
@@ -110,7 +109,6 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
       if (root == best) continue;
       const float peak = value(first_cell[root]);
       if (peak - saddle < std::max(o.min_prominence_m, o.min_prominence_fraction * peak)) {
-        significant[root] = 0;
         merged_into[root] = best;
       }
       parent[root] = best;
@@ -137,7 +135,7 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
   const double cell_area = o.cell_m * o.cell_m;
   for (std::size_t p = 0; p < peaks.size(); ++p) {
     const Peak& peak = peaks[p];
-    if (!significant[p]) continue;
+    if (merged_into[p] >= 0) continue;  // part of another plant
     const int island_cells = stats.at<int>(peak.island, cv::CC_STAT_AREA);
     if (island_cells < o.min_cells || island_cells * cell_area > o.max_area_m2 ||
         peak.cells < o.min_cells || peak.sums.z() == 0) {
@@ -149,7 +147,7 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
     plant.area_m2 = peak.cells * cell_area;
     plants.push_back(plant);
   }
-  // Largest islands first, then drop those within min_spacing_m of a kept one.
+  // Largest plants first, then drop those within min_spacing_m of a kept one.
   std::sort(plants.begin(), plants.end(),
             [](const DetectedPlant& a, const DetectedPlant& b) { return a.area_m2 > b.area_m2; });
   std::vector<DetectedPlant> kept;

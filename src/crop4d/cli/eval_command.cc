@@ -182,6 +182,11 @@ RunFunction SetupEval(CLI::App& app) {
                  "most this many metres apart")
       ->capture_default_str()
       ->check(CLI::Range(1e-6, 1e3));
+  app.add_option("--near-depth", args->options.association.near_depth_m,
+                 "Also count the matches whose keypoint in the first image sees a point at most "
+                 "this many metres deep: the ground and crop near the vehicle")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-3, 1e3));
   app.add_option("--depth-edge", args->options.association.true_point.max_edge_m,
                  "A keypoint whose 3x3 pixels depart from one smooth surface by more than this "
                  "many metres sits on a depth edge: its true point is unknown")

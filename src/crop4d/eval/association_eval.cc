@@ -108,6 +108,11 @@ double MatchCounts::CoarsePrecision() const {
   return known > 0 ? static_cast<double>(within_coarse) / static_cast<double>(known) : kNaN;
 }
 
+double MatchCounts::NearPrecision() const {
+  return known_near > 0 ? static_cast<double>(correct_near) / static_cast<double>(known_near)
+                        : kNaN;
+}
+
 void MatchCounts::Add(const MatchCounts& o) {
   matches += o.matches;
   correct += o.correct;
@@ -117,11 +122,14 @@ void MatchCounts::Add(const MatchCounts& o) {
   unknown_no_surface += o.unknown_no_surface;
   unknown_depth_edge += o.unknown_depth_edge;
   within_coarse += o.within_coarse;
+  known_near += o.known_near;
+  correct_near += o.correct_near;
 }
 
 bool AssociationEvalOptions::Check() const {
   return std::isfinite(max_distance_m) && max_distance_m > 0.0 &&
-         std::isfinite(coarse_distance_m) && coarse_distance_m > 0.0 && true_point.Check();
+         std::isfinite(coarse_distance_m) && coarse_distance_m > 0.0 && near_depth_m > 0.0 &&
+         true_point.Check();
 }
 
 AssociationEval EvaluateAssociations(const std::vector<AssociationInput>& inputs,
@@ -236,8 +244,11 @@ AssociationEval EvaluateAssociations(const std::vector<AssociationInput>& inputs
       const double d = (ra.point_world - rb.point_world).norm();
       distances.push_back(d);
       if (d <= options.coarse_distance_m) ++f.counts.within_coarse;
+      const bool near = ra.depth_m <= options.near_depth_m;
+      if (near) ++f.counts.known_near;
       if (d <= options.max_distance_m) {
         ++f.counts.correct;
+        if (near) ++f.counts.correct_near;
       } else {
         ++f.counts.incorrect;
       }

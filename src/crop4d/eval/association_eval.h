@@ -11,6 +11,10 @@
 //   unknown    when either is unknown (no truth for the image, sky or outside the image, or a
 //              depth edge under the keypoint), counted apart and left out of the precision.
 // precision = correct / (correct + incorrect).
+// The known matches are also counted apart when keypoint a sees a point at most near_depth_m
+// deep (5 m): the ground and crop next to the vehicle, which is what registers the field. A
+// match on the distant tree line or the grass beyond the field may be correct to 2 cm, but a
+// half pixel there spans centimetres, so it places nothing in the field to the centimetre.
 //
 // Pairs of passes are grouped by type (ClassifyPair): two rows of one session driven in the
 // same or in opposite directions, two sessions, two sessions with rain in between (the soil
@@ -75,9 +79,15 @@ struct MatchCounts {
   // Known matches within AssociationEvalOptions::coarse_distance_m (5 cm): the incorrect ones
   // among them are near misses (keypoint localisation), the others gross errors.
   std::int64_t within_coarse = 0;
+  // Known matches (correct + incorrect) whose keypoint in image a sees a true point at most
+  // AssociationEvalOptions::near_depth_m deep, and the correct ones among them.
+  std::int64_t known_near = 0;
+  std::int64_t correct_near = 0;
 
   // correct / (correct + incorrect); NaN when both are 0.
   double Precision() const;
+  // correct_near / known_near; NaN when known_near is 0.
+  double NearPrecision() const;
   // within_coarse / (correct + incorrect); NaN when both are 0.
   double CoarsePrecision() const;
   void Add(const MatchCounts& other);
@@ -88,6 +98,10 @@ struct AssociationEvalOptions {
   double max_distance_m = 0.02;
   // A second, looser threshold reported beside it (MatchCounts::within_coarse), m.
   double coarse_distance_m = 0.05;
+  // Matches whose keypoint a sees a true point at most this deep (camera z) are also counted
+  // apart (MatchCounts::known_near, correct_near), m: the range of the robust method's
+  // landmarks (AssociateStageOptions::max_landmark_distance_m).
+  double near_depth_m = 5.0;
   TruePointOptions true_point;
 
   bool Check() const;

@@ -268,12 +268,46 @@ TEST_F(AssociationEvalTest, DepthEdgesAreUnknownAndTheThresholdIsAnOption) {
   EXPECT_EQ(eval.files[0].counts.incorrect, 0);
 }
 
+TEST_F(AssociationEvalTest, MatchesNearTheVehicleAreCountedApart) {
+  AssociationInput input =
+      Input("naive/d.bin", {"s1", "row00"}, {0, 1}, {"s2", "row00"}, {0, 1}, "naive");
+  // Seen from image s1/100 (1.5 m up, 35° down): y = 2.3 and 2.6 m lie under 3.5 m deep, y = 4 m
+  // beyond; one correct match at each, and a wrong one near.
+  for (const double y : {2.3, 2.6, 4.0}) {
+    const Eigen::Vector3d p(0.1, y, 0.0);
+    input.association.matches.push_back(Match("s1", 100, p, "s2", 100, p));
+  }
+  input.association.matches.push_back(
+      Match("s1", 100, Eigen::Vector3d(-0.2, 2.4, 0), "s2", 100, Eigen::Vector3d(0.1, 2.4, 0)));
+  AssociationEvalOptions options;
+  options.near_depth_m = 3.5;
+  const AssociationEval eval = EvaluateAssociations({input}, timeline_, truth_, options);
+  ASSERT_TRUE(eval.files[0].ok());
+  const MatchCounts& c = eval.files[0].counts;
+  EXPECT_EQ(c.correct, 3);
+  EXPECT_EQ(c.incorrect, 1);
+  EXPECT_EQ(c.known_near, 3);
+  EXPECT_EQ(c.correct_near, 2);
+  EXPECT_NEAR(c.NearPrecision(), 2.0 / 3.0, 1e-12);
+  // Pooled like the other counts.
+  ASSERT_EQ(eval.groups.size(), 1u);
+  EXPECT_EQ(eval.groups[0].counts.correct_near, 2);
+  EXPECT_EQ(eval.methods[0].counts.known_near, 3);
+  // Everything is near under a deep enough bound.
+  options.near_depth_m = 10.0;
+  EXPECT_EQ(EvaluateAssociations({input}, timeline_, truth_, options).files[0].counts.correct_near,
+            3);
+  options.near_depth_m = 0;
+  EXPECT_FALSE(options.Check());
+}
+
 TEST_F(AssociationEvalTest, NoInputGivesAnEmptyEvaluation) {
   const AssociationEval eval = EvaluateAssociations({}, timeline_, truth_);
   EXPECT_TRUE(eval.files.empty());
   EXPECT_TRUE(eval.groups.empty());
   EXPECT_EQ(eval.images, 0);
   EXPECT_TRUE(std::isnan(MatchCounts{}.Precision()));
+  EXPECT_TRUE(std::isnan(MatchCounts{}.NearPrecision()));
 }
 
 }  // namespace

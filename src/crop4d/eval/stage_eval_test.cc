@@ -263,6 +263,9 @@ TEST_F(StageEvalTest, EvaluatesAssociationsFusionAndClouds) {
   EXPECT_EQ(a["by_type"][0]["correct"], 3);
   EXPECT_DOUBLE_EQ(a["by_type"][0]["precision"].get<double>(), 0.75);
   EXPECT_EQ(a["by_type"][0]["within_coarse"], 3);  // the wrong one is 30 cm off
+  EXPECT_EQ(a["options"]["near_depth_m"], 5.0);
+  EXPECT_LE(a["by_type"][0]["correct_near"].get<int>(), 3);
+  EXPECT_LE(a["by_type"][0]["correct_near"].get<int>(), a["by_type"][0]["known_near"].get<int>());
   EXPECT_EQ(a["by_type"][1]["type"], "cross_session_after_rain");
   EXPECT_EQ(a["by_method"].size(), 2u);
   EXPECT_EQ(a["files"][1]["b"]["pass"], "row01");

@@ -148,6 +148,9 @@ json CountsJson(const MatchCounts& c, json j = json::object()) {
   j["precision"] = NumberOrNull(c.Precision());
   j["within_coarse"] = c.within_coarse;
   j["coarse_precision"] = NumberOrNull(c.CoarsePrecision());
+  j["known_near"] = c.known_near;
+  j["correct_near"] = c.correct_near;
+  j["near_precision"] = NumberOrNull(c.NearPrecision());
   return j;
 }
 
@@ -164,6 +167,7 @@ json AssociationSectionJson(const WorkspaceAssociationEval& section) {
   j["error"] = section.error.empty() ? json(nullptr) : json(section.error);
   j["options"] = {{"max_distance_m", e.options.max_distance_m},
                   {"coarse_distance_m", e.options.coarse_distance_m},
+                  {"near_depth_m", e.options.near_depth_m},
                   {"max_edge_m", e.options.true_point.max_edge_m},
                   {"max_depth_m", e.options.true_point.max_depth_m}};
   j["num_files"] = section.num_files;
@@ -866,26 +870,48 @@ std::string FormatAssociationTable(const WorkspaceAssociationEval& section) {
     return std::isfinite(value) ? fmt::format("{:.2f}", 100.0 * value) : std::string("-");
   };
   const std::string coarse = fmt::format("<={:g}cm %", 100.0 * e.options.coarse_distance_m);
+  const std::string near = fmt::format("<={:g}m", e.options.near_depth_m);
   const auto row = [&](const std::string& type, const std::string& method, const std::string& files,
                        const std::string& matches, const std::string& correct,
                        const std::string& incorrect, const std::string& unknown,
-                       const std::string& precision, const std::string& coarse_precision) {
-    out += fmt::format("{:<16}  {:<{}}  {:>5}  {:>8}  {:>8}  {:>9}  {:>8}  {:>11}  {:>10}\n", type,
-                       method, w_method, files, matches, correct, incorrect, unknown, precision,
-                       coarse_precision);
+                       const std::string& precision, const std::string& coarse_precision,
+                       const std::string& correct_near, const std::string& near_precision) {
+    out += fmt::format(
+        "{:<16}  {:<{}}  {:>5}  {:>8}  {:>8}  {:>9}  {:>8}  {:>11}  {:>10}  {:>12}  {:>10}\n", type,
+        method, w_method, files, matches, correct, incorrect, unknown, precision, coarse_precision,
+        correct_near, near_precision);
   };
   const auto line = [&](const std::string& type, const std::string& method, const MatchCounts& c,
                         int files) {
     row(type, method, std::to_string(files), std::to_string(c.matches), std::to_string(c.correct),
         std::to_string(c.incorrect), std::to_string(c.unknown), percent(c.Precision()),
-        percent(c.CoarsePrecision()));
+        percent(c.CoarsePrecision()), std::to_string(c.correct_near), percent(c.NearPrecision()));
   };
   row("pair type", "method", "files", "matches", "correct", "incorrect", "unknown", "precision %",
-      coarse);
+      coarse, "correct " + near, near + " prec %");
   for (const AssociationGroupEval& g : e.groups) {
     line(PairTypeLabel(g.type), g.method, g.counts, g.files);
   }
   for (const AssociationGroupEval& g : e.methods) line("all", g.method, g.counts, g.files);
+  // With both methods evaluated: how many more correct matches the robust method finds.
+  std::string ratios;
+  for (const AssociationGroupEval& r : e.groups) {
+    if (r.method != "robust") continue;
+    for (const AssociationGroupEval& n : e.groups) {
+      if (n.method != "naive" || n.type != r.type) continue;
+      const auto ratio = [](std::int64_t a, std::int64_t b) {
+        return b > 0 ? fmt::format("{:.2f}x", static_cast<double>(a) / static_cast<double>(b))
+                     : std::string("-");
+      };
+      ratios += fmt::format("  {}: {} ({} {})\n", PairTypeLabel(r.type),
+                            ratio(r.counts.correct, n.counts.correct),
+                            ratio(r.counts.correct_near, n.counts.correct_near), near);
+    }
+  }
+  if (!ratios.empty()) {
+    out += "correct matches, robust / naive (within " + near + " of the camera in brackets):\n" +
+           ratios;
+  }
   const DepthSourceStats& d = e.depth;
   out += fmt::format(
       "true depth of {} images: {} from the field, {} cached, {} rendered ({:.1f} s, {:.2f} s "

@@ -282,3 +282,31 @@ TEST(NaturalOrderTest, PassesSortNumerically) {
 
 }  // namespace
 }  // namespace crop4d::eval
+
+namespace crop4d::eval {
+namespace {
+
+TEST(AssociationTableTest, RatiosOfTheRobustToTheNaiveCorrectMatchesPerPairType) {
+  WorkspaceAssociationEval section;
+  section.num_files = 3;
+  const auto group = [](PairType type, const char* method, int correct, int correct_near) {
+    AssociationGroupEval g;
+    g.type = type;
+    g.method = method;
+    g.files = 1;
+    g.counts.matches = g.counts.correct = correct;
+    g.counts.known_near = g.counts.correct_near = correct_near;
+    return g;
+  };
+  section.eval.groups = {group(PairType::kCrossRowSameDirection, "robust", 30, 30),
+                         group(PairType::kCrossSession, "naive", 20, 8),
+                         group(PairType::kCrossSession, "robust", 50, 40)};
+  const std::string table = FormatAssociationTable(section);
+  // Only the type with both methods gets a ratio: 50 / 20 in all, 40 / 8 near the vehicle.
+  EXPECT_NE(table.find("session: 2.50x (5.00x <=5m)"), std::string::npos) << table;
+  EXPECT_EQ(table.find("row same dir: "), std::string::npos) << table;
+  EXPECT_NE(table.find("correct <=5m"), std::string::npos) << table;
+}
+
+}  // namespace
+}  // namespace crop4d::eval

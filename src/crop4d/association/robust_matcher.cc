@@ -157,11 +157,21 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
       continue;
     }
     ++stats.num_projected;
-    query.radius =
-        std::min(options_.max_search_radius_px,
-                 options_.min_search_radius_px +
-                     options_.search_sigmas * (focal_b * options_.sigma_position_m / point_b.z() +
-                                               focal_b * options_.sigma_rotation_rad));
+    // A point known only to σd along ray a moves in I2 by fx·σd·sin θ / z (θ between the rays).
+    double along_ray_px = 0;
+    if (observation.sigma_along_ray_m > 0) {
+      const Eigen::Vector3d ray_a =
+          (observation.position_world - input.world_from_camera_a.translation()).normalized();
+      const Eigen::Vector3d ray_b =
+          (observation.position_world - input.world_from_camera_b.translation()).normalized();
+      along_ray_px =
+          focal_b * observation.sigma_along_ray_m * ray_a.cross(ray_b).norm() / point_b.z();
+    }
+    query.radius = std::min(
+        options_.max_search_radius_px,
+        options_.min_search_radius_px +
+            options_.search_sigmas * (focal_b * options_.sigma_position_m / point_b.z() +
+                                      focal_b * options_.sigma_rotation_rad + along_ray_px));
     grid.Query(query.projection, query.radius, &query.candidates);
     if (query.candidates.empty()) continue;
     ++stats.num_with_candidates;

@@ -10,7 +10,10 @@
 //      the SLAM poses; only I2's features inside a square box around the projection are
 //      candidates. The box's half-size follows the pose uncertainty: a position error σp at
 //      depth z moves the projection by fx·σp/z pixels and a rotation error σr by fx·σr, so
-//        r = min_search_radius_px + search_sigmas · (fx·σp/z + fx·σr);
+//        r = min_search_radius_px + search_sigmas · (fx·σp/z + fx·σr + fx·σd·sin θ/z),
+//      where the last term is for a point known only to σd along I1's ray (a surface point,
+//      surface_points.h; 0 for a landmark): moved along that ray, it moves in I2 by fx·σd·sin θ/z,
+//      θ the angle between the rays of C1 and C2 to it;
 //   2. when the baseline between C1 and C2 exceeds 0.5 m, the landmark's descriptor is computed
 //      on I1 warped by the homography its local plane induces (plane_warp.h), the plane being
 //      fitted to the landmark's neighbours in L1 (local_planes.h); a poor fit falls back to the
@@ -56,8 +59,12 @@ struct LandmarkObservation {
   // The landmark's position, world frame.
   Eigen::Vector3d position_world = Eigen::Vector3d::Zero();
   // The landmark's id in pass a (its index into the pass's landmarks, and into LocalPlanes when
-  // those were built from the same positions).
+  // those were built from the same positions); −1 for a surface point (surface_points.h).
   std::int32_t landmark = -1;
+  // Uncertainty of the position along camera a's ray, m: 0 for a triangulated landmark, the
+  // local surface's depth spread for a surface point. The search box grows by the parallax it
+  // makes in I2.
+  double sigma_along_ray_m = 0;
 };
 
 // A match between feature `feature_a` of I1 and feature `feature_b` of I2.

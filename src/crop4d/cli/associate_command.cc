@@ -136,6 +136,14 @@ RunFunction SetupAssociate(CLI::App& app) {
   app.add_option("--max-landmark-distance", o.max_landmark_distance_m,
                  "Landmarks projected: at most this far from the camera, m")
       ->capture_default_str();
+  app.add_flag("!--no-surface-points", o.surface_points,
+               "Project only row-SLAM landmarks, not the other features of the image placed on "
+               "the local surface of the landmarks around them");
+  app.add_option("--surface-max-sigma", o.surface.max_sigma_m,
+                 "Surface points: the neighbouring landmarks may lie at most this far off the "
+                 "local plane (along the ray), m")
+      ->capture_default_str()
+      ->check(CLI::Range(0.001, 10.0));
   app.add_flag("--schedule", args->schedule_only, "Print the pass pairs and exit");
   app.add_option("--threads", o.num_threads, "Worker threads (0: all cores)")
       ->capture_default_str();

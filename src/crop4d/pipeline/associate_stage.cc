@@ -34,7 +34,7 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
-constexpr int kAssociateStageRevision = 3;
+constexpr int kAssociateStageRevision = 4;
 
 // A pass loaded for association: features, camera, image files, the landmarks seen in each
 // image, and (for a pass that projects its landmarks) the local planes of its cloud.
@@ -124,6 +124,14 @@ json OptionsJson(const AssociateStageOptions& o, const std::string& method) {
     j["alignment_inlier_threshold_m"] = o.alignment.inlier_threshold_m;
     j["min_track_length"] = o.min_track_length;
     j["max_landmark_distance_m"] = o.max_landmark_distance_m;
+    j["surface_points"] = o.surface_points;
+    if (o.surface_points) {
+      j["surface_neighbors"] = o.surface.num_neighbors;
+      j["surface_max_pixel_distance_px"] = o.surface.max_pixel_distance_px;
+      j["surface_min_sigma_m"] = o.surface.min_sigma_m;
+      j["surface_max_sigma_m"] = o.surface.max_sigma_m;
+      j["surface_min_incidence_cos"] = o.surface.min_incidence_cos;
+    }
     j["min_search_radius_px"] = r.min_search_radius_px;
     j["search_sigmas"] = r.search_sigmas;
     j["sigma_position_m"] = r.sigma_position_m;
@@ -233,6 +241,7 @@ std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::st
     report.skipped = true;
     report.image_pairs = s.value("image_pairs", 0);
     report.landmarks = s.value("landmarks", 0);
+    report.surface_points = s.value("surface_points", 0);
     report.projected = s.value("projected", 0);
     report.candidates = s.value("candidates", 0);
     report.warped = s.value("warped", 0);
@@ -291,6 +300,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
   const std::vector<association::ImagePair> image_pairs = association::SelectImagePairs(
       a.data.poses, poses_b, a.camera, b.camera, a.ground_z, options.image_pairs);
   std::vector<association::AssociationResult> results(image_pairs.size());
+  std::vector<std::int64_t> surface_counts(image_pairs.size(), 0);
   association::RobustMatcher matcher(robust);
   InArena(options.num_threads, [&] {
     tbb::parallel_for(std::size_t{0}, image_pairs.size(), [&](std::size_t k) {
@@ -313,6 +323,16 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
           near.push_back(l);
         }
       }
+      std::int64_t num_surface = 0;
+      if (options.surface_points && a.planes != nullptr) {
+        association::SurfacePointOptions surface = options.surface;
+        surface.max_range_m = options.max_landmark_distance_m;
+        const std::vector<association::LandmarkObservation> points = association::SurfacePoints(
+            a.camera, a.data.poses[ia], fa, a.landmarks_per_image[ia], *a.planes, surface);
+        num_surface = static_cast<std::int64_t>(points.size());
+        near.insert(near.end(), points.begin(), points.end());
+      }
+      surface_counts[k] = num_surface;
       input.landmarks_a = &near;
       input.planes = a.planes.get();
       input.camera_b = &b.camera;
@@ -341,6 +361,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
     const association::AssociationStats& s = results[k].stats;
     report.landmarks += s.num_landmarks;
     report.projected += s.num_projected;
+    report.surface_points += surface_counts[k];
     report.candidates += s.num_candidates;
     report.warped += s.num_warped;
     report.putative += s.num_putative;
@@ -373,6 +394,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
                         {"method", method},
                         {"image_pairs", report.image_pairs},
                         {"landmarks", report.landmarks},
+                        {"surface_points", report.surface_points},
                         {"projected", report.projected},
                         {"candidates", report.candidates},
                         {"warped", report.warped},
@@ -409,7 +431,8 @@ bool AssociateStageOptions::Check() const {
          (prealign == "auto" || prealign == "always" || prealign == "never") &&
          prealign_stride >= 1 && prealign_radius_m > 0 && prealigned_sigma_position_m > 0 &&
          imprecise_sigma_position_m > 0 && alignment.Check() && image_pairs.Check() &&
-         min_track_length >= 2 && max_landmark_distance_m > 0 && robust.Check() && naive.Check() &&
+         min_track_length >= 2 && max_landmark_distance_m > 0 &&
+         (!surface_points || surface.Check()) && robust.Check() && naive.Check() &&
          num_threads >= 0;
 }
 

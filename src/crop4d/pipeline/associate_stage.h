@@ -25,6 +25,7 @@
 #include "crop4d/association/association_file.h"
 #include "crop4d/association/footprint.h"
 #include "crop4d/association/robust_matcher.h"
+#include "crop4d/association/surface_points.h"
 #include "crop4d/features/matcher.h"
 #include "crop4d/fusion/pass_alignment.h"
 
@@ -70,6 +71,12 @@ struct AssociateStageOptions {
   // precision at 2 cm from 96% to 90%).
   int min_track_length = 2;
   double max_landmark_distance_m = 5.0;
+  // The features of I1 that are no landmark are projected too, placed on the local surface of
+  // the landmarks around them (association/surface_points.h; its max_range_m is
+  // max_landmark_distance_m): the paper's search is otherwise limited to the features that row
+  // SLAM tracked.
+  bool surface_points = true;
+  association::SurfacePointOptions surface;
   association::RobustMatcher::Options robust;
   features::PairMatcher::Options naive;
   // Pre-alignment of pass b onto pass a before the robust search, for poses that a metre-level
@@ -107,6 +114,8 @@ struct PassPairReport {
   // Sums over the image pairs (association::AssociationStats).
   std::int64_t landmarks = 0;
   std::int64_t projected = 0;
+  // Surface points among the landmarks (association/surface_points.h).
+  std::int64_t surface_points = 0;
   std::int64_t candidates = 0;
   std::int64_t warped = 0;
   std::int64_t putative = 0;

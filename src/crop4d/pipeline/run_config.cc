@@ -221,6 +221,10 @@ const std::vector<Key>& Keys() {
         "associate", "max_landmark_distance_m",
         "landmarks projected up to this distance from the camera",
         [](RunConfig& c) -> double& { return c.associate.max_landmark_distance_m; }, 0.1, kHuge));
+    k.push_back(Bool("associate", "surface_points",
+                     "also project the features that are no landmark, placed on the local "
+                     "surface of the landmarks around them",
+                     [](RunConfig& c) -> bool& { return c.associate.surface_points; }));
 
     k.push_back(Word("fuse", "method", "the associations used: robust or naive",
                      {"robust", "naive"},

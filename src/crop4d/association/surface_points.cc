@@ -25,7 +25,7 @@ std::vector<LandmarkObservation> SurfacePoints(const geometry::PinholeRadTan& ca
   std::vector<LandmarkObservation> out;
   if (landmarks.empty()) return out;
   std::vector<bool> has_landmark(features.size(), false);
-  // The landmarks that can place a feature: finite, in front of the camera.
+  // The landmarks that can place a feature: those with a finite position.
   struct Anchor {
     Eigen::Vector2d pixel;
     const LandmarkObservation* landmark;
@@ -43,8 +43,8 @@ std::vector<LandmarkObservation> SurfacePoints(const geometry::PinholeRadTan& ca
   const int k = std::min<int>(options.num_neighbors, static_cast<int>(anchors.size()));
   if (k == 0) return out;
   const double max_d2 = options.max_pixel_distance_px * options.max_pixel_distance_px;
-  // The k nearest anchors by brute force: an image has at most a few thousand features and a
-  // few hundred landmarks, well under a millisecond per image.
+  // The k nearest anchors by brute force: an image has about a thousand features and a few
+  // hundred landmarks, so well under a million squared distances per image.
   std::array<std::pair<double, int>, 16> nearest;
   for (std::size_t f = 0; f < features.size(); ++f) {
     if (has_landmark[f]) continue;

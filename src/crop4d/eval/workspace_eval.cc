@@ -909,7 +909,10 @@ std::string FormatAssociationTable(const WorkspaceAssociationEval& section) {
     }
   }
   if (!ratios.empty()) {
-    out += "correct matches, robust / naive (within " + near + " of the camera in brackets):\n" +
+    out += fmt::format(
+               "correct matches, robust / naive (in brackets: those at most {:g} m deep in the "
+               "first image):\n",
+               e.options.near_depth_m) +
            ratios;
   }
   const DepthSourceStats& d = e.depth;

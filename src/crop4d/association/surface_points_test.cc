@@ -7,24 +7,12 @@
 #include <memory>
 
 #include "crop4d/association/association_test_util.h"
+#include "crop4d/eval/quantile.h"  // header only
 
 namespace crop4d::association {
 namespace {
 
 using testing::kDegree;
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return std::nan("");
-  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
-  return values[values.size() / 2];
-}
-
-double Quantile(std::vector<double> values, double q) {
-  if (values.empty()) return std::nan("");
-  const std::size_t k = static_cast<std::size_t>(q * (values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[k];
-}
 
 // ---------------------------------------------------------------------------------------------
 // A step in hand-made geometry: a camera 2 m above the edge of a 0.5 m slab, looking straight
@@ -165,8 +153,8 @@ TEST(SurfacePointsTest, FeaturesWithoutALandmarkLandOnTheGround) {
   }
   // Most of the other ground features within 5 m get a point (two landmarks to one).
   EXPECT_GT(points.size(), s.landmarks.size());
-  EXPECT_LT(Median(errors), 0.01);
-  EXPECT_LT(Quantile(errors, 0.95), 0.04);
+  EXPECT_LT(eval::Quantile(&errors, 0.5), 0.01);
+  EXPECT_LT(eval::Quantile(&errors, 0.95), 0.04);
   EXPECT_GT(covered, static_cast<int>(points.size()) * 95 / 100);
 }
 

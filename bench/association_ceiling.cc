@@ -6,16 +6,15 @@
 // For every pair of passes with association files under WS/associations/{robust,naive}/, and for
 // every image pair that either method matched, each keypoint of both images gets its true 3D
 // point (eval/truth_geometry.h: the simulator's depth at the true pose, as `crop4d eval`). The
-// ceiling is the largest one-to-one set of keypoint pairs whose true points lie within 2 cm
-// (greedy by distance, which is exact here: within 2 cm a keypoint has at most one partner in
-// practice); "near" counts those whose keypoint of image 1 sees a point at most 5 m deep. Two
+// ceiling counts the keypoints of image 1 that have a keypoint of image 2 within 2 cm: every
+// correct match uses one of them, once, so no method that keeps one match per keypoint of image
+// 1 (both of ours) can find more; "near" counts those that see a point at most 5 m deep. Two
 // keypoints can also lie within 2 cm by chance, without seeing the same texture (after rain the
 // soil is new): the same count with image 2's true points shifted by 10 cm east estimates that
 // share (the ground is nearly flat at that scale, so the shifted points still lie on it).
 //
 // Usage: association_ceiling WS FIELD [DEPTH_CACHE]   (DEPTH_CACHE as `crop4d eval --depth-cache`)
 
-#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -34,8 +33,8 @@ namespace {
 namespace fs = std::filesystem;
 using namespace crop4d;
 
-constexpr double kMaxDistanceM = 0.02;
-constexpr double kNearDepthM = 5.0;
+// The match distance (2 cm) and the near depth (5 m) of `crop4d eval`.
+const eval::AssociationEvalOptions kOptions;
 
 struct Counts {
   long long image_pairs = 0;
@@ -61,8 +60,8 @@ std::vector<KeypointTruth> TruePoints(eval::TruthGeometry& truth, const std::str
     return out;
   }
   for (std::size_t i = 0; i < features.size(); ++i) {
-    const eval::TruePointResult r =
-        eval::TruePointInImage(depth, camera, world_from_camera, features.Point(i), {});
+    const eval::TruePointResult r = eval::TruePointInImage(depth, camera, world_from_camera,
+                                                           features.Point(i), kOptions.true_point);
     out[i] = {r.ok(), r.point_world, r.depth_m};
   }
   return out;
@@ -135,28 +134,22 @@ int main(int argc, char** argv) {
           TruePoints(truth, a.session, a.times[ia], a.features[ia]);
       const std::vector<KeypointTruth> tb =
           TruePoints(truth, b.session, b.times[ib], b.features[ib]);
-      // Every keypoint pair within 2 cm, then one-to-one by distance; the near ones counted.
-      const auto one_to_one = [&](const Eigen::Vector3d& shift, long long* all, long long* near) {
-        std::vector<std::tuple<double, int, int>> close;
+      // The keypoints of image 1 with a partner in image 2 within the match distance: each can
+      // be the correct side of one match at most, so no one-to-one matcher finds more.
+      const auto with_partner = [&](const Eigen::Vector3d& shift, long long* all, long long* near) {
         for (std::size_t i = 0; i < ta.size(); ++i) {
           if (!ta[i].ok) continue;
           for (std::size_t j = 0; j < tb.size(); ++j) {
-            if (!tb[j].ok) continue;
-            const double d = (ta[i].point - tb[j].point - shift).norm();
-            if (d <= kMaxDistanceM) close.emplace_back(d, static_cast<int>(i), static_cast<int>(j));
+            if (tb[j].ok && (ta[i].point - tb[j].point - shift).norm() <= kOptions.max_distance_m) {
+              if (all != nullptr) ++*all;
+              if (ta[i].depth <= kOptions.near_depth_m) ++*near;
+              break;
+            }
           }
         }
-        std::sort(close.begin(), close.end());
-        std::vector<bool> used_a(ta.size(), false), used_b(tb.size(), false);
-        for (const auto& [d, i, j] : close) {
-          if (used_a[i] || used_b[j]) continue;
-          used_a[i] = used_b[j] = true;
-          if (all != nullptr) ++*all;
-          if (ta[i].depth <= kNearDepthM) ++*near;
-        }
       };
-      one_to_one(Eigen::Vector3d::Zero(), &counts.ceiling, &counts.ceiling_near);
-      one_to_one(Eigen::Vector3d(0.1, 0, 0), nullptr, &counts.chance_near);
+      with_partner(Eigen::Vector3d::Zero(), &counts.ceiling, &counts.ceiling_near);
+      with_partner(Eigen::Vector3d(0.1, 0, 0), nullptr, &counts.chance_near);
       ++counts.image_pairs;
       for (const auto& [method, file] : files) {
         std::array<long long, 2>& c = counts.correct[method];
@@ -164,9 +157,9 @@ int main(int argc, char** argv) {
           if (m.image_a != ia || m.image_b != ib) continue;
           const KeypointTruth& pa = ta[m.feature_a];
           const KeypointTruth& pb = tb[m.feature_b];
-          if (!pa.ok || !pb.ok || (pa.point - pb.point).norm() > kMaxDistanceM) continue;
+          if (!pa.ok || !pb.ok || (pa.point - pb.point).norm() > kOptions.max_distance_m) continue;
           ++c[0];
-          if (pa.depth <= kNearDepthM) ++c[1];
+          if (pa.depth <= kOptions.near_depth_m) ++c[1];
         }
       }
     }
@@ -175,7 +168,8 @@ int main(int argc, char** argv) {
   }
 
   std::printf(
-      "| pair type | image pairs | keypoint pairs within 2 cm (within 5 m) | by chance within 5 m "
+      "| pair type | image pairs | keypoints with a partner within 2 cm (within 5 m) | by chance "
+      "within 5 m "
       "| naive correct (within 5 m) | robust correct (within 5 m) | naive, robust share of the "
       "ceiling within 5 m |\n|---|---|---|---|---|---|---|\n");
   for (const auto& [type, c] : by_type) {

@@ -114,9 +114,18 @@ PlaneTransfer::PlaneTransfer(const geometry::PinholeRadTan& camera_a,
   b_from_a_ = camera_b_from_camera_a.RotationMatrix() +
               camera_b_from_camera_a.translation() * normal_over_offset_.transpose();
   a_from_b_ = b_from_a_.inverse();
+  // One camera at one pose: every plane maps each pixel onto itself, and the lens model need not
+  // be undone and redone (ComputeUprightDescriptors describes I2's own keypoints this way).
+  identity_ = &camera_a == &camera_b &&
+              camera_b_from_camera_a.RotationMatrix() == Eigen::Matrix3d::Identity() &&
+              camera_b_from_camera_a.translation() == Eigen::Vector3d::Zero();
 }
 
 bool PlaneTransfer::AToB(const Eigen::Vector2d& pixel_a, Eigen::Vector2d* pixel_b) const {
+  if (identity_) {
+    *pixel_b = pixel_a;
+    return true;
+  }
   Eigen::Vector3d ray_a;
   if (!camera_a_->Unproject(pixel_a, &ray_a)) return false;
   // The plane point is Y_a = λ ray_a with 1/λ = (n/d)ᵀ ray_a; it lies in front of camera a when
@@ -126,6 +135,10 @@ bool PlaneTransfer::AToB(const Eigen::Vector2d& pixel_a, Eigen::Vector2d* pixel_
 }
 
 bool PlaneTransfer::BToA(const Eigen::Vector2d& pixel_b, Eigen::Vector2d* pixel_a) const {
+  if (identity_) {
+    *pixel_a = pixel_b;
+    return true;
+  }
   Eigen::Vector3d ray_b;
   if (!camera_b_->Unproject(pixel_b, &ray_b)) return false;
   // Y_b = μ ray_b and Y_a = μ H⁻¹ ray_b, with 1/μ = (n/d)ᵀ H⁻¹ ray_b from the plane equation.
@@ -243,7 +256,9 @@ std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input
     if (!(det > 1.0 / options.max_area_change && det < options.max_area_change)) continue;
     const double size_b = keypoint.size * std::sqrt(det);
     double angle_b = keypoint.angle;
-    if (keypoint.angle >= 0) {
+    if (options.upright) {
+      angle_b = 0;
+    } else if (keypoint.angle >= 0) {
       const double theta = keypoint.angle * std::numbers::pi / 180.0;
       const Eigen::Vector2d gradient =
           jacobian.inverse().transpose() * Eigen::Vector2d(std::cos(theta), std::sin(theta));
@@ -304,6 +319,35 @@ std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input
   }
   batch.Flush(descriptors);
   return warped;
+}
+
+std::vector<bool> ComputeUprightDescriptors(const geometry::PinholeRadTan& camera,
+                                            const features::FeatureSet& features,
+                                            const cv::Mat& image,
+                                            const std::vector<std::int32_t>& indices,
+                                            const PlaneWarpOptions& options,
+                                            std::vector<std::uint8_t>* descriptors) {
+  // The identity transfer: both cameras the same, through the plane z = 1 of the camera's frame
+  // (any plane in front of it gives H = I; only the lens model is undone and redone).
+  std::vector<WarpRequest> requests(indices.size());
+  for (std::size_t k = 0; k < indices.size(); ++k) {
+    requests[k].feature = indices[k];
+    requests[k].normal_in_a = Eigen::Vector3d::UnitZ();
+    requests[k].offset = 1.0;
+  }
+  PlaneWarpInput input;
+  input.camera_a = &camera;
+  input.camera_b = &camera;
+  input.camera_b_from_camera_a = geometry::Rigid3::Identity();
+  input.features_a = &features;
+  input.image_a = &image;
+  PlaneWarpOptions upright = options;
+  upright.upright = true;
+  const std::vector<WarpedKeypoint> described =
+      ComputeWarpedDescriptors(input, requests, upright, descriptors);
+  std::vector<bool> valid(indices.size());
+  for (std::size_t k = 0; k < indices.size(); ++k) valid[k] = described[k].valid;
+  return valid;
 }
 
 }  // namespace crop4d::association

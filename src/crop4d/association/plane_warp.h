@@ -75,6 +75,7 @@ class PlaneTransfer {
                                         // when (n/d)ᵀY = 1
   Eigen::Matrix3d b_from_a_;
   Eigen::Matrix3d a_from_b_;
+  bool identity_ = false;  // the same camera at the same pose: pixels map onto themselves
 };
 
 struct PlaneWarpOptions {
@@ -95,6 +96,13 @@ struct PlaneWarpOptions {
   double max_area_change = 16.0;
   // Coarsest level of I1's Gaussian pyramid used for sampling.
   int max_pyramid_level = 5;
+  // Describe every patch at angle 0 of I2's pixel grid ("upright") instead of at the transferred
+  // orientation of I1's keypoint. The warp already brings I1's neighbourhood into I2's frame, so
+  // the descriptor needs no rotation invariance; what SIFT's orientation assignment adds is its
+  // instability: the dominant gradient direction of a blob-like keypoint flips between peaks of
+  // similar height from one image to the other. Upright descriptors are compared with upright
+  // descriptors of I2's keypoints (ComputeUprightDescriptors).
+  bool upright = false;
 
   bool Check() const;
 };
@@ -134,5 +142,18 @@ std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input
                                                      const std::vector<WarpRequest>& requests,
                                                      const PlaneWarpOptions& options,
                                                      std::vector<std::uint8_t>* descriptors);
+
+// Descriptors of keypoints `indices` of an image at angle 0 of its own pixel grid, at their own
+// position and size, computed exactly as the warped ones (the same patches, blur and SIFT
+// instance, through the identity transfer), so that an upright warped descriptor of I1 and an
+// upright descriptor of I2 differ only by what the images show. Row k of `descriptors` belongs to
+// indices[k]; the returned flags say which were described (a keypoint whose patch cannot be
+// built has a zero row and false).
+std::vector<bool> ComputeUprightDescriptors(const geometry::PinholeRadTan& camera,
+                                            const features::FeatureSet& features,
+                                            const cv::Mat& image,
+                                            const std::vector<std::int32_t>& indices,
+                                            const PlaneWarpOptions& options,
+                                            std::vector<std::uint8_t>* descriptors);
 
 }  // namespace crop4d::association

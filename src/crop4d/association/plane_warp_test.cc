@@ -69,6 +69,28 @@ TEST(PlaneTransferTest, AgreesWithProjectingThePlanePoint) {
   EXPECT_FALSE(transfer.AToB({320, 0}, &pixel_b));
 }
 
+// One camera at one pose: every pixel maps onto itself, exactly, also outside the image (where a
+// patch near the border reads); another camera object with the same parameters takes the lens
+// model's round trip and agrees to its precision.
+TEST(PlaneTransferTest, TheSameCameraAtTheSamePoseMapsPixelsOntoThemselves) {
+  const geometry::PinholeRadTan camera = testing::DemoCamera();
+  const geometry::PinholeRadTan copy = camera;
+  const PlaneTransfer identity(camera, camera, geometry::Rigid3::Identity(),
+                               Eigen::Vector3d(0.1, -0.2, 1.0), 2.0);
+  const PlaneTransfer round_trip(camera, copy, geometry::Rigid3::Identity(),
+                                 Eigen::Vector3d(0.1, -0.2, 1.0), 2.0);
+  for (const Eigen::Vector2d pixel : {Eigen::Vector2d(0.25, 0.75), Eigen::Vector2d(320, 240),
+                                      Eigen::Vector2d(639.5, 479.5), Eigen::Vector2d(-20, 500)}) {
+    Eigen::Vector2d out, approx;
+    ASSERT_TRUE(identity.AToB(pixel, &out));
+    EXPECT_EQ(out, pixel);
+    ASSERT_TRUE(identity.BToA(pixel, &out));
+    EXPECT_EQ(out, pixel);
+    ASSERT_TRUE(round_trip.AToB(pixel, &approx));
+    EXPECT_LT((approx - pixel).norm(), 1e-6);
+  }
+}
+
 class PlaneWarpTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -188,6 +210,76 @@ TEST_F(PlaneWarpTest, WarpedDescriptorsMatchBetterUnderALargeViewpointChange) {
   EXPECT_LT(Median(position_errors), 1.0);  // the transfer lands on the true feature
   EXPECT_LT(Median(warped_distances), 0.75 * Median(unwarped_distances));
   EXPECT_GT(better, n * 7 / 10);
+}
+
+// Upright: after the warp, I1's patch is described at angle 0 of I2's grid, and so is I2's
+// keypoint. Where SIFT gave the two keypoints orientations far apart (a blob whose gradient
+// histogram has two peaks of similar height), their cached descriptors describe different
+// rotations of the same patch; upright, they describe the same one.
+TEST_F(PlaneWarpTest, UprightDescriptorsMatchWhereTheOrientationsDisagree) {
+  std::vector<WarpRequest> requests;
+  std::vector<std::int32_t> truth;
+  const geometry::Rigid3 b_from_world = view_b_->world_from_camera.Inverse();
+  for (const WarpRequest& request : GroundRequests(*view_a_)) {
+    const auto ground = testing::GroundPoint(*camera_, view_a_->world_from_camera,
+                                             view_a_->features.Point(request.feature), 5.0);
+    Eigen::Vector2d pixel_b;
+    if (!camera_->Project(b_from_world * *ground, &pixel_b)) continue;
+    for (std::size_t j = 0; j < view_b_->features.size(); ++j) {
+      if ((view_b_->features.Point(j) - pixel_b).norm() < 1.5) {
+        requests.push_back(request);
+        truth.push_back(static_cast<std::int32_t>(j));
+        break;
+      }
+    }
+  }
+  ASSERT_GT(requests.size(), 300u);
+  PlaneWarpInput input;
+  input.camera_a = camera_;
+  input.camera_b = camera_;
+  input.camera_b_from_camera_a = b_from_world * view_a_->world_from_camera;
+  input.features_a = &view_a_->features;
+  input.image_a = &view_a_->image;
+  std::vector<std::uint8_t> transferred, upright, upright_b;
+  const std::vector<WarpedKeypoint> warped =
+      ComputeWarpedDescriptors(input, requests, PlaneWarpOptions(), &transferred);
+  PlaneWarpOptions options;
+  options.upright = true;
+  const std::vector<WarpedKeypoint> warped_upright =
+      ComputeWarpedDescriptors(input, requests, options, &upright);
+  const std::vector<bool> described = ComputeUprightDescriptors(
+      *camera_, view_b_->features, view_b_->image, truth, PlaneWarpOptions(), &upright_b);
+  ASSERT_EQ(described.size(), truth.size());
+  ASSERT_EQ(upright_b.size(), truth.size() * features::kDescriptorSize);
+
+  // Distances to the true keypoint of I2, where the orientations agree (within 30°) and where
+  // they do not.
+  std::vector<double> agree_cached, agree_upright, disagree_cached, disagree_upright;
+  for (std::size_t r = 0; r < requests.size(); ++r) {
+    if (!warped[r].valid || !described[r]) continue;
+    ASSERT_TRUE(warped_upright[r].valid);
+    EXPECT_EQ(warped_upright[r].angle_b, 0.0f);
+    EXPECT_EQ(warped_upright[r].pixel_b, warped[r].pixel_b);
+    const double cached = Distance(transferred.data() + r * features::kDescriptorSize,
+                                   view_b_->features.Descriptor(truth[r]));
+    const double both_upright = Distance(upright.data() + r * features::kDescriptorSize,
+                                         upright_b.data() + r * features::kDescriptorSize);
+    const double angle_gap =
+        std::abs(std::remainder(warped[r].angle_b - view_b_->features.keypoints[truth[r]].angle,
+                                360.0));
+    (angle_gap > 30 ? disagree_cached : agree_cached).push_back(cached);
+    (angle_gap > 30 ? disagree_upright : agree_upright).push_back(both_upright);
+  }
+  ASSERT_GT(agree_cached.size(), 200u);
+  ASSERT_GT(disagree_cached.size(), 20u);
+  // Where the orientations agree, upright is at least as close (measured: median 80 against
+  // 131, the two descriptors now come from the same sampling); where they disagree (a third of
+  // the pairs), the cached descriptors are as far apart as unrelated ones (485) and the upright
+  // ones as close as where they agree (82).
+  EXPECT_LT(Median(agree_upright), Median(agree_cached));
+  EXPECT_GT(Median(disagree_cached), 400.0);
+  EXPECT_LT(Median(disagree_upright), 0.4 * Median(disagree_cached));
+  EXPECT_LT(Median(disagree_upright), Median(agree_cached));
 }
 
 // I1 may be given at a lower resolution than the features' pixels (e.g. the image the features

@@ -4,6 +4,8 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <tuple>
 #include <opencv2/core/mat.hpp>
 
 #include "crop4d/core/error.h"
@@ -139,6 +141,13 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
   const bool warp = stats.baseline_m > options_.warp_min_baseline_m && input.image_a != nullptr &&
                     !input.image_a->empty();
 
+  // Whether a candidate's SIFT size is within max_scale_ratio of the predicted one.
+  const auto ScaleAgrees = [this](double size, double predicted_size) {
+    if (options_.max_scale_ratio <= 0 || predicted_size <= 0) return true;
+    const double ratio = size / predicted_size;
+    return ratio <= options_.max_scale_ratio && ratio * options_.max_scale_ratio >= 1;
+  };
+
   // 1. Bounded search: project, size the box, collect the candidates.
   const FeatureGrid grid(features_b, camera_b.width, camera_b.height, 16.0);
   const double focal_b = std::max(camera_b.fx, camera_b.fy);
@@ -208,9 +217,15 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     queries.push_back(std::move(query));
   }
 
-  // 2. Warped descriptors, all patches of the pair described in batches.
+  // 2. Warped descriptors, all patches of the pair described in batches; upright, I2's
+  //    candidates of the warped landmarks described upright too (each once).
   std::vector<std::uint8_t> warped_descriptors;
   std::vector<WarpedKeypoint> warped;
+  const bool upright = options_.upright_after_warp && input.image_b != nullptr &&
+                       !input.image_b->empty() && !warp_requests.empty();
+  // Row of each feature of I2 in upright_descriptors, −1: not described (or refused).
+  std::vector<int> upright_row;
+  std::vector<std::uint8_t> upright_descriptors;
   if (!warp_requests.empty()) {
     PlaneWarpInput warp_input;
     warp_input.camera_a = &camera_a;
@@ -218,8 +233,37 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     warp_input.camera_b_from_camera_a = camera_b_from_camera_a;
     warp_input.features_a = &features_a;
     warp_input.image_a = input.image_a;
+    PlaneWarpOptions warp_options = options_.warp;
+    warp_options.upright = upright;
     warped =
-        ComputeWarpedDescriptors(warp_input, warp_requests, options_.warp, &warped_descriptors);
+        ComputeWarpedDescriptors(warp_input, warp_requests, warp_options, &warped_descriptors);
+  }
+  if (upright) {
+    upright_row.assign(features_b.size(), -1);
+    // SIFT gives a keypoint with two orientation peaks twice, at one position and size: upright,
+    // both copies have the same descriptor, computed once.
+    std::map<std::tuple<float, float, float>, int> row_of_place;
+    std::vector<std::int32_t> wanted;
+    for (const Query& query : queries) {
+      if (query.warp < 0 || !warped[query.warp].valid) continue;
+      for (const std::int32_t c : query.candidates) {
+        if (upright_row[c] != -1 || !ScaleAgrees(features_b.keypoints[c].size,
+                                                  warped[query.warp].size_b)) {
+          continue;
+        }
+        const features::Keypoint& k = features_b.keypoints[c];
+        const auto [it, added] = row_of_place.try_emplace({k.x, k.y, k.size},
+                                                          static_cast<int>(wanted.size()));
+        if (added) wanted.push_back(c);
+        upright_row[c] = it->second;
+      }
+    }
+    const std::vector<bool> described = ComputeUprightDescriptors(
+        camera_b, features_b, *input.image_b, wanted, options_.warp, &upright_descriptors);
+    for (int& row : upright_row) {
+      if (row >= 0 && !described[row]) row = -1;
+    }
+    stats.num_upright_b = static_cast<int>(wanted.size());
   }
 
   // 3. The best distinctive candidate of each landmark.
@@ -228,10 +272,13 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     const LandmarkObservation& observation = landmarks[query.observation];
     const std::uint8_t* descriptor = features_a.Descriptor(observation.feature);
     double predicted_size = query.predicted_size;
+    // Whether the descriptor is an upright warped one, to be compared with upright ones of I2.
+    bool compare_upright = false;
     if (query.warp >= 0) {
       const WarpedKeypoint& w = warped[query.warp];
       if (w.valid) {
         ++stats.num_warped;
+        compare_upright = upright;
         descriptor = warped_descriptors.data() +
                      static_cast<std::size_t>(query.warp) * features::kDescriptorSize;
         predicted_size = w.size_b;
@@ -245,12 +292,15 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     std::vector<std::pair<std::int32_t, float>> scored;
     scored.reserve(query.candidates.size());
     for (const std::int32_t c : query.candidates) {
-      if (options_.max_scale_ratio > 0 && predicted_size > 0) {
-        const double ratio = features_b.keypoints[c].size / predicted_size;
-        if (ratio > options_.max_scale_ratio || ratio * options_.max_scale_ratio < 1) continue;
+      if (!ScaleAgrees(features_b.keypoints[c].size, predicted_size)) continue;
+      const std::uint8_t* descriptor_b = features_b.Descriptor(c);
+      if (compare_upright) {
+        if (upright_row[c] < 0) continue;  // its patch could not be built
+        descriptor_b = upright_descriptors.data() +
+                       static_cast<std::size_t>(upright_row[c]) * features::kDescriptorSize;
       }
       ++stats.num_candidates;
-      const float distance = DescriptorDistance(descriptor, features_b.Descriptor(c));
+      const float distance = DescriptorDistance(descriptor, descriptor_b);
       scored.emplace_back(c, distance);
       if (distance < best_distance) {
         best_distance = distance;

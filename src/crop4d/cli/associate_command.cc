@@ -126,6 +126,9 @@ RunFunction SetupAssociate(CLI::App& app) {
   app.add_option("--warp-baseline", o.robust.warp_min_baseline_m,
                  "Warp by the local plane's homography beyond this baseline, m")
       ->capture_default_str();
+  app.add_flag("!--no-upright", o.robust.upright_after_warp,
+               "Compare warped descriptors at the orientation transferred from image 1 with the "
+               "cached descriptors of image 2, instead of both upright in image 2's pixel grid");
   app.add_option("--prealign", o.prealign,
                  "Align the passes with naive matches before the robust search: auto (when a "
                  "pass was not solved with RTK), always or never")

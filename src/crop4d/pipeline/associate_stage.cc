@@ -34,7 +34,7 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
-constexpr int kAssociateStageRevision = 4;
+constexpr int kAssociateStageRevision = 5;
 
 // A pass loaded for association: features, camera, image files, the landmarks seen in each
 // image, and (for a pass that projects its landmarks) the local planes of its cloud.
@@ -139,6 +139,7 @@ json OptionsJson(const AssociateStageOptions& o, const std::string& method) {
     j["max_search_radius_px"] = r.max_search_radius_px;
     j["max_scale_ratio"] = r.max_scale_ratio;
     j["warp_min_baseline_m"] = r.warp_min_baseline_m;
+    j["upright_after_warp"] = r.upright_after_warp;
     j["max_ratio"] = r.max_ratio;
     j["max_descriptor_distance"] = r.max_descriptor_distance;
     j["verify"] = r.verify;
@@ -245,6 +246,7 @@ std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::st
     report.projected = s.value("projected", 0);
     report.candidates = s.value("candidates", 0);
     report.warped = s.value("warped", 0);
+    report.upright_b = s.value("upright_b", 0);
     report.putative = s.value("putative", 0);
     report.matches = s.value("matches", 0);
     report.prealigned = s.value("prealigned", false);
@@ -348,6 +350,17 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
         }
       }
       input.image_a = image.empty() ? nullptr : &image;
+      // I2 as well when the warped descriptors are compared upright.
+      cv::Mat image_b;
+      if (!image.empty() && robust.upright_after_warp && !b.image_paths[ib].empty()) {
+        image_b = cv::imread(b.image_paths[ib], cv::IMREAD_GRAYSCALE);
+        if (image_b.empty()) {
+          spdlog::warn("{}: cannot read {}; its keypoints are compared with their cached "
+                       "descriptors",
+                       b.data.label(), b.image_paths[ib]);
+        }
+      }
+      input.image_b = image_b.empty() ? nullptr : &image_b;
       results[k] = matcher.Match(input);
     });
   });
@@ -364,6 +377,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
     report.surface_points += surface_counts[k];
     report.candidates += s.num_candidates;
     report.warped += s.num_warped;
+    report.upright_b += s.num_upright_b;
     report.putative += s.num_putative;
     for (const association::LandmarkMatch& m : results[k].matches) {
       association::CrossMatch c;
@@ -398,6 +412,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
                         {"projected", report.projected},
                         {"candidates", report.candidates},
                         {"warped", report.warped},
+                        {"upright_b", report.upright_b},
                         {"putative", report.putative},
                         {"matches", report.matches},
                         {"prealigned", report.prealigned},

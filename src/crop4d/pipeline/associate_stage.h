@@ -118,6 +118,8 @@ struct PassPairReport {
   std::int64_t surface_points = 0;
   std::int64_t candidates = 0;
   std::int64_t warped = 0;
+  // Keypoints of pass b described upright for the comparison with warped ones.
+  std::int64_t upright_b = 0;
   std::int64_t putative = 0;
   std::int64_t matches = 0;
   // The pre-alignment: whether it ran and succeeded, its inliers and how far it moved pass b.

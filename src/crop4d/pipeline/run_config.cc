@@ -225,6 +225,10 @@ const std::vector<Key>& Keys() {
                      "also project the features that are no landmark, placed on the local "
                      "surface of the landmarks around them",
                      [](RunConfig& c) -> bool& { return c.associate.surface_points; }));
+    k.push_back(Bool("associate", "upright",
+                     "describe warped keypoints and their candidates upright in the second "
+                     "image's pixel grid rather than at SIFT's orientations",
+                     [](RunConfig& c) -> bool& { return c.associate.robust.upright_after_warp; }));
 
     k.push_back(Word("fuse", "method", "the associations used: robust or naive",
                      {"robust", "naive"},

@@ -140,6 +140,11 @@ RunFunction SetupAnalyze(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--top-quantile", o.canopy.top_quantile, "quantile: the quantile (0..1]")
       ->capture_default_str();
+  app.add_option("--lone-point-radius", o.lone_point_radius_m,
+                 "Dense clouds: a point without another point within this radius is a false match "
+                 "and left out, m (0: keep every point)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1.0));
   app.add_option("--raster-cell", o.raster_cell_m, "Cell of the GeoTIFF rasters, m")
       ->capture_default_str();
   app.add_flag(

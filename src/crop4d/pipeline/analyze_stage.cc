@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "crop4d/analysis/lone_points.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/hash.h"
 #include "crop4d/core/version.h"
@@ -32,7 +33,8 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 // Bump when the stage's outputs change for the same inputs and options.
-constexpr int kAnalyzeStageRevision = 3;  // 2: touching plants split; 3: tops bounded by the next
+// 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out.
+constexpr int kAnalyzeStageRevision = 4;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 json OptionsJson(const AnalyzeStageOptions& o) {
@@ -78,6 +80,7 @@ json OptionsJson(const AnalyzeStageOptions& o) {
             {"iterations", o.plane.iterations},
             {"seed", o.plane.seed}}},
           {"growth", {{"robust_loss_m", o.growth.robust_loss_m}}},
+          {"lone_point_radius_m", o.lone_point_radius_m},
           {"raster_cell_m", o.raster_cell_m},
           {"margin_m", o.margin_m},
           {"write_rasters", o.write_rasters},
@@ -253,7 +256,7 @@ std::vector<SiteResult> ReadSiteCsvs(const fs::path& dir) {
 bool AnalyzeStageOptions::Check() const {
   return (cloud == "auto" || cloud == "dense" || cloud == "sparse") && vegetation.Check() &&
          terrain.Check() && canopy.Check() && plants.Check() && plane.Check() && growth.Check() &&
-         raster_cell_m > 0.0 && margin_m >= 0.0;
+         raster_cell_m > 0.0 && margin_m >= 0.0 && lone_point_radius_m >= 0.0;
 }
 
 std::vector<io::Site> ReadSitesCsv(const std::string& path, const geometry::GeodeticPoint& origin) {
@@ -368,6 +371,21 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   report.sessions.resize(inputs.size());
   tbb::parallel_for(std::size_t{0}, inputs.size(), [&](std::size_t k) {
     clouds[k] = LoadCloud(inputs[k], area);
+    std::size_t lone = 0;
+    if (inputs[k].dense && options.lone_point_radius_m > 0) {
+      const std::vector<std::uint8_t> flags =
+          analysis::FindLonePoints(clouds[k].points, options.lone_point_radius_m);
+      std::size_t kept = 0;
+      for (std::size_t i = 0; i < flags.size(); ++i) {
+        if (flags[i]) continue;
+        clouds[k].points[kept] = clouds[k].points[i];
+        clouds[k].colors[kept] = clouds[k].colors[i];
+        ++kept;
+      }
+      lone = flags.size() - kept;
+      clouds[k].points.resize(kept);
+      clouds[k].colors.resize(kept);
+    }
     analysis::VegetationClassification veg =
         analysis::ClassifyVegetation(clouds[k].colors, options.vegetation);
     clouds[k].is_vegetation = veg.is_vegetation;
@@ -379,11 +397,13 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     r.cloud_path = fs::relative(inputs[k].cloud, ws).string();
     r.dense = inputs[k].dense;
     r.points = clouds[k].points.size();
+    r.lone_points = lone;
     r.vegetation = std::move(veg);
   });
   for (const AnalyzeSessionReport& r : report.sessions) {
-    spdlog::info("analyze: {} {} cloud, {} points in the area, {:.1f}% vegetation (ExG > {:.3f})",
-                 r.session, r.dense ? "dense" : "sparse", r.points,
+    spdlog::info("analyze: {} {} cloud, {} points in the area ({} lone points left out), "
+                 "{:.1f}% vegetation (ExG > {:.3f})",
+                 r.session, r.dense ? "dense" : "sparse", r.points, r.lone_points,
                  100.0 * r.vegetation.num_vegetation / std::max<std::size_t>(1, r.points),
                  r.vegetation.threshold);
   }
@@ -563,6 +583,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
          {"cloud", r.cloud_path},
          {"dense", r.dense},
          {"points", r.points},
+         {"lone_points", r.lone_points},
          {"plants", r.plants},
          {"plant_tops_lowered", r.plant_tops_lowered},
          {"vegetation_fraction",

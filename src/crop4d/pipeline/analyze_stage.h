@@ -59,6 +59,10 @@ struct AnalyzeStageOptions {
   analysis::PlantDetectionOptions plants;
   analysis::PlaneOptions plane;
   analysis::GrowthOptions growth;
+  // A point of a dense cloud without another point within this radius (3D) is a false match
+  // floating alone and is left out of the analysis (analysis/lone_points.h), metres; 0 keeps
+  // every point. Sparse clouds are kept whole (their points are centimetres apart).
+  double lone_point_radius_m = 0.05;
   // Cell of the canopy height and terrain rasters, metres.
   double raster_cell_m = 0.02;
   // The analysed area: the rows of field.yaml and the sites, widened by this margin, metres.
@@ -75,7 +79,8 @@ struct AnalyzeSessionReport {
   Timestamp date = 0;
   std::string cloud_path;  // the cloud analysed
   bool dense = false;
-  std::size_t points = 0;              // within the analysed area
+  std::size_t points = 0;              // within the analysed area, lone points left out
+  std::size_t lone_points = 0;         // left out (AnalyzeStageOptions::lone_point_radius_m)
   std::size_t plants = 0;              // plants found (analysis/plants.h)
   std::size_t plant_tops_lowered = 0;  // tops bounded by the next session's (max_shrink_m)
   analysis::VegetationClassification vegetation;  // `index` and flags cleared after use

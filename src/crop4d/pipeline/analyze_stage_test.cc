@@ -263,6 +263,52 @@ TEST_F(AnalyzeStageTest, AFalseMatchAboveAPlantIsNotItsTop) {
   EXPECT_EQ(alone.sessions[2].plant_tops_lowered, 0u);
 }
 
+TEST_F(AnalyzeStageTest, ALonePointAboveAPlantIsLeftOut) {
+  // One false match, a single point 6 cm above one plant of site r1y4 in the last session, where
+  // no later session bounds the plant's top: as a point without neighbours it is left out.
+  const sim::World world(SmallWorld(3));
+  WriteTruthWorkspace(world, field_, workspace_);
+  const Eigen::Vector2d center(world.RowX(1), 4.5);
+  const sim::Plant* plant = nullptr;
+  for (const sim::Plant& p : world.plants()) {
+    if (plant == nullptr || (p.xy - center).norm() < (plant->xy - center).norm()) plant = &p;
+  }
+  ASSERT_LT((plant->xy - center).norm(), 0.3);
+  const std::string id = kSessions[3];
+  Timestamp date = 0;
+  ASSERT_TRUE(ParseDate(id, &date));
+  const std::string ply = workspace_ + "/dense/" + id + ".ply";
+  io::PlyPointCloud cloud = io::ReadPly(ply);
+  const std::size_t num_true = cloud.points.size();
+  const double top =
+      world.TerrainHeight(plant->xy.x(), plant->xy.y()) + world.StateAt(*plant, date).height_m;
+  cloud.points.emplace_back(plant->xy.x() + 0.01, plant->xy.y(), top + 0.06);
+  cloud.colors.push_back({70, 110, 50});
+  io::WritePly(ply, cloud);
+  const double truth = world.TrueCanopyHeight(center, 0.4, date);
+  const auto error_at_site = [&](const AnalyzeReport& report) {
+    for (const SiteResult& r : report.sites) {
+      if (r.site_id == "r1y4" && r.session == id) return r.ours.height_m - truth;
+    }
+    ADD_FAILURE() << "no result for r1y4 on " << id;
+    return std::nan("");
+  };
+  AnalyzeStageOptions options;
+  options.write_plots = false;
+  options.write_rasters = false;
+  const AnalyzeReport filtered = RunAnalyzeStage(field_, workspace_, options);
+  EXPECT_LT(std::abs(error_at_site(filtered)), 0.02);
+  ASSERT_EQ(filtered.sessions.size(), 4u);
+  EXPECT_GE(filtered.sessions[3].lone_points, 1u);
+  // The true cloud samples its surfaces densely: hardly any of its own points is lone.
+  EXPECT_LT(filtered.sessions[3].lone_points, num_true / 1000 + 1);
+  // Kept, the point is taken for the plant's top (measured: 0.4 cm left out, 2.2 cm kept).
+  options.lone_point_radius_m = 0;
+  const AnalyzeReport kept = RunAnalyzeStage(field_, workspace_, options);
+  EXPECT_GT(error_at_site(kept), 0.015);
+  EXPECT_EQ(kept.sessions[3].lone_points, 0u);
+}
+
 TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   const sim::World world(SmallWorld(5));
   WriteTruthWorkspace(world, field_, workspace_);

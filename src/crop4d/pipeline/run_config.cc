@@ -351,6 +351,10 @@ const std::vector<Key>& Keys() {
                      "refine the terrain with later sessions' bare ground",
                      [](RunConfig& c) -> bool& { return c.analyze.terrain.use_later_sessions; }));
     k.push_back(Double(
+        "analyze", "lone_point_radius_m",
+        "dense clouds: points without another within this radius are left out (0: none)",
+        [](RunConfig& c) -> double& { return c.analyze.lone_point_radius_m; }, 0.0, 1.0));
+    k.push_back(Double(
         "analyze", "raster_cell_m", "cell of the GeoTIFF rasters",
         [](RunConfig& c) -> double& { return c.analyze.raster_cell_m; }, 0.001, 100));
 

@@ -17,7 +17,8 @@
 namespace crop4d::analysis {
 
 // For each point, 1 when fewer than `min_neighbors` other points lie within `radius_m` of it
-// (Euclidean, 3D), else 0. Duplicated points count as neighbours of each other.
+// (Euclidean, 3D), else 0. Duplicated points count as neighbours of each other. The points must
+// be finite.
 std::vector<std::uint8_t> FindLonePoints(const std::vector<Eigen::Vector3d>& points,
                                          double radius_m, int min_neighbors = 1);
 

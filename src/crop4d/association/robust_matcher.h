@@ -21,9 +21,9 @@
 //      used. The warped patch already lies in I2's frame, so by default (upright_after_warp) it
 //      is described at angle 0 of I2's pixel grid and compared with I2's candidates described
 //      the same way (plane_warp.h, PlaneWarpOptions::upright) rather than with their cached
-//      descriptors, whose orientation SIFT assigned in I2 alone: on the demo field a third of
-//      the keypoint pairs that lie within 2 cm of each other across rows had orientations more
-//      than 30° apart, and their descriptors did not match;
+//      descriptors, whose orientation SIFT assigned in I2 alone: on the demo field, of the
+//      keypoint pairs across rows that lie within 2 cm of each other and met in a search box,
+//      more than half had orientations more than 30° apart, and their descriptors did not match;
 //   3. the candidate with the smallest descriptor distance is kept when it is distinctive: the
 //      best distance is below max_ratio times the best distance of a candidate at another place
 //      (Lowe's ratio test within the box; a second keypoint at the same place, e.g. SIFT's

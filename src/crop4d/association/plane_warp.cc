@@ -327,8 +327,8 @@ std::vector<bool> ComputeUprightDescriptors(const geometry::PinholeRadTan& camer
                                             const std::vector<std::int32_t>& indices,
                                             const PlaneWarpOptions& options,
                                             std::vector<std::uint8_t>* descriptors) {
-  // The identity transfer: both cameras the same, through the plane z = 1 of the camera's frame
-  // (any plane in front of it gives H = I; only the lens model is undone and redone).
+  // The identity transfer: one camera at one pose, through the plane z = 1 of its frame (any
+  // plane in front of it gives H = I, and PlaneTransfer then maps each pixel onto itself).
   std::vector<WarpRequest> requests(indices.size());
   for (std::size_t k = 0; k < indices.size(); ++k) {
     requests[k].feature = indices[k];

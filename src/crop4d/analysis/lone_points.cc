@@ -53,41 +53,41 @@ std::vector<std::uint8_t> FindLonePoints(const std::vector<Eigen::Vector3d>& poi
     const auto c = cube_of(points[i]);
     cubes[i] = {key_of(c.x(), c.y(), c.z()), static_cast<std::uint32_t>(i)};
   }
-  std::sort(cubes.begin(), cubes.end(),
-            [](const Cube& a, const Cube& b) { return a.key < b.key; });
+  std::sort(cubes.begin(), cubes.end(), [](const Cube& a, const Cube& b) { return a.key < b.key; });
   const auto range_of = [&](std::int64_t key) {
     return std::equal_range(cubes.begin(), cubes.end(), Cube{key, 0},
                             [](const Cube& a, const Cube& b) { return a.key < b.key; });
   };
   const double r2 = radius_m * radius_m;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cubes.size(), 4096),
-                    [&](const tbb::blocked_range<std::size_t>& block) {
-    for (std::size_t n = block.begin(); n < block.end(); ++n) {
-      const std::uint32_t i = cubes[n].index;
-      const Eigen::Vector3d& p = points[i];
-      int count = 0;
-      const auto count_in = [&](auto first, auto last) {
-        for (auto it = first; it != last && count < min_neighbors; ++it) {
-          if (it->index != i && (points[it->index] - p).squaredNorm() <= r2) ++count;
-        }
-      };
-      const auto own = range_of(cubes[n].key);
-      count_in(own.first, own.second);
-      if (count < min_neighbors) {
-        const auto c = cube_of(p);
-        for (int dx = -1; dx <= 1 && count < min_neighbors; ++dx) {
-          for (int dy = -1; dy <= 1 && count < min_neighbors; ++dy) {
-            for (int dz = -1; dz <= 1 && count < min_neighbors; ++dz) {
-              if (dx == 0 && dy == 0 && dz == 0) continue;
-              const auto other = range_of(key_of(c.x() + dx, c.y() + dy, c.z() + dz));
-              count_in(other.first, other.second);
-            }
+  // Whether the point of cubes[n] has fewer than min_neighbors others within the radius.
+  const auto is_lone = [&](std::size_t n) {
+    const std::uint32_t i = cubes[n].index;
+    const Eigen::Vector3d& p = points[i];
+    int count = 0;
+    const auto count_in = [&](const auto& range) {
+      for (auto it = range.first; it != range.second && count < min_neighbors; ++it) {
+        if (it->index != i && (points[it->index] - p).squaredNorm() <= r2) ++count;
+      }
+    };
+    count_in(range_of(cubes[n].key));
+    const auto c = cube_of(p);
+    for (int dx = -1; dx <= 1 && count < min_neighbors; ++dx) {
+      for (int dy = -1; dy <= 1 && count < min_neighbors; ++dy) {
+        for (int dz = -1; dz <= 1 && count < min_neighbors; ++dz) {
+          if (dx != 0 || dy != 0 || dz != 0) {
+            count_in(range_of(key_of(c.x() + dx, c.y() + dy, c.z() + dz)));
           }
         }
       }
-      lone[i] = count < min_neighbors ? 1 : 0;
     }
-  });
+    return count < min_neighbors;
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cubes.size(), 4096),
+                    [&](const tbb::blocked_range<std::size_t>& block) {
+                      for (std::size_t n = block.begin(); n < block.end(); ++n) {
+                        lone[cubes[n].index] = is_lone(n) ? 1 : 0;
+                      }
+                    });
   return lone;
 }
 

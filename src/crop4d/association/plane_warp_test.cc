@@ -79,8 +79,8 @@ TEST(PlaneTransferTest, TheSameCameraAtTheSamePoseMapsPixelsOntoThemselves) {
                                Eigen::Vector3d(0.1, -0.2, 1.0), 2.0);
   const PlaneTransfer round_trip(camera, copy, geometry::Rigid3::Identity(),
                                  Eigen::Vector3d(0.1, -0.2, 1.0), 2.0);
-  for (const Eigen::Vector2d pixel : {Eigen::Vector2d(0.25, 0.75), Eigen::Vector2d(320, 240),
-                                      Eigen::Vector2d(639.5, 479.5), Eigen::Vector2d(-20, 500)}) {
+  for (const Eigen::Vector2d& pixel : {Eigen::Vector2d(0.25, 0.75), Eigen::Vector2d(320, 240),
+                                       Eigen::Vector2d(639.5, 479.5), Eigen::Vector2d(-20, 500)}) {
     Eigen::Vector2d out, approx;
     ASSERT_TRUE(identity.AToB(pixel, &out));
     EXPECT_EQ(out, pixel);
@@ -118,6 +118,42 @@ class PlaneWarpTest : public ::testing::Test {
       }
     }
     return requests;
+  }
+
+  // The ground requests of a whose feature has a feature of b within 1.5 px of its true position,
+  // and that feature of b (the nearest).
+  static void TrueCorrespondences(std::vector<WarpRequest>* requests,
+                                  std::vector<std::int32_t>* truth) {
+    const geometry::Rigid3 b_from_world = view_b_->world_from_camera.Inverse();
+    for (const WarpRequest& request : GroundRequests(*view_a_)) {
+      const auto ground = testing::GroundPoint(*camera_, view_a_->world_from_camera,
+                                               view_a_->features.Point(request.feature), 5.0);
+      Eigen::Vector2d pixel_b;
+      if (!camera_->Project(b_from_world * *ground, &pixel_b)) continue;
+      std::int32_t best = -1;
+      double best_error = 1.5;
+      for (std::size_t j = 0; j < view_b_->features.size(); ++j) {
+        const double error = (view_b_->features.Point(j) - pixel_b).norm();
+        if (error < best_error) {
+          best_error = error;
+          best = static_cast<std::int32_t>(j);
+        }
+      }
+      if (best < 0) continue;
+      requests->push_back(request);
+      truth->push_back(best);
+    }
+  }
+  // The warp of a's features into b's view.
+  static PlaneWarpInput WarpAToB() {
+    PlaneWarpInput input;
+    input.camera_a = camera_;
+    input.camera_b = camera_;
+    input.camera_b_from_camera_a =
+        view_b_->world_from_camera.Inverse() * view_a_->world_from_camera;
+    input.features_a = &view_a_->features;
+    input.image_a = &view_a_->image;
+    return input;
   }
 
   static geometry::PinholeRadTan* camera_;
@@ -163,33 +199,10 @@ TEST_F(PlaneWarpTest, IdentityWarpReproducesTheExtractedDescriptors) {
 // I1 is much closer to the descriptor of its true correspondence in I2 than I1's own.
 TEST_F(PlaneWarpTest, WarpedDescriptorsMatchBetterUnderALargeViewpointChange) {
   std::vector<WarpRequest> requests;
-  std::vector<int> truth;  // the feature of b at the true position
-  const geometry::Rigid3 b_from_world = view_b_->world_from_camera.Inverse();
-  for (const WarpRequest& request : GroundRequests(*view_a_)) {
-    const auto ground = testing::GroundPoint(*camera_, view_a_->world_from_camera,
-                                             view_a_->features.Point(request.feature), 5.0);
-    Eigen::Vector2d pixel_b;
-    if (!camera_->Project(b_from_world * *ground, &pixel_b)) continue;
-    int best = -1;
-    double best_error = 1.5;
-    for (std::size_t j = 0; j < view_b_->features.size(); ++j) {
-      const double error = (view_b_->features.Point(j) - pixel_b).norm();
-      if (error < best_error) {
-        best_error = error;
-        best = static_cast<int>(j);
-      }
-    }
-    if (best < 0) continue;
-    requests.push_back(request);
-    truth.push_back(best);
-  }
+  std::vector<std::int32_t> truth;  // the feature of b at the true position
+  TrueCorrespondences(&requests, &truth);
   ASSERT_GT(requests.size(), 300u);
-  PlaneWarpInput input;
-  input.camera_a = camera_;
-  input.camera_b = camera_;
-  input.camera_b_from_camera_a = b_from_world * view_a_->world_from_camera;
-  input.features_a = &view_a_->features;
-  input.image_a = &view_a_->image;
+  const PlaneWarpInput input = WarpAToB();
   std::vector<std::uint8_t> descriptors;
   const std::vector<WarpedKeypoint> warped =
       ComputeWarpedDescriptors(input, requests, PlaneWarpOptions(), &descriptors);
@@ -219,27 +232,9 @@ TEST_F(PlaneWarpTest, WarpedDescriptorsMatchBetterUnderALargeViewpointChange) {
 TEST_F(PlaneWarpTest, UprightDescriptorsMatchWhereTheOrientationsDisagree) {
   std::vector<WarpRequest> requests;
   std::vector<std::int32_t> truth;
-  const geometry::Rigid3 b_from_world = view_b_->world_from_camera.Inverse();
-  for (const WarpRequest& request : GroundRequests(*view_a_)) {
-    const auto ground = testing::GroundPoint(*camera_, view_a_->world_from_camera,
-                                             view_a_->features.Point(request.feature), 5.0);
-    Eigen::Vector2d pixel_b;
-    if (!camera_->Project(b_from_world * *ground, &pixel_b)) continue;
-    for (std::size_t j = 0; j < view_b_->features.size(); ++j) {
-      if ((view_b_->features.Point(j) - pixel_b).norm() < 1.5) {
-        requests.push_back(request);
-        truth.push_back(static_cast<std::int32_t>(j));
-        break;
-      }
-    }
-  }
+  TrueCorrespondences(&requests, &truth);
   ASSERT_GT(requests.size(), 300u);
-  PlaneWarpInput input;
-  input.camera_a = camera_;
-  input.camera_b = camera_;
-  input.camera_b_from_camera_a = b_from_world * view_a_->world_from_camera;
-  input.features_a = &view_a_->features;
-  input.image_a = &view_a_->image;
+  const PlaneWarpInput input = WarpAToB();
   std::vector<std::uint8_t> transferred, upright, upright_b;
   const std::vector<WarpedKeypoint> warped =
       ComputeWarpedDescriptors(input, requests, PlaneWarpOptions(), &transferred);
@@ -264,9 +259,8 @@ TEST_F(PlaneWarpTest, UprightDescriptorsMatchWhereTheOrientationsDisagree) {
                                    view_b_->features.Descriptor(truth[r]));
     const double both_upright = Distance(upright.data() + r * features::kDescriptorSize,
                                          upright_b.data() + r * features::kDescriptorSize);
-    const double angle_gap =
-        std::abs(std::remainder(warped[r].angle_b - view_b_->features.keypoints[truth[r]].angle,
-                                360.0));
+    const double angle_gap = std::abs(
+        std::remainder(warped[r].angle_b - view_b_->features.keypoints[truth[r]].angle, 360.0));
     (angle_gap > 30 ? disagree_cached : agree_cached).push_back(cached);
     (angle_gap > 30 ? disagree_upright : agree_upright).push_back(both_upright);
   }

@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <tuple>
 #include <opencv2/core/mat.hpp>
+#include <tuple>
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/stopwatch.h"
@@ -235,8 +235,7 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     warp_input.image_a = input.image_a;
     PlaneWarpOptions warp_options = options_.warp;
     warp_options.upright = upright;
-    warped =
-        ComputeWarpedDescriptors(warp_input, warp_requests, warp_options, &warped_descriptors);
+    warped = ComputeWarpedDescriptors(warp_input, warp_requests, warp_options, &warped_descriptors);
   }
   if (upright) {
     upright_row.assign(features_b.size(), -1);
@@ -247,13 +246,13 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     for (const Query& query : queries) {
       if (query.warp < 0 || !warped[query.warp].valid) continue;
       for (const std::int32_t c : query.candidates) {
-        if (upright_row[c] != -1 || !ScaleAgrees(features_b.keypoints[c].size,
-                                                  warped[query.warp].size_b)) {
+        if (upright_row[c] != -1 ||
+            !ScaleAgrees(features_b.keypoints[c].size, warped[query.warp].size_b)) {
           continue;
         }
         const features::Keypoint& k = features_b.keypoints[c];
-        const auto [it, added] = row_of_place.try_emplace({k.x, k.y, k.size},
-                                                          static_cast<int>(wanted.size()));
+        const auto [it, added] =
+            row_of_place.try_emplace({k.x, k.y, k.size}, static_cast<int>(wanted.size()));
         if (added) wanted.push_back(c);
         upright_row[c] = it->second;
       }

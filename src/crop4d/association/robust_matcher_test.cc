@@ -381,20 +381,17 @@ TEST_F(RenderedPairTest, UprightComparisonFindsMoreCorrectMatches) {
         RobustMatcher(RobustMatcher::Options()).Match(Input(scene, b));
     RobustMatcher::Options transferred_options;
     transferred_options.upright_after_warp = false;
-    const AssociationResult transferred =
-        RobustMatcher(transferred_options).Match(Input(scene, b));
+    const AssociationResult transferred = RobustMatcher(transferred_options).Match(Input(scene, b));
     RobustPairInput without_image = Input(scene, b);
     without_image.image_b = nullptr;
-    const AssociationResult fallback =
-        RobustMatcher(RobustMatcher::Options()).Match(without_image);
+    const AssociationResult fallback = RobustMatcher(RobustMatcher::Options()).Match(without_image);
     EXPECT_EQ(fallback.matches, transferred.matches);
     EXPECT_EQ(fallback.stats.num_upright_b, 0);
     EXPECT_EQ(transferred.stats.num_upright_b, 0);
     EXPECT_GT(upright.stats.num_upright_b, 100);
     EXPECT_LE(upright.stats.num_upright_b, static_cast<int>(b.features.size()));
 
-    const testing::MatchQuality q =
-        testing::Evaluate(scene.a, b, scene.camera, upright.matches);
+    const testing::MatchQuality q = testing::Evaluate(scene.a, b, scene.camera, upright.matches);
     const testing::MatchQuality t =
         testing::Evaluate(scene.a, b, scene.camera, transferred.matches);
     EXPECT_GE(q.precision(), 0.95) << q.correct << " correct, " << q.wrong;

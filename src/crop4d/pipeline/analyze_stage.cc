@@ -401,11 +401,12 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     r.vegetation = std::move(veg);
   });
   for (const AnalyzeSessionReport& r : report.sessions) {
-    spdlog::info("analyze: {} {} cloud, {} points in the area ({} lone points left out), "
-                 "{:.1f}% vegetation (ExG > {:.3f})",
-                 r.session, r.dense ? "dense" : "sparse", r.points, r.lone_points,
-                 100.0 * r.vegetation.num_vegetation / std::max<std::size_t>(1, r.points),
-                 r.vegetation.threshold);
+    spdlog::info(
+        "analyze: {} {} cloud, {} points in the area ({} lone points left out), "
+        "{:.1f}% vegetation (ExG > {:.3f})",
+        r.session, r.dense ? "dense" : "sparse", r.points, r.lone_points,
+        100.0 * r.vegetation.num_vegetation / std::max<std::size_t>(1, r.points),
+        r.vegetation.threshold);
   }
 
   // 2. Terrain.

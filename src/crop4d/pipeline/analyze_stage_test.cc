@@ -158,6 +158,39 @@ class AnalyzeStageTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(root_); }
 
+  // The plant of `world` nearest to `center`.
+  static const sim::Plant& NearestPlant(const sim::World& world, const Eigen::Vector2d& center) {
+    const sim::Plant* plant = nullptr;
+    for (const sim::Plant& p : world.plants()) {
+      if (plant == nullptr || (p.xy - center).norm() < (plant->xy - center).norm()) plant = &p;
+    }
+    CROP4D_CHECK(plant != nullptr);
+    return *plant;
+  }
+  // Adds green points (false matches) to a session's dense cloud; returns its true points.
+  std::size_t AddToDenseCloud(const std::string& session,
+                              const std::vector<Eigen::Vector3d>& points) const {
+    const std::string ply = workspace_ + "/dense/" + session + ".ply";
+    io::PlyPointCloud cloud = io::ReadPly(ply);
+    const std::size_t num_true = cloud.points.size();
+    for (const Eigen::Vector3d& p : points) {
+      cloud.points.push_back(p);
+      cloud.colors.push_back({70, 110, 50});
+    }
+    io::WritePly(ply, cloud);
+    return num_true;
+  }
+  // The error of a site's height (ours) in one session against `truth`; NaN and a failure when
+  // the report has no such result.
+  static double SiteError(const AnalyzeReport& report, const std::string& site_id,
+                          const std::string& session, double truth) {
+    for (const SiteResult& r : report.sites) {
+      if (r.site_id == site_id && r.session == session) return r.ours.height_m - truth;
+    }
+    ADD_FAILURE() << "no result for " << site_id << " on " << session;
+    return std::nan("");
+  }
+
   std::string root_, field_, workspace_;
 };
 
@@ -220,46 +253,34 @@ TEST_F(AnalyzeStageTest, AFalseMatchAboveAPlantIsNotItsTop) {
   const sim::World world(SmallWorld(3));
   WriteTruthWorkspace(world, field_, workspace_);
   const Eigen::Vector2d center(world.RowX(1), 4.5);
-  const sim::Plant* plant = nullptr;
-  for (const sim::Plant& p : world.plants()) {
-    if (plant == nullptr || (p.xy - center).norm() < (plant->xy - center).norm()) plant = &p;
-  }
-  ASSERT_LT((plant->xy - center).norm(), 0.3);
+  const sim::Plant& plant = NearestPlant(world, center);
+  ASSERT_LT((plant.xy - center).norm(), 0.3);
   const std::string id = kSessions[2];
   Timestamp date = 0, last = 0;
   ASSERT_TRUE(ParseDate(id, &date));
   ASSERT_TRUE(ParseDate(kSessions[3], &last));
-  const std::string ply = workspace_ + "/dense/" + id + ".ply";
-  io::PlyPointCloud cloud = io::ReadPly(ply);
   const double top =
-      world.TerrainHeight(plant->xy.x(), plant->xy.y()) + world.StateAt(*plant, last).height_m;
+      world.TerrainHeight(plant.xy.x(), plant.xy.y()) + world.StateAt(plant, last).height_m;
+  std::vector<Eigen::Vector3d> float_points;
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) {
-      cloud.points.emplace_back(plant->xy.x() + 0.01 + 0.005 * i, plant->xy.y() + 0.005 * j,
+      float_points.emplace_back(plant.xy.x() + 0.01 + 0.005 * i, plant.xy.y() + 0.005 * j,
                                 top + 0.10);
-      cloud.colors.push_back({70, 110, 50});
     }
   }
-  io::WritePly(ply, cloud);
+  AddToDenseCloud(id, float_points);
   const double truth = world.TrueCanopyHeight(center, 0.4, date);
-  const auto error_at_site = [&](const AnalyzeReport& report) {
-    for (const SiteResult& r : report.sites) {
-      if (r.site_id == "r1y4" && r.session == id) return r.ours.height_m - truth;
-    }
-    ADD_FAILURE() << "no result for r1y4 on " << id;
-    return std::nan("");
-  };
   AnalyzeStageOptions options;
   options.write_plots = false;
   options.write_rasters = false;
   const AnalyzeReport bounded = RunAnalyzeStage(field_, workspace_, options);
-  EXPECT_LT(std::abs(error_at_site(bounded)), 0.02);
+  EXPECT_LT(std::abs(SiteError(bounded, "r1y4", id, truth)), 0.02);
   ASSERT_EQ(bounded.sessions.size(), 4u);
   EXPECT_GE(bounded.sessions[2].plant_tops_lowered, 1u);
   // Each session alone takes the false match for the plant's top.
   options.canopy.max_shrink_m = -1;
   const AnalyzeReport alone = RunAnalyzeStage(field_, workspace_, options);
-  EXPECT_GT(error_at_site(alone), 0.025);
+  EXPECT_GT(SiteError(alone, "r1y4", id, truth), 0.025);
   EXPECT_EQ(alone.sessions[2].plant_tops_lowered, 0u);
 }
 
@@ -269,35 +290,21 @@ TEST_F(AnalyzeStageTest, ALonePointAboveAPlantIsLeftOut) {
   const sim::World world(SmallWorld(3));
   WriteTruthWorkspace(world, field_, workspace_);
   const Eigen::Vector2d center(world.RowX(1), 4.5);
-  const sim::Plant* plant = nullptr;
-  for (const sim::Plant& p : world.plants()) {
-    if (plant == nullptr || (p.xy - center).norm() < (plant->xy - center).norm()) plant = &p;
-  }
-  ASSERT_LT((plant->xy - center).norm(), 0.3);
+  const sim::Plant& plant = NearestPlant(world, center);
+  ASSERT_LT((plant.xy - center).norm(), 0.3);
   const std::string id = kSessions[3];
   Timestamp date = 0;
   ASSERT_TRUE(ParseDate(id, &date));
-  const std::string ply = workspace_ + "/dense/" + id + ".ply";
-  io::PlyPointCloud cloud = io::ReadPly(ply);
-  const std::size_t num_true = cloud.points.size();
   const double top =
-      world.TerrainHeight(plant->xy.x(), plant->xy.y()) + world.StateAt(*plant, date).height_m;
-  cloud.points.emplace_back(plant->xy.x() + 0.01, plant->xy.y(), top + 0.06);
-  cloud.colors.push_back({70, 110, 50});
-  io::WritePly(ply, cloud);
+      world.TerrainHeight(plant.xy.x(), plant.xy.y()) + world.StateAt(plant, date).height_m;
+  const std::size_t num_true =
+      AddToDenseCloud(id, {Eigen::Vector3d(plant.xy.x() + 0.01, plant.xy.y(), top + 0.06)});
   const double truth = world.TrueCanopyHeight(center, 0.4, date);
-  const auto error_at_site = [&](const AnalyzeReport& report) {
-    for (const SiteResult& r : report.sites) {
-      if (r.site_id == "r1y4" && r.session == id) return r.ours.height_m - truth;
-    }
-    ADD_FAILURE() << "no result for r1y4 on " << id;
-    return std::nan("");
-  };
   AnalyzeStageOptions options;
   options.write_plots = false;
   options.write_rasters = false;
   const AnalyzeReport filtered = RunAnalyzeStage(field_, workspace_, options);
-  EXPECT_LT(std::abs(error_at_site(filtered)), 0.02);
+  EXPECT_LT(std::abs(SiteError(filtered, "r1y4", id, truth)), 0.02);
   ASSERT_EQ(filtered.sessions.size(), 4u);
   EXPECT_GE(filtered.sessions[3].lone_points, 1u);
   // The true cloud samples its surfaces densely: hardly any of its own points is lone.
@@ -305,7 +312,7 @@ TEST_F(AnalyzeStageTest, ALonePointAboveAPlantIsLeftOut) {
   // Kept, the point is taken for the plant's top (measured: 0.4 cm left out, 2.2 cm kept).
   options.lone_point_radius_m = 0;
   const AnalyzeReport kept = RunAnalyzeStage(field_, workspace_, options);
-  EXPECT_GT(error_at_site(kept), 0.015);
+  EXPECT_GT(SiteError(kept, "r1y4", id, truth), 0.015);
   EXPECT_EQ(kept.sessions[3].lone_points, 0u);
 }
 

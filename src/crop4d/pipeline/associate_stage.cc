@@ -355,9 +355,10 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
       if (!image.empty() && robust.upright_after_warp && !b.image_paths[ib].empty()) {
         image_b = cv::imread(b.image_paths[ib], cv::IMREAD_GRAYSCALE);
         if (image_b.empty()) {
-          spdlog::warn("{}: cannot read {}; its keypoints are compared with their cached "
-                       "descriptors",
-                       b.data.label(), b.image_paths[ib]);
+          spdlog::warn(
+              "{}: cannot read {}; its keypoints are compared with their cached "
+              "descriptors",
+              b.data.label(), b.image_paths[ib]);
         }
       }
       input.image_b = image_b.empty() ? nullptr : &image_b;

@@ -8,7 +8,7 @@ DEMO_DIR ?= demo
 JOBS ?= $(shell nproc)
 FUZZ_SECONDS ?= 60
 
-.PHONY: all deps configure build test demo bench fuzz asan format clean
+.PHONY: all deps configure build test demo bench fuzz asan asan-unit format clean
 
 all: build
 
@@ -33,8 +33,13 @@ demo: build
 bench: build
 	bash bench/run_all.sh $(BUILD_DIR)
 
+# The whole suite under AddressSanitizer + UndefinedBehaviorSanitizer (build/asan).
 asan:
 	$(MAKE) test PRESET=asan
+
+# Only the unit tests (ctest label `unit`) under the sanitizers, as .ci/run does.
+asan-unit: deps
+	bash scripts/sanitize-unit-tests.sh $(JOBS)
 
 fuzz: deps
 	cmake --preset fuzz && cmake --build --preset fuzz -j $(JOBS) --target crop4d_csv_fuzzer crop4d_yaml_fuzzer

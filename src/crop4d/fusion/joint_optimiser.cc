@@ -45,6 +45,7 @@ class JointProblem {
         options_(options.row),
         passes_(passes),
         ties_(std::move(ties)),
+        ground_tie_loss_(std::make_unique<ceres::HuberLoss>(options.ground_tie_loss_scale)),
         blocks_(passes.size()) {
     for (std::size_t p = 0; p < passes.size(); ++p) {
       for (const slam::RowState& s : passes[p].initial_states) {
@@ -101,8 +102,7 @@ class JointProblem {
       problem.AddResidualBlock(GroundTieFactor::Create(tie.point_a, tie.point_b, tie.across,
                                                        joint_options_.ground_tie_sigma_across_m,
                                                        joint_options_.ground_tie_sigma_vertical_m),
-                               new ceres::HuberLoss(joint_options_.ground_tie_loss_scale),
-                               blocks_[tie.pass_a][tie.state_a].pose,
+                               ground_tie_loss_.get(), blocks_[tie.pass_a][tie.state_a].pose,
                                blocks_[tie.pass_b][tie.state_b].pose);
     }
     return slam::RunSolver(options_, &problem, landmarks);
@@ -135,6 +135,8 @@ class JointProblem {
   const slam::RowOptimiser::Options& options_;
   const std::vector<JointOptimiser::Pass>& passes_;
   std::vector<BodyTie> ties_;
+  // Shared by every tie: the problem options leave losses to their owner (slam::ProblemOptions).
+  std::unique_ptr<ceres::LossFunction> ground_tie_loss_;
   std::vector<std::vector<slam::StateBlocks>> blocks_;
   std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
 };

@@ -93,8 +93,9 @@ class FusionStagesTest : public ::testing::Test {
   double MedianMisalignment(const std::string& field, const std::string& label) {
     eval::WorkspaceEvalOptions eo;
     eo.associations = false;
-    const eval::CloudSetEval* clouds =
-        Clouds(eval::EvaluateWorkspace(workspace_, field, eo), label);
+    // The evaluation is kept alive while the pointer into it is read.
+    const eval::WorkspaceEval e = eval::EvaluateWorkspace(workspace_, field, eo);
+    const eval::CloudSetEval* clouds = Clouds(e, label);
     if (clouds == nullptr) {
       ADD_FAILURE() << "no " << label << " clouds evaluated";
       return std::numeric_limits<double>::quiet_NaN();

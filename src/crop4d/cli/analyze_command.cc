@@ -58,6 +58,7 @@ int RunAnalyze(AnalyzeArgs& args) {
   if (args.threads > 0) {
     limit.emplace(tbb::global_control::max_allowed_parallelism, args.threads);
   }
+  const auto lock = LockWorkspace(args.workspace, "crop4d analyze", /*create=*/false);
   const pipeline::AnalyzeReport report = pipeline::RunAnalyzeStage(args.field, args.workspace, o);
   if (!IsQuiet()) {
     std::fputs(pipeline::FormatAnalyzeReport(report).c_str(), stdout);

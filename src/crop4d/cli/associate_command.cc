@@ -56,6 +56,7 @@ int RunAssociate(AssociateArgs& args) {
     }
     return 0;
   }
+  const auto lock = LockWorkspace(args.workspace, "crop4d associate", /*create=*/false);
   const std::vector<pipeline::PassPairReport> reports =
       pipeline::RunAssociateStage(args.field, args.workspace, o);
   if (!IsQuiet()) {

@@ -7,10 +7,21 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <memory>
+#include <string>
+
+#include "crop4d/io/workspace_lock.h"
 
 namespace crop4d::cli {
 
 using RunFunction = std::function<int()>;
+
+// The lock of a workspace for a command that writes into it (io/workspace_lock.h), held until
+// the returned object is destroyed. The folder is created first when `create`; otherwise a
+// missing folder is not locked (the stage then says what it lacks). Throws InputError (exit 2)
+// naming the holder when another crop4d process writes into the workspace.
+std::unique_ptr<io::WorkspaceLock> LockWorkspace(const std::string& workspace,
+                                                 const std::string& command, bool create);
 
 struct Command {
   const char* name;

@@ -68,6 +68,7 @@ int RunDensify(DensifyArgs& args) {
     throw InputError("--max-canopy-height", 0, "expected a height in (0, 5] m");
   }
   if (!o.Check()) throw InputError("crop4d densify", 0, "invalid options");
+  const auto lock = LockWorkspace(args.workspace, "crop4d densify", /*create=*/false);
   const std::vector<pipeline::DensifySessionReport> reports =
       pipeline::RunDensifyStage(args.field, args.workspace, o);
   if (!IsQuiet()) {

@@ -25,6 +25,7 @@ struct EvalArgs {
 };
 
 int RunEval(const EvalArgs& args) {
+  const auto lock = LockWorkspace(args.workspace, "crop4d eval", /*create=*/false);
   const eval::WorkspaceEval result =
       eval::EvaluateWorkspace(args.workspace, args.truth, args.options);
   const std::string written = eval::WriteWorkspaceEval(result, args.output);

@@ -41,6 +41,7 @@ int RunFuse(FuseArgs& args) {
   // Ceres follows num_threads; the stage's parallel loops (triangulation, ties) follow this.
   std::optional<tbb::global_control> limit;
   if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, args.threads);
+  const auto lock = LockWorkspace(args.workspace, "crop4d fuse", /*create=*/false);
   const pipeline::FuseReport report = pipeline::RunFuseStage(args.field, args.workspace, o);
   if (!IsQuiet()) {
     std::fputs(pipeline::FormatFuseReport(report).c_str(), stdout);

@@ -32,6 +32,7 @@ int RunReport(ReportArgs& args) {
   o.cross_section_row = args.row;
   o.cross_section_dense = !args.sparse_section;
   if (!o.Check()) throw InputError("crop4d report", 0, "invalid options");
+  const auto lock = LockWorkspace(args.workspace, "crop4d report", /*create=*/false);
   const report::HtmlReportResult result =
       report::WriteHtmlReport(args.workspace, args.field, args.output, o);
   for (const std::string& line : result.skipped) spdlog::warn("report: {}", line);

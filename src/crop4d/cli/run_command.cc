@@ -25,6 +25,7 @@ struct RunArgs {
   bool no_densify = false;
   bool no_report = false;
   bool force = false;
+  bool wait = false;
   bool print_config = false;
 };
 
@@ -48,6 +49,7 @@ int RunRun(const RunArgs& args) {
     throw InputError("crop4d run", 0, "FIELD and --workspace are required");
   }
   options.force = args.force;
+  options.wait_for_workspace = args.wait;
   const pipeline::RunResult result = pipeline::RunSeason(args.field, args.workspace, options);
   std::fputs(("\n" + pipeline::FormatRunSummary(result)).c_str(), stdout);
   std::fflush(stdout);
@@ -76,7 +78,8 @@ RunFunction SetupRun(CLI::App& app) {
   app.add_option("-c,--config", args->config_file,
                  "Configuration file (YAML, docs/run.md; default: every stage's defaults)")
       ->check(CLI::ExistingFile);
-  app.add_option("--threads", args->threads, "Worker threads (0: all cores; overrides the file)");
+  app.add_option("--threads", args->threads, "Worker threads (0: all cores; overrides the file)")
+      ->check(CLI::Range(0, pipeline::RunConfig::kMaxThreads));
   app.add_option("--eval", args->eval,
                  "Evaluation against ground truth: auto, always, never (overrides the file)")
       ->check(CLI::IsMember({"auto", "always", "never"}));
@@ -85,6 +88,9 @@ RunFunction SetupRun(CLI::App& app) {
                "accurate canopy heights)");
   app.add_flag("--no-report", args->no_report, "Do not write WS/report.html");
   app.add_flag("--force", args->force, "Redo every stage even when its outputs are up to date");
+  app.add_flag("--wait", args->wait,
+               "When another crop4d process is writing into the workspace, wait until it ends "
+               "(default: exit with code 2, naming it)");
   app.add_flag("--print-config", args->print_config,
                "Print the effective configuration (defaults, the file, the options above) as "
                "YAML and exit");

@@ -58,6 +58,7 @@ int RunSlam(SlamArgs& args) {
   if (o.front_end.num_threads > 0) {
     limit.emplace(tbb::global_control::max_allowed_parallelism, o.front_end.num_threads);
   }
+  const auto lock = LockWorkspace(args.workspace, "crop4d slam", /*create=*/true);
   const std::vector<pipeline::PassReport> reports =
       pipeline::RunSlamStage(args.field, args.workspace, o);
   int failed = 0, skipped = 0;

@@ -1,9 +1,14 @@
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <thread>
 #include <vector>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/timestamp.h"
 
@@ -100,4 +105,23 @@ TEST(Progress, TerminalBar) {
 }
 
 }  // namespace
+TEST(LogFile, EveryLineIsOnDiskAsSoonAsItIsLogged) {
+  // A run killed with SIGKILL cannot flush: what it logged must already be in the file.
+  InitLogging(Verbosity::kQuiet);
+  const std::filesystem::path path = std::filesystem::path(::testing::TempDir()) /
+                                     ("crop4d_log_" + std::to_string(::getpid()) + ".log");
+  std::filesystem::remove(path);
+  const spdlog::sink_ptr sink = AddLogFile(path.string());
+  ASSERT_NE(sink, nullptr);
+  spdlog::info("first line");
+  spdlog::debug("second line");
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("[info] first line\n"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("[debug] second line\n"), std::string::npos) << text.str();
+  RemoveLogSink(sink);
+  std::filesystem::remove(path);
+}
+
 }  // namespace crop4d

@@ -1,10 +1,13 @@
 #include "crop4d/core/logging.h"
 
-#include <spdlog/sinks/basic_file_sink.h>
+#include <spdlog/details/file_helper.h>
+#include <spdlog/sinks/base_sink.h>
 #include <spdlog/sinks/stdout_color_sinks.h>
 
 #include <algorithm>
 #include <atomic>
+#include <mutex>
+#include <string>
 
 namespace crop4d {
 
@@ -24,6 +27,24 @@ spdlog::level::level_enum ToLevel(Verbosity v) {
   }
   return spdlog::level::info;
 }
+// A log file flushed after every line: a run killed at any moment keeps all it had logged.
+// (spdlog's basic_file_sink is final and flushes only on request.)
+class LineFlushedFileSink final : public spdlog::sinks::base_sink<std::mutex> {
+ public:
+  explicit LineFlushedFileSink(const std::string& path) { file_.open(path, /*truncate=*/false); }
+
+ protected:
+  void sink_it_(const spdlog::details::log_msg& msg) override {
+    spdlog::memory_buf_t line;
+    formatter_->format(msg, line);
+    file_.write(line);
+    file_.flush();
+  }
+  void flush_() override { file_.flush(); }
+
+ private:
+  spdlog::details::file_helper file_;
+};
 }  // namespace
 
 void InitLogging(Verbosity verbosity) {
@@ -43,7 +64,7 @@ void InitLogging(Verbosity verbosity) {
 
 spdlog::sink_ptr AddLogFile(const std::string& path) {
   try {
-    auto sink = std::make_shared<spdlog::sinks::basic_file_sink_mt>(path, /*truncate=*/false);
+    auto sink = std::make_shared<LineFlushedFileSink>(path);
     sink->set_pattern("%Y-%m-%d %H:%M:%S.%e [%l] %v");
     sink->set_level(spdlog::level::debug);
     spdlog::default_logger()->sinks().push_back(sink);

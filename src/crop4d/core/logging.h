@@ -14,9 +14,9 @@ enum class Verbosity { kQuiet, kNormal, kVerbose, kTrace };
 // terminal), at the level that `verbosity` names. Safe to call more than once.
 void InitLogging(Verbosity verbosity);
 
-// Also writes every message (at debug level and above) to `path`, appending, e.g. the workspace
-// log file. Returns the sink (for RemoveLogSink), or null with a warning when the file cannot be
-// opened.
+// Also writes every message (at debug level and above) to `path`, appending and flushed line by
+// line, e.g. the workspace log file. Returns the sink (for RemoveLogSink), or null with a warning
+// when the file cannot be opened.
 spdlog::sink_ptr AddLogFile(const std::string& path);
 
 // Takes a sink added by AddLogFile off the default logger (flushing it first); null is ignored.

@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -355,6 +357,12 @@ std::vector<ColmapPoint3D> ReadPoints(const std::string& path,
 }
 
 }  // namespace
+
+std::string ColmapImageName(std::string name) {
+  std::replace_if(
+      name.begin(), name.end(), [](unsigned char c) { return std::isspace(c) != 0; }, '_');
+  return name;
+}
 
 const char* ColmapCameraModelName(const geometry::PinholeRadTan& camera) {
   return camera.k3 == 0.0 ? "OPENCV" : "FULL_OPENCV";

@@ -96,6 +96,11 @@ struct ColmapModel {
 // The COLMAP camera model crop4d writes for `camera`: "OPENCV" when k3 == 0, else "FULL_OPENCV".
 const char* ColmapCameraModelName(const geometry::PinholeRadTan& camera);
 
+// `name` with every whitespace character replaced by '_': COLMAP's images.txt separates its
+// fields by spaces, so an image name cannot hold one (a session folder "2016-06-10 early"
+// gives images "2016-06-10_early/...").
+std::string ColmapImageName(std::string name);
+
 // Writes cameras.txt, images.txt and points3D.txt into `folder` (created when missing), each
 // atomically (io/atomic_file.h), in the order of the model's vectors. Throws InputError when an
 // image name is empty or holds whitespace (COLMAP's text format cannot hold it) or a file

@@ -310,6 +310,16 @@ TEST(ColmapTextTest, NameWithWhitespaceIsRejectedOnWriting) {
   EXPECT_FALSE(std::filesystem::exists(dir / "images.txt"));
 }
 
+TEST(ColmapTextTest, NamesWithWhitespaceAreMappedToNamesColmapCanHold) {
+  EXPECT_EQ(ColmapImageName("2016-06-10 früh/row 03/a\tb.png"), "2016-06-10_früh/row_03/a_b.png");
+  EXPECT_EQ(ColmapImageName("2016-06-10/row03/a.png"), "2016-06-10/row03/a.png");
+  testing::TempDir dir;
+  ColmapModel model = TestModel();
+  model.images[1].name = ColmapImageName("2016-06-10 früh/row 03/a.png");
+  WriteColmapText(dir.path(), model);
+  EXPECT_EQ(ReadColmapText(dir.path()).images[1].name, "2016-06-10_früh/row_03/a.png");
+}
+
 TEST(ColmapTextTest, CheckFindsInconsistentTracks) {
   std::string why;
   ColmapModel model = TestModel();

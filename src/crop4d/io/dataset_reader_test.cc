@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <opencv2/imgcodecs.hpp>
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/image_probe.h"
@@ -120,12 +121,26 @@ TEST_F(DatasetReaderTest, ProbeImageTellsWhatIsWrong) {
   fs::create_directories(dir_ / "folder.png");
   EXPECT_EQ(ProbeImage(dir_ / "folder.png").problem, "is a folder, not an image file");
   EXPECT_EQ(ProbeImage(dir_ / "none.png").problem, "missing");
-  // A truncated PNG passes the header check but not decoding.
+  // A PNG cut short lacks its IEND chunk: found without decoding.
   const std::string bytes = testing::ReadText(good);
-  testing::WriteText(dir_ / "cut.png", bytes.substr(0, 60));
-  EXPECT_TRUE(ProbeImage(dir_ / "cut.png", false).ok);
-  EXPECT_EQ(ProbeImage(dir_ / "cut.png", true).problem,
+  testing::WriteText(dir_ / "cut.png", bytes.substr(0, bytes.size() - 20));
+  EXPECT_EQ(ProbeImage(dir_ / "cut.png", false).problem,
+            "truncated PNG (no IEND chunk at the end)");
+  // A PNG damaged inside but whole passes the cheap check, not decoding.
+  std::string damaged = bytes;
+  for (std::size_t i = damaged.size() / 2; i < damaged.size() / 2 + 4; ++i) damaged[i] ^= 0x5A;
+  testing::WriteText(dir_ / "damaged.png", damaged);
+  EXPECT_TRUE(ProbeImage(dir_ / "damaged.png", false).ok);
+  EXPECT_EQ(ProbeImage(dir_ / "damaged.png", true).problem,
             "cannot be decoded (truncated or corrupt png)");
+  // The same for a JPEG: whole, then cut short.
+  const std::string jpeg = dir_ / "image.jpg";
+  ASSERT_TRUE(cv::imwrite(jpeg, cv::Mat(24, 32, CV_8UC3, cv::Scalar(10, 200, 30))));
+  EXPECT_TRUE(ProbeImage(jpeg).ok);
+  const std::string jpeg_bytes = testing::ReadText(jpeg);
+  testing::WriteText(dir_ / "cut.jpg", jpeg_bytes.substr(0, jpeg_bytes.size() * 2 / 3));
+  EXPECT_EQ(ProbeImage(dir_ / "cut.jpg").problem,
+            "truncated JPEG (no end-of-image marker at the end)");
 }
 
 TEST_F(DatasetReaderTest, BrokenSensorYamlThrowsWithoutCollectorAndIsLeftOutWithOne) {

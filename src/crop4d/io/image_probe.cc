@@ -1,5 +1,6 @@
 #include "crop4d/io/image_probe.h"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <cstring>
@@ -47,6 +48,22 @@ bool JpegSize(std::ifstream& in, int* width, int* height) {
   return false;
 }
 
+// Whether the last bytes of the file hold `marker`: a PNG ends with its IEND chunk and a JPEG
+// with its end-of-image marker, so a file cut short (a copy or a recording that stopped) lacks
+// it. A few bytes of padding after the marker are allowed.
+bool EndsWithMarker(std::ifstream& in, std::uintmax_t size, const char* marker,
+                    std::size_t length) {
+  constexpr std::uintmax_t kTail = 64;
+  const std::uintmax_t tail = std::min(size, kTail);
+  std::array<char, kTail> bytes{};
+  in.clear();
+  in.seekg(static_cast<std::streamoff>(size - tail));
+  if (!in.read(bytes.data(), static_cast<std::streamsize>(tail))) return false;
+  const char* begin = bytes.data();
+  const char* end = begin + tail;
+  return std::search(begin, end, marker, marker + length) != end;
+}
+
 }  // namespace
 
 ImageProbe ProbeImage(const std::string& path, bool decode) {
@@ -91,10 +108,18 @@ ImageProbe ProbeImage(const std::string& path, bool decode) {
       probe.problem = "PNG header with an invalid size";
       return probe;
     }
+    if (!EndsWithMarker(in, size, "IEND", 4)) {
+      probe.problem = "truncated PNG (no IEND chunk at the end)";
+      return probe;
+    }
   } else if (starts("\xFF\xD8\xFF", 3)) {
     probe.format = "jpeg";
     if (!JpegSize(in, &probe.width, &probe.height)) {
       probe.problem = "JPEG without a readable frame header (truncated?)";
+      return probe;
+    }
+    if (!EndsWithMarker(in, size, "\xFF\xD9", 2)) {
+      probe.problem = "truncated JPEG (no end-of-image marker at the end)";
       return probe;
     }
   } else if (starts("II*\0", 4) || starts("MM\0*", 4)) {

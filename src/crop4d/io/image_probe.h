@@ -1,7 +1,8 @@
 #pragma once
 
 // A cheap check that a file is an image OpenCV can read, without decoding it: a regular,
-// non-empty file with a known image signature; PNG and JPEG headers also give the size.
+// non-empty file with a known image signature; PNG and JPEG headers also give the size, and a
+// PNG or JPEG must end with its end marker (a file cut short does not).
 
 #include <string>
 

@@ -28,15 +28,15 @@ std::string ImageSequence::Path(std::size_t i) const {
 cv::Mat ImageSequence::LoadImage(std::size_t i, int imread_flags, Diagnostics* diag) const {
   const ImageEntry& e = entries_.at(i);
   const std::string path = Path(i);
-  std::string problem;
-  std::error_code ec;
-  // Checked first: imread would also log its own warning for a missing file.
-  cv::Mat image =
-      std::filesystem::is_regular_file(path, ec) ? cv::imread(path, imread_flags) : cv::Mat();
-  if (image.empty()) {
-    // Say why: missing, empty, not an image, or a decoding failure.
-    const ImageProbe probe = ProbeImage(path, false);
-    problem = probe.ok ? "cannot be decoded (truncated or corrupt?)" : probe.problem;
+  // Probed first (a header and the last bytes): a missing, empty or truncated file is not handed
+  // to the decoder, which would print its own error (libpng's "Read Error") on stderr.
+  const ImageProbe probe = ProbeImage(path, false);
+  std::string problem = probe.problem;
+  cv::Mat image = probe.ok ? cv::imread(path, imread_flags) : cv::Mat();
+  if (!probe.ok) {
+    // problem says why: missing, empty, not an image, cut short
+  } else if (image.empty()) {
+    problem = "cannot be decoded (corrupt?)";
   } else if (image.cols != camera_.camera.width || image.rows != camera_.camera.height) {
     problem = fmt::format("is {}x{}, but {} has resolution {}x{}", image.cols, image.rows,
                           camera_.name, camera_.camera.width, camera_.camera.height);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
@@ -279,6 +280,18 @@ SessionReport ValidateSession(const std::string& folder, const std::string& id,
   }
   if (!has_imu) diag->Warning(folder, 0, "session has no IMU (imu0/): the method degrades");
   if (!has_gps) diag->Warning(folder, 0, "session has no GPS (gps0/): the method degrades");
+  for (const SensorReport& sensor : report.sensors) {
+    if (sensor.kind != SensorKind::kGps || sensor.samples == 0) continue;
+    const auto& fixes = sensor.stats.fix_counts;
+    const auto none = fixes.find(static_cast<int>(GpsFix::kNone));
+    if (none != fixes.end() && none->second == sensor.samples) {
+      const std::string reason =
+          fmt::format("{} has no fix in any of its {} samples (fix column 0): it gives no position",
+                      sensor.name, sensor.samples);
+      diag->Warning((fs::path(folder) / sensor.name / kDataCsv).string(), 0, reason);
+      report.degradations.push_back(reason);
+    }
+  }
 
   // Every sensor should overlap the camera in time (a unit mistake shows up here).
   const SensorReport* camera = nullptr;
@@ -295,6 +308,34 @@ SessionReport ValidateSession(const std::string& folder, const std::string& id,
     }
   }
   return report;
+}
+
+// A session without a sensor folder that most of the field's other sessions have (a receiver
+// left at home, a folder lost in the copy) is processed without it: warned about and recorded.
+// A sensor that only a minority of the sessions have is an extra, not a loss.
+void WarnAboutMissingSensors(const Field& field, std::vector<SessionReport>* sessions,
+                             Diagnostics* diag) {
+  if (sessions->size() < 2) return;
+  std::map<std::string, std::pair<SensorKind, int>> have;  // folder name -> kind, sessions
+  for (const SessionReport& s : *sessions) {
+    for (const SensorReport& sensor : s.sensors) {
+      auto [it, inserted] = have.try_emplace(sensor.name, sensor.kind, 0);
+      ++it->second.second;
+    }
+  }
+  for (SessionReport& s : *sessions) {
+    for (const auto& [name, kind_count] : have) {
+      const bool present = std::any_of(s.sensors.begin(), s.sensors.end(),
+                                       [&](const SensorReport& r) { return r.name == name; });
+      const auto others = sessions->size() - 1;
+      if (present || 2 * static_cast<std::size_t>(kind_count.second) <= others) continue;
+      const std::string reason =
+          fmt::format("no {}/ ({}), which {} of the other {} sessions have: processed without it",
+                      name, SensorKindName(kind_count.first), kind_count.second, others);
+      diag->Warning(field.SessionFolder(s.id), 0, reason);
+      s.degradations.push_back(reason);
+    }
+  }
 }
 
 std::string FormatFixCounts(const std::map<int, std::int64_t>& fix_counts, std::int64_t total) {
@@ -336,6 +377,7 @@ ValidationReport ValidateField(const std::string& folder, const ValidateOptions&
     for (const std::string& id : ids) {
       report.sessions.push_back(ValidateSession(field.SessionFolder(id), id, options, &diag));
     }
+    WarnAboutMissingSensors(field, &report.sessions, &diag);
   } catch (const InputError& e) {
     diag.Error(e.file(), e.line(), e.message());
   }
@@ -378,6 +420,7 @@ std::string FormatValidationSummary(const ValidationReport& report) {
       out += fmt::format("  {:<8} {:>9} {:>20} {:>12} {:>6} {:>8}  {}\n", s.name, s.samples, rate,
                          FormatDuration(s.span_s()), s.gaps, s.stats.skipped(), notes);
     }
+    for (const std::string& reason : session.degradations) out += "  degraded: " + reason + "\n";
   }
   out += fmt::format("\n{} error{}, {} warning{}\n", report.errors, report.errors == 1 ? "" : "s",
                      report.warnings, report.warnings == 1 ? "" : "s");
@@ -432,6 +475,7 @@ std::string ValidationReportJson(const ValidationReport& report) {
       sensors.push_back(j);
     }
     s["sensors"] = sensors;
+    s["degradations"] = session.degradations;
     sessions.push_back(s);
   }
   root["sessions"] = sessions;

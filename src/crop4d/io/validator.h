@@ -72,6 +72,10 @@ struct SessionReport {
   std::string id;
   Timestamp date = 0;
   std::vector<SensorReport> sensors;
+  // Why the session is below what its data promise or what the field's other sessions have (a
+  // GPS receiver without a single fix, a sensor the other sessions have): each is also a
+  // warning. `crop4d run` lists the session as degraded with these reasons.
+  std::vector<std::string> degradations;
 };
 
 struct ValidationReport {

@@ -162,16 +162,28 @@ TEST_F(ValidatorTest, ListedImagesMissingEmptyOrNotImagesAreErrorsAtTheirLine) {
   EXPECT_EQ(report.sessions[0].sensors[0].images_unreadable, 2);
 }
 
-TEST_F(ValidatorTest, TruncatedImageFoundOnlyWhenDecoding) {
-  const std::string image = Path(kS + "cam0/data/" + ImageOnLine(4));
-  testing::WriteText(image, testing::ReadText(image).substr(0, 60));
+TEST_F(ValidatorTest, TruncatedImageFoundWithoutDecodingAndDamagedOneWhenDecoding) {
+  // Cut short: its end marker is missing, which the cheap check sees (crop4d run's validate).
+  const std::string cut = Path(kS + "cam0/data/" + ImageOnLine(4));
+  testing::WriteText(cut, testing::ReadText(cut).substr(0, 60));
+  EXPECT_EQ(Messages(Validate()),
+            std::vector<std::string>{"error: " + kS + "cam0/data.csv:4: listed image data/" +
+                                     ImageOnLine(4) +
+                                     " is not readable: truncated PNG (no IEND chunk at the "
+                                     "end)"});
+  // Damaged inside but whole: only decoding finds it.
+  fs::copy_file(Path(kS + "cam0/data/" + ImageOnLine(5)), cut,
+                fs::copy_options::overwrite_existing);
+  const std::string damaged = Path(kS + "cam0/data/" + ImageOnLine(6));
+  std::string bytes = testing::ReadText(damaged);
+  for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 4; ++i) bytes[i] ^= 0x5A;
+  testing::WriteText(damaged, bytes);
   EXPECT_TRUE(Validate().ok());
   ValidateOptions options;
   options.decode_images = true;
-  const ValidationReport report = Validate(options);
-  EXPECT_EQ(Messages(report),
-            std::vector<std::string>{"error: " + kS + "cam0/data.csv:4: listed image data/" +
-                                     ImageOnLine(4) +
+  EXPECT_EQ(Messages(Validate(options)),
+            std::vector<std::string>{"error: " + kS + "cam0/data.csv:6: listed image data/" +
+                                     ImageOnLine(6) +
                                      " is not readable: cannot be decoded (truncated or corrupt "
                                      "png)"});
 }
@@ -260,6 +272,55 @@ TEST_F(ValidatorTest, JsonReportHoldsSummaryAndDiagnostics) {
   EXPECT_EQ(json["diagnostics"][0]["file"].get<std::string>(), kS + "imu0/data.csv");
   EXPECT_EQ(json["diagnostics"][0]["line"].get<int>(), 17);
   EXPECT_EQ(json["diagnostics"][0]["message"].get<std::string>(), "expected 7 columns, found 5");
+}
+
+TEST_F(ValidatorTest, AReceiverWithoutASingleFixDegradesTheSession) {
+  // gps0's fix column all 0: the file is well formed, but the receiver gives no position.
+  std::vector<std::string> lines = testing::ReadLines(Path(kS + "gps0/data.csv"));
+  for (std::string& line : lines) {
+    if (!line.empty() && line[0] != '#') line = line.substr(0, line.rfind(',')) + ",0";
+  }
+  testing::WriteLines(Path(kS + "gps0/data.csv"), lines);
+  const ValidationReport report = Validate();
+  EXPECT_TRUE(report.ok());
+  EXPECT_TRUE(Contains(report, "warning: " + kS +
+                                   "gps0/data.csv: gps0 has no fix in any of its 11 samples (fix "
+                                   "column 0): it gives no position"))
+      << Dump(report);
+  ASSERT_EQ(report.sessions[0].degradations.size(), 1u);
+  EXPECT_NE(FormatValidationSummary(report).find("  degraded: gps0 has no fix"), std::string::npos);
+  const nlohmann::json json = nlohmann::json::parse(ValidationReportJson(report));
+  EXPECT_EQ(json["sessions"][0]["degradations"][0], report.sessions[0].degradations[0]);
+}
+
+TEST(ValidatorFieldTest, ASensorThatTheOtherSessionsHaveIsMissing) {
+  TempDir dir;
+  SampleFieldOptions options;
+  options.sessions = {"2016-05-25", "2016-06-01", "2016-06-08"};
+  WriteSampleField(dir.path(), options);
+  fs::remove_all(dir / "sessions/2016-06-01/gps0");
+  ValidateOptions vo;
+  vo.progress = false;
+  const ValidationReport report = ValidateField(dir.path(), vo);
+  EXPECT_TRUE(report.ok());
+  ASSERT_EQ(report.sessions.size(), 3u);
+  EXPECT_TRUE(report.sessions[0].degradations.empty());
+  EXPECT_TRUE(report.sessions[2].degradations.empty());
+  EXPECT_EQ(report.sessions[1].degradations,
+            std::vector<std::string>{"no gps0/ (gps), which 2 of the other 2 sessions have: "
+                                     "processed without it"});
+  bool warned = false;
+  for (const Diagnostic& d : report.diagnostics) {
+    warned = warned || (d.severity == Severity::kWarning && d.file == "sessions/2016-06-01" &&
+                        d.message.find("no gps0/") == 0);
+  }
+  EXPECT_TRUE(warned);
+  // A sensor that only one of the three sessions has is an extra: nobody lacks it.
+  fs::remove_all(dir / "sessions/2016-05-25/mag0");
+  fs::remove_all(dir / "sessions/2016-06-08/mag0");
+  const ValidationReport extra = ValidateField(dir.path(), vo);
+  EXPECT_TRUE(extra.sessions[0].degradations.empty());
+  EXPECT_EQ(extra.sessions[1].degradations.size(), 1u);
 }
 
 }  // namespace

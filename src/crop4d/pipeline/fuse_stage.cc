@@ -709,11 +709,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
         image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
         image.camera_id = camera_of_session[session];
         const auto it = names.find(passes[p]->data.times[k]);
-        std::string file =
+        const std::string file =
             it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
-        std::replace_if(
-            file.begin(), file.end(), [](char c) { return std::isspace(c); }, '_');
-        image.name = session + "/" + passes[p]->data.pass.id + "/" + file;
+        image.name = io::ColmapImageName(session + "/" + passes[p]->data.pass.id + "/" + file);
         image.world_from_camera = cameras[p][k];
         image_ids[p].push_back(image.image_id);
         model.images.push_back(std::move(image));

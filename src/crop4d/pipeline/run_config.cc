@@ -132,7 +132,7 @@ const std::vector<Key>& Keys() {
     constexpr double kHuge = 1e9;
     k.push_back(Int(
         "", "threads", "worker threads for every stage (0: all cores)",
-        [](RunConfig& c) -> int& { return c.threads; }, 0, 1024));
+        [](RunConfig& c) -> int& { return c.threads; }, 0, RunConfig::kMaxThreads));
 
     k.push_back(Bool("stages", "densify",
                      "dense clouds before the analysis (else the analysis uses the sparse clouds)",
@@ -452,6 +452,10 @@ bool RunConfig::Check(std::string* message) const {
     if (message != nullptr) *message = m;
     return false;
   };
+  // The command line sets it past the file's range check (crop4d run --threads).
+  if (threads < 0 || threads > kMaxThreads) {
+    return fail(fmt::format("threads must be 0 (all cores) to {} (got {})", kMaxThreads, threads));
+  }
   if (associate.method != "both" && associate.method != fuse.method) {
     return fail("fuse.method '" + fuse.method + "' needs associate.method '" + fuse.method +
                 "' or 'both' (got '" + associate.method + "')");

@@ -30,7 +30,8 @@
 namespace crop4d::pipeline {
 
 struct RunConfig {
-  // Worker threads for every stage (0: all cores).
+  static constexpr int kMaxThreads = 1024;
+  // Worker threads for every stage (0: all cores; at most kMaxThreads).
   int threads = 0;
   // Dense clouds (`crop4d densify`) before the analysis; without them the analysis uses the
   // fused sparse clouds (much less accurate canopy heights).

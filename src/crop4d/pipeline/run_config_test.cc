@@ -12,6 +12,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/pipeline/run_log.h"
+#include "crop4d/pipeline/season_run.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -174,6 +175,21 @@ TEST(RunLogTest, RecordRoundTripsAndLogSurvivesACutLastLine) {
   EXPECT_EQ(events[1].message, "no GPS");
   EXPECT_TRUE(ReadRunLog((dir / "missing.jsonl").string()).empty());
   fs::remove_all(dir);
+}
+
+TEST(RunConfigTest, ThreadsFromTheCommandLineAreCheckedBeforeAnythingIsWritten) {
+  // `crop4d run --threads -1` sets the value past the file's range check.
+  RunOptions options;
+  options.config.threads = -1;
+  std::string message;
+  EXPECT_FALSE(options.config.Check(&message));
+  EXPECT_THAT(message, HasSubstr("threads must be 0 (all cores) to 1024 (got -1)"));
+  const fs::path ws =
+      fs::path(::testing::TempDir()) / ("crop4d_threads_" + std::to_string(::getpid()));
+  fs::remove_all(ws);
+  EXPECT_THROW(RunSeason("no-such-field", ws.string(), options), InputError);
+  EXPECT_FALSE(fs::exists(ws / "crop4d.yaml"));
+  fs::remove_all(ws);
 }
 
 }  // namespace

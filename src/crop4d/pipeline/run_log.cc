@@ -27,6 +27,13 @@ json ToJson(const StageRecord& s) {
 
 }  // namespace
 
+bool RunRecord::AnyStageFailed() const {
+  for (const StageRecord& s : stages) {
+    if (s.status == "failed") return true;
+  }
+  return false;
+}
+
 StageRecord* RunRecord::Stage(const std::string& name) {
   for (StageRecord& s : stages) {
     if (s.name == name) return &s;

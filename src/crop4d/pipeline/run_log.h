@@ -64,6 +64,8 @@ struct RunRecord {
   std::vector<SkippedItem> skipped;
 
   StageRecord* Stage(const std::string& name);
+  // A stage failed as a whole (status "failed"): then the run is not complete.
+  bool AnyStageFailed() const;
 };
 
 // WS/run.json: written atomically; read back (InputError for a malformed file).

@@ -23,6 +23,7 @@
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/validator.h"
+#include "crop4d/io/workspace_lock.h"
 #include "crop4d/pipeline/stage_files.h"
 #include "crop4d/report/html_report.h"
 
@@ -31,12 +32,7 @@ namespace crop4d::pipeline {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-bool RunResult::any_stage_failed() const {
-  for (const StageRecord& s : record.stages) {
-    if (s.status == "failed") return true;
-  }
-  return false;
-}
+bool RunResult::any_stage_failed() const { return record.AnyStageFailed(); }
 
 namespace {
 
@@ -186,6 +182,14 @@ void SeasonRun::Validate(StageRecord& stage) {
   }
   if (per_session.count("")) {
     spdlog::warn("validate: {}", per_session[""].second);
+  }
+  // A session below what its data promise (a receiver without a fix, a sensor the others have)
+  // is listed as degraded with the reason: the stages still use what it has.
+  for (const io::SessionReport& session : report.sessions) {
+    for (const std::string& reason : session.degradations) {
+      log_.Add("validate", session.id, "degraded", 0, reason);
+      record_.skipped.push_back({"validate", session.id, "", "degraded: " + reason});
+    }
   }
 }
 
@@ -370,7 +374,7 @@ RunResult SeasonRun::Run() {
   const io::Field field(field_);  // throws InputError for an unreadable field.yaml
   sessions_ = field.session_ids();
   if (sessions_.empty()) throw InputError(field_, 0, "the field has no session");
-  // One run at a time owns a workspace: what a killed run was writing is garbage.
+  // This run holds the workspace's lock: what a killed run was writing is garbage.
   if (const int n = io::RemoveStaleTemporaryFiles(ws_); n > 0) {
     spdlog::info("removed {} temporary file(s) left by an interrupted run", n);
   }
@@ -405,11 +409,12 @@ RunResult SeasonRun::Run() {
   });
   Stage("analyze", [this](StageRecord& s) { Analyze(s); });
   Stage("eval", [this](StageRecord& s) { Eval(s); });
-  // The report shows the record: complete before it is drawn.
-  record_.complete = true;
+  // The report shows the record: complete (every stage ran to its end) before it is drawn.
+  record_.complete = !record_.AnyStageFailed();
   record_.finished = IsoTimeNow();
   WriteRunRecord(record_path_, record_);
   Stage("report", [this](StageRecord& s) { Report(s); });
+  record_.complete = !record_.AnyStageFailed();
   record_.finished = IsoTimeNow();
   WriteRunRecord(record_path_, record_);
   return {record_, record_path_};
@@ -430,6 +435,10 @@ RunResult RunSeason(const std::string& field_folder, const std::string& workspac
   if (ec || !fs::is_directory(workspace)) {
     throw InputError(workspace, 0, "cannot create the workspace folder: " + ec.message());
   }
+  // Before anything is written: a second run must not touch the first one's files.
+  const io::WorkspaceLock lock(workspace, "crop4d run",
+                               options.wait_for_workspace ? io::WorkspaceLock::IfBusy::kWait
+                                                          : io::WorkspaceLock::IfBusy::kFail);
   ScopedLogFile log_file((fs::path(workspace) / "crop4d.log").string());
   SeasonRun run(field_folder, workspace, options);
   return run.Run();

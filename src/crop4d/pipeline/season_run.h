@@ -38,6 +38,9 @@ struct RunOptions {
   // Redo every stage even when its outputs are up to date.
   bool force = false;
   bool show_progress = true;
+  // When another crop4d process holds the workspace (io/workspace_lock.h): wait for it to end
+  // instead of refusing to start.
+  bool wait_for_workspace = false;
 };
 
 struct RunResult {
@@ -49,8 +52,10 @@ struct RunResult {
   bool any_stage_failed() const;
 };
 
-// Runs the season. Throws InputError when the field's field.yaml cannot be read or the
-// workspace cannot be written; everything else is recorded in the result.
+// Runs the season. Holds the workspace's lock (io/workspace_lock.h) while it runs. Throws
+// InputError when the field's field.yaml cannot be read, the workspace cannot be written or
+// another process holds it (unless options.wait_for_workspace); everything else is recorded in
+// the result.
 RunResult RunSeason(const std::string& field_folder, const std::string& workspace,
                     const RunOptions& options);
 

@@ -327,5 +327,69 @@ TEST_F(SeasonRunTest, BadDataInSessionsIsReportedAndTheRestOfTheSeasonIsProcesse
   EXPECT_NE(Slurp(dir_ / "run.log").find("skipped or degraded"), std::string::npos);
 }
 
+TEST_F(SeasonRunTest, ASecondRunOnTheSameWorkspaceRefusesOrWaitsForTheFirst) {
+  const fs::path ws = dir_ / "ws";
+  const std::vector<std::string> quick = {"--no-densify", "--eval", "never", "--no-report"};
+  const pid_t first = Start(RunArgs(ThreeSessionField(), ws, quick), dir_ / "first.log");
+  ASSERT_GT(first, 0);
+  // The first run holds the lock once its line is in the lock file.
+  const std::string holder = "crop4d run, pid " + std::to_string(first) + " ";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (Slurp(ws / ".crop4d.lock").find(holder) == std::string::npos) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the first run never took the lock";
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  // A second run refuses at once (exit 2), naming the first.
+  EXPECT_EQ(RunToEnd(RunArgs(ThreeSessionField(), ws, quick), dir_ / "second.log"), 2);
+  EXPECT_NE(Slurp(dir_ / "second.log").find("in use by " + holder), std::string::npos)
+      << Slurp(dir_ / "second.log");
+  // A third, with --wait, starts once the first has ended and finds its work done.
+  std::vector<std::string> waiting = quick;
+  waiting.push_back("--wait");
+  const pid_t third = Start(RunArgs(ThreeSessionField(), ws, waiting), dir_ / "third.log");
+  ASSERT_GT(third, 0);
+  std::this_thread::sleep_for(std::chrono::seconds(2));
+  int status = 0;
+  const bool first_outlived_the_wait = waitpid(first, &status, WNOHANG) == 0;
+  if (first_outlived_the_wait) waitpid(first, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << Slurp(dir_ / "first.log");
+  int third_status = 0;
+  waitpid(third, &third_status, 0);
+  EXPECT_TRUE(WIFEXITED(third_status) && WEXITSTATUS(third_status) == 0)
+      << Slurp(dir_ / "third.log");
+  if (first_outlived_the_wait) {
+    EXPECT_NE(Slurp(dir_ / "third.log").find("waiting until it ends"), std::string::npos)
+        << Slurp(dir_ / "third.log");
+  }
+  // The third run redid nothing, and the log has only whole lines of the two runs that ran.
+  const std::vector<RunEvent> entries = ReadRunLog((ws / "run_log.jsonl").string());
+  int done_after_third_start = 0, starts = 0;
+  for (const RunEvent& e : entries) {
+    if (e.action == "start" && e.stage == "validate") ++starts;
+    if (starts == 2 && e.action == kActionDone && e.stage != "validate") ++done_after_third_start;
+  }
+  EXPECT_EQ(starts, 2);
+  EXPECT_EQ(done_after_third_start, 0);
+}
+
+TEST_F(SeasonRunTest, AStageThatFailsAsAWholeLeavesTheRunIncomplete) {
+  // WS/analysis is a file, not a folder: the analysis cannot write anything and fails.
+  const fs::path ws = dir_ / "ws";
+  fs::create_directories(ws);
+  std::ofstream(ws / "analysis") << "in the way\n";
+  const int code =
+      RunToEnd(RunArgs(ThreeSessionField(), ws, {"--no-densify", "--eval", "never", "--no-report"}),
+               dir_ / "run.log");
+  EXPECT_EQ(code, 1) << Slurp(dir_ / "run.log");
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_FALSE(record.complete);
+  EXPECT_FALSE(record.finished.empty());
+  RunRecord copy = record;
+  ASSERT_NE(copy.Stage("analyze"), nullptr);
+  EXPECT_EQ(copy.Stage("analyze")->status, "failed");
+  EXPECT_EQ(copy.Stage("fuse")->status, "done");
+  EXPECT_NE(Slurp(dir_ / "run.log").find("incomplete"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace crop4d::pipeline

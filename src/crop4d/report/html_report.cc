@@ -282,7 +282,7 @@ Section Builder::RunSection() {
 // ---- skipped ---------------------------------------------------------------------------------
 
 Section Builder::SkippedSection() {
-  Section s{{"skipped", "What was skipped", false}, ""};
+  Section s{{"skipped", "What was skipped or degraded", false}, ""};
   std::string& h = s.html;
   std::vector<std::vector<std::string>> rows;
   if (run_) {

@@ -12,8 +12,8 @@
 // figure, canopy height per site and date (with the measurements of
 // FIELD/ground_truth/site_measurements.csv), growth, and the evaluation against ground truth
 // (WS/eval/metrics.json). Every input is optional: a section without data says so in one line,
-// and a file that cannot be read is named in "What was skipped" with the reason; the report
-// never fails because a stage has not run.
+// and a file that cannot be read is named in "What was skipped or degraded" with the reason; the
+// report never fails because a stage has not run.
 //
 // The page carries a tiny inline script (its only JavaScript) that marks a successful load on
 // <html> (data-report-loaded="yes") and counts errors (data-js-errors, data-js-last-error): a

@@ -34,8 +34,15 @@ long Round(std::size_t block_bytes, int blocks) {
   return MinorFaults() - before;
 }
 
+// AddressSanitizer's allocator ignores mallopt (gcc and clang say that it is on differently).
 #if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;  // AddressSanitizer's allocator ignores mallopt
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
 #else
 constexpr bool kSanitized = false;
 #endif

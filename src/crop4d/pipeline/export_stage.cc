@@ -387,7 +387,10 @@ ExportReport RunExport(const std::string& field_folder, const std::string& works
         }
       }
       if (items.empty()) missing.push_back(s.id);
-      for (const auto& [from, name] : items) {
+      for (const auto& item : items) {
+        // Named copies: clang 14 cannot capture structured bindings in a lambda.
+        const fs::path from = item.first;
+        const std::string name = item.second;
         ++found;
         jobs.push_back(
             {"tum " + name, [=, &out, &rel](std::vector<ExportedFile>* files) {

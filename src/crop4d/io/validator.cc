@@ -325,8 +325,9 @@ void WarnAboutMissingSensors(const Field& field, std::vector<SessionReport>* ses
   }
   for (SessionReport& s : *sessions) {
     for (const auto& [name, kind_count] : have) {
+      const std::string& folder = name;  // (clang 14 cannot capture a structured binding)
       const bool present = std::any_of(s.sensors.begin(), s.sensors.end(),
-                                       [&](const SensorReport& r) { return r.name == name; });
+                                       [&](const SensorReport& r) { return r.name == folder; });
       const auto others = sessions->size() - 1;
       if (present || 2 * static_cast<std::size_t>(kind_count.second) <= others) continue;
       const std::string reason =

@@ -355,9 +355,10 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   }
   fingerprint.AddString(fs::exists(measurements) ? FileHash(measurements) : "");
   const std::string stamp = std::to_string(fingerprint.hash());
-  if (!options.force && SummaryFingerprint(out / "summary.json") == stamp &&
-      fs::exists(out / "site_heights.csv") && fs::exists(out / "site_plants.csv") &&
-      fs::exists(out / "growth.csv")) {
+  std::string why;
+  if (!options.force && fs::exists(out / "site_heights.csv") &&
+      fs::exists(out / "site_plants.csv") && fs::exists(out / "growth.csv") &&
+      SummaryUpToDate(out / "summary.json", stamp, &why)) {
     spdlog::info("analyze: up to date, skipped (--force to analyse again)");
     report.skipped = true;
     report.sites = ReadSiteCsvs(out);
@@ -609,6 +610,11 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   }
   summary["site_notes"] = notes;
   summary["outputs"] = report.outputs;
+  std::vector<std::string> written;  // report.outputs are relative to the workspace
+  for (const std::string& path : report.outputs) {
+    written.push_back(fs::path(path).lexically_relative("analysis").generic_string());
+  }
+  RecordOutputs(&summary, out, written);
   summary["seconds"] = report.seconds;
   io::WriteFileAtomic((out / "summary.json").string(), summary.dump(2) + "\n");
   return report;

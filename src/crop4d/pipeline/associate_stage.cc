@@ -25,6 +25,7 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/pipeline/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/pipeline/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -236,6 +237,11 @@ std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::st
     std::ifstream in(summary_path);
     const json s = json::parse(in);
     if (s.value("fingerprint", "") != fingerprint) return std::nullopt;
+    std::string why;
+    if (!OutputsIntact(out_dir, s, &why)) {
+      spdlog::debug("{}: associated again: {}", bin.string(), why);
+      return std::nullopt;
+    }
     PassPairReport report;
     report.pair = pair;
     report.method = method;
@@ -403,27 +409,28 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
   report.matches = static_cast<std::int64_t>(assoc.matches.size());
   report.seconds = SecondsSince(start);
   association::WriteAssociationFile(bin.string(), assoc);
-  const json summary = {{"a", {{"session", pair.a.session}, {"pass", pair.a.pass}}},
-                        {"b", {{"session", pair.b.session}, {"pass", pair.b.pass}}},
-                        {"type", ToString(pair.type)},
-                        {"method", method},
-                        {"image_pairs", report.image_pairs},
-                        {"landmarks", report.landmarks},
-                        {"surface_points", report.surface_points},
-                        {"projected", report.projected},
-                        {"candidates", report.candidates},
-                        {"warped", report.warped},
-                        {"upright_b", report.upright_b},
-                        {"putative", report.putative},
-                        {"matches", report.matches},
-                        {"prealigned", report.prealigned},
-                        {"alignment_inliers", report.alignment_inliers},
-                        {"alignment_shift_m", report.alignment_shift_m},
-                        {"seconds", report.seconds},
-                        {"seconds_per_image_pair",
-                         report.image_pairs > 0 ? report.seconds / report.image_pairs : 0.0},
-                        {"options", options_json},
-                        {"fingerprint", fingerprint}};
+  json summary = {{"a", {{"session", pair.a.session}, {"pass", pair.a.pass}}},
+                  {"b", {{"session", pair.b.session}, {"pass", pair.b.pass}}},
+                  {"type", ToString(pair.type)},
+                  {"method", method},
+                  {"image_pairs", report.image_pairs},
+                  {"landmarks", report.landmarks},
+                  {"surface_points", report.surface_points},
+                  {"projected", report.projected},
+                  {"candidates", report.candidates},
+                  {"warped", report.warped},
+                  {"upright_b", report.upright_b},
+                  {"putative", report.putative},
+                  {"matches", report.matches},
+                  {"prealigned", report.prealigned},
+                  {"alignment_inliers", report.alignment_inliers},
+                  {"alignment_shift_m", report.alignment_shift_m},
+                  {"seconds", report.seconds},
+                  {"seconds_per_image_pair",
+                   report.image_pairs > 0 ? report.seconds / report.image_pairs : 0.0},
+                  {"options", options_json},
+                  {"fingerprint", fingerprint}};
+  RecordOutputs(&summary, out_dir, {bin.filename().string()});
   io::WriteFileAtomic(summary_path.string(), summary.dump(2) + "\n");
   return report;
 }

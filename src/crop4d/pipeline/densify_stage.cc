@@ -183,8 +183,9 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
       fingerprint.AddString(FileHash(p));
     }
     const std::string stamp = std::to_string(fingerprint.hash());
-    // A damaged or stale summary: densify again.
-    if (!options.force && fs::exists(ply_path) && SummaryFingerprint(json_path) == stamp) {
+    // A damaged or stale summary, or a cloud changed since it was written: densify again.
+    std::string why;
+    if (!options.force && fs::exists(ply_path) && SummaryUpToDate(json_path, stamp, &why)) {
       std::ifstream in(json_path);
       const json previous = json::parse(in);
       spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
@@ -195,6 +196,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
       reports.push_back(report);
       continue;
     }
+    if (!options.force && fs::exists(json_path)) spdlog::info("densify {}: again: {}", id, why);
 
     // Poses, images, sparse cloud.
     const std::vector<io::StampedPose> poses = io::ReadTum(poses_path.string());
@@ -304,6 +306,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
                           {"match", s.match_seconds},
                           {"stereo", s.total_seconds},
                           {"total", report.seconds}};
+    RecordOutputs(&summary, out_dir, {ply_path.filename().string()});
     io::WriteFileAtomic(json_path.string(), summary.dump(2) + "\n");
     spdlog::info("densify {}: {} points in {:.1f} s", id, s.num_points, report.seconds);
     reports.push_back(report);

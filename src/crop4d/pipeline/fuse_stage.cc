@@ -376,25 +376,19 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   const std::string stamp = std::to_string(fingerprint.hash());
   const fs::path out_dir = fs::path(workspace) / "fused";
   if (!options.force && fs::exists(out_dir / "summary.json")) {
-    try {
-      std::ifstream in(out_dir / "summary.json");
-      if (json::parse(in).value("fingerprint", "") == stamp) {
-        bool complete = true;
-        for (const std::string& s : sessions) {
-          complete &=
-              fs::exists(out_dir / s / "poses.tum") && fs::exists(out_dir / s / "sparse.ply");
-        }
-        if (complete) {
-          spdlog::info("fuse: up to date, skipped (--force to fuse again)");
-          report.skipped = true;
-          report.num_sessions = static_cast<int>(sessions.size());
-          report.num_passes = static_cast<int>(passes.size());
-          return report;
-        }
-      }
-    } catch (const std::exception&) {
-      // A damaged summary: fuse again.
+    bool complete = true;
+    for (const std::string& s : sessions) {
+      complete &= fs::exists(out_dir / s / "poses.tum") && fs::exists(out_dir / s / "sparse.ply");
     }
+    std::string why;
+    if (complete && SummaryUpToDate(out_dir / "summary.json", stamp, &why)) {
+      spdlog::info("fuse: up to date, skipped (--force to fuse again)");
+      report.skipped = true;
+      report.num_sessions = static_cast<int>(sessions.size());
+      report.num_passes = static_cast<int>(passes.size());
+      return report;
+    }
+    if (complete) spdlog::info("fuse: fused again: {}", why);
   }
   if (association_files.empty()) {
     spdlog::warn(
@@ -798,6 +792,8 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
                         {"solve", s.solve_seconds},
                         {"final_solve", s.final_solve_seconds},
                         {"total", report.seconds}};
+  // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.
+  RecordOutputs(&summary, out_dir, FilesBelow(out_dir));
   io::WriteFileAtomic((out_dir / "summary.json").string(), summary.dump(2) + "\n");
   return report;
 }

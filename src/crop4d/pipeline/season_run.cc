@@ -341,9 +341,14 @@ void SeasonRun::Eval(StageRecord& stage) {
   const fs::path stamp_path = fs::path(ws_) / "eval" / "inputs.fingerprint";
   const fs::path metrics = fs::path(ws_) / "eval" / "metrics.json";
   const std::string stamp = EvalFingerprint();
-  std::string previous;
-  if (std::ifstream in(stamp_path); in) std::getline(in, previous);
-  if (!options_.force && previous == stamp && fs::exists(metrics)) {
+  // inputs.fingerprint: the inputs' fingerprint, then the hash of the metrics.json it gave.
+  std::string previous, metrics_hash;
+  if (std::ifstream in(stamp_path); in) {
+    std::getline(in, previous);
+    std::getline(in, metrics_hash);
+  }
+  if (!options_.force && previous == stamp && !metrics_hash.empty() &&
+      FileHash(metrics) == metrics_hash) {
     Item(stage, "", "metrics.json", kActionUpToDate, 0);
     return;
   }
@@ -351,7 +356,7 @@ void SeasonRun::Eval(StageRecord& stage) {
   eval::WorkspaceEvalOptions o = config_.eval_options;
   const eval::WorkspaceEval result = eval::EvaluateWorkspace(ws_, field_, o);
   eval::WriteWorkspaceEval(result);
-  io::WriteFileAtomic(stamp_path.string(), stamp + "\n");
+  io::WriteFileAtomic(stamp_path.string(), stamp + "\n" + FileHash(metrics) + "\n");
   Item(stage, "", "metrics.json", kActionDone, SecondsSince(start));
   if (!IsQuiet()) {
     spdlog::info("\n{}", eval::FormatWorkspaceEvalTable(result));

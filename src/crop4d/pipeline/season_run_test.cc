@@ -138,6 +138,27 @@ std::map<std::string, std::string> Products(const fs::path& ws) {
   return out;
 }
 
+// The same files (no stray temporary file, nothing missing) with the same bytes.
+void ExpectSameProducts(const std::map<std::string, std::string>& expected,
+                        const std::map<std::string, std::string>& actual) {
+  std::set<std::string> names_expected, names_actual;
+  for (const auto& [name, bytes] : expected) names_expected.insert(name);
+  for (const auto& [name, bytes] : actual) names_actual.insert(name);
+  EXPECT_EQ(names_actual, names_expected);
+  for (const auto& [name, bytes] : expected) {
+    auto it = actual.find(name);
+    if (it != actual.end() && it->second != bytes) {
+      ADD_FAILURE() << name << " differs from the uninterrupted run";
+    }
+  }
+}
+
+// Cuts `path` to `fraction` of its size.
+void Truncate(const fs::path& path, double fraction) {
+  ASSERT_TRUE(fs::exists(path)) << path;
+  fs::resize_file(path, static_cast<std::uintmax_t>(fs::file_size(path) * fraction));
+}
+
 class SeasonRunTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -194,21 +215,7 @@ TEST_F(SeasonRunTest, RunsKilledAtRandomMomentsFinishWithTheOutputsOfAnUninterru
       << Slurp(dir_ / "resumed.log");
 
   const auto expected = Products(dir_ / "reference");
-  const auto actual = Products(ws);
-  std::set<std::string> names_expected, names_actual;
-  for (const auto& [name, bytes] : expected) names_expected.insert(name);
-  for (const auto& [name, bytes] : actual) names_actual.insert(name);
-  // The same files (no stray temporary file, nothing missing) with the same bytes.
-  EXPECT_EQ(names_actual, names_expected);
-  int differ = 0;
-  for (const auto& [name, bytes] : expected) {
-    auto it = actual.find(name);
-    if (it != actual.end() && it->second != bytes) {
-      ADD_FAILURE() << name << " differs from the uninterrupted run";
-      ++differ;
-    }
-  }
-  EXPECT_EQ(differ, 0);
+  ExpectSameProducts(expected, Products(ws));
   EXPECT_GT(expected.size(), 50u);  // passes, associations, fusion, dense, analysis
   EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
   EXPECT_TRUE(expected.count("dense/2016-06-24.ply"));
@@ -389,6 +396,39 @@ TEST_F(SeasonRunTest, AStageThatFailsAsAWholeLeavesTheRunIncomplete) {
   EXPECT_EQ(copy.Stage("analyze")->status, "failed");
   EXPECT_EQ(copy.Stage("fuse")->status, "done");
   EXPECT_NE(Slurp(dir_ / "run.log").find("incomplete"), std::string::npos);
+}
+
+TEST_F(SeasonRunTest, TruncatedOutputsAreRedoneAndGiveTheResultsOfAnUninterruptedRun) {
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 2);
+  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never", "--no-report"};
+  const fs::path reference = dir_ / "reference";
+  ASSERT_EQ(RunToEnd(RunArgs(field, reference, extra), dir_ / "reference.log"), 0)
+      << Slurp(dir_ / "reference.log");
+  const fs::path ws = dir_ / "ws";
+  fs::copy(reference, ws, fs::copy_options::recursive);
+  // Cut short: a row pass's poses, a session's fused poses, another session's dense cloud.
+  fs::path row_poses;
+  for (const auto& e : fs::directory_iterator(ws / "sessions" / "2016-06-10" / "rows")) {
+    if (fs::exists(e.path() / "poses.tum") && (row_poses.empty() || e.path() < row_poses)) {
+      row_poses = e.path();
+    }
+  }
+  ASSERT_FALSE(row_poses.empty());
+  Truncate(row_poses / "poses.tum", 0.8);
+  Truncate(ws / "fused" / "2016-06-10" / "poses.tum", 0.8);
+  Truncate(ws / "dense" / "2016-06-24.ply", 0.5);
+
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, extra), dir_ / "rerun.log"), 0)
+      << Slurp(dir_ / "rerun.log");
+  ExpectSameProducts(Products(reference), Products(ws));
+  // Only the damaged units were redone.
+  const std::vector<RunEvent> events = ReadRunLog((ws / "run_log.jsonl").string());
+  const std::string last_run = events.back().run;
+  EXPECT_EQ(DoneItems(events, last_run, "slam"),
+            std::set<std::string>{"2016-06-10/" + row_poses.filename().string()});
+  EXPECT_EQ(DoneItems(events, last_run, "fuse").size(), 1u);
+  EXPECT_EQ(DoneItems(events, last_run, "densify"), std::set<std::string>{"2016-06-24"});
 }
 
 }  // namespace

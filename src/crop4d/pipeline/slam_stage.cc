@@ -22,6 +22,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/pass_files.h"
+#include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/session_streams.h"
 
 namespace crop4d::pipeline {
@@ -122,13 +123,20 @@ bool UpToDate(const std::string& folder, const std::string& fingerprint, bool ne
                       !fs::exists(fs::path(folder) / "tracks.bin"))) {
     return false;
   }
-  try {
-    std::ifstream in(summary_path);
-    const json summary = json::parse(in);
-    return summary.value("fingerprint", "") == fingerprint;
-  } catch (const std::exception&) {
-    return false;
+  std::string why;
+  if (SummaryUpToDate(summary_path, fingerprint, &why)) return true;
+  spdlog::debug("{}: solved again: {}", folder, why);
+  return false;
+}
+
+// The files of a pass that the later stages read, as recorded in its summary (those written).
+std::vector<std::string> PassOutputs(const std::string& folder) {
+  std::vector<std::string> out;
+  for (const char* name :
+       {"poses.tum", "states.csv", "initial_poses.tum", "tracks.bin", "landmarks.ply"}) {
+    if (fs::exists(fs::path(folder) / name)) out.push_back(name);
   }
+  return out;
 }
 
 slam::SensorSet ChooseSensorSet(const SlamStageOptions& options,
@@ -649,6 +657,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                         {"final_solve", s.final_solve_seconds},
                         {"outputs", output_seconds},
                         {"total", SecondsSince(start_total)}};
+  RecordOutputs(&summary, folder, PassOutputs(folder));
   io::WriteFileAtomic((fs::path(folder) / "summary.json").string(), summary.dump(2) + "\n");
   return outcome;
 }

@@ -1,7 +1,9 @@
 # crop4d_add_test(NAME [UNIT] SOURCES a_test.cc ... LIBS lib ...)
 # One GoogleTest executable per module (two where a module has both kinds of tests); each test
 # case becomes a ctest test. UNIT marks an executable whose tests work on in-memory data or small
-# files only: none renders a field or runs a whole stage. Its tests carry the ctest label `unit`
+# files only (none renders a field or runs a whole stage) and that links nothing above eval (the
+# pipeline and report libraries are left out to keep the sanitizer build short). Its tests carry
+# the ctest label `unit`
 # and it is built by the target `crop4d_unit_tests`, so that the sanitizer pass of .ci/run
 # (scripts/sanitize-unit-tests.sh) builds and runs just these.
 function(crop4d_add_test name)

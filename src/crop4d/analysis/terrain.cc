@@ -11,6 +11,7 @@
 #include <limits>
 #include <random>
 
+#include "crop4d/analysis/ground_filter.h"
 #include "crop4d/analysis/point_buckets.h"
 #include "crop4d/core/error.h"
 
@@ -21,6 +22,24 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
 bool IsVegetation(const GroundCloud& cloud, std::size_t i) {
   return cloud.is_vegetation != nullptr && (*cloud.is_vegetation)[i] != 0;
+}
+
+// The points of `cloud` in `reach` that may be ground: not vegetation, and not above the
+// session's opened lowest surface (ground_filter.h).
+std::vector<Eigen::Vector3d> GroundCandidates(const GroundCloud& cloud,
+                                              const Eigen::AlignedBox2d& reach,
+                                              const TerrainOptions& options) {
+  std::vector<Eigen::Vector3d> soil;
+  for (std::size_t i = 0; i < cloud.points->size(); ++i) {
+    const Eigen::Vector3d& p = (*cloud.points)[i];
+    if (!IsVegetation(cloud, i) && p.allFinite() && reach.contains(p.head<2>())) soil.push_back(p);
+  }
+  const std::vector<std::uint8_t> keep = GroundBelowOpening(soil, options.ground_filter);
+  std::vector<Eigen::Vector3d> out;
+  for (std::size_t k = 0; k < soil.size(); ++k) {
+    if (keep[k]) out.push_back(soil[k]);
+  }
+  return out;
 }
 
 double Median(std::vector<double>& v) {
@@ -251,7 +270,8 @@ double TerrainModel::Coverage() const {
 bool TerrainOptions::Check() const {
   return cell_m > 0.0 && fit_radius_m > cell_m && min_points >= 6 && min_points_per_quadrant >= 0 &&
          outlier_sigmas > 0.0 && noise_floor_m > 0.0 && iterations >= 1 &&
-         later_tolerance_m > 0.0 && vegetation_clearance_m >= 0.0 && max_fill_distance_m >= 0.0;
+         later_tolerance_m > 0.0 && vegetation_clearance_m >= 0.0 && max_fill_distance_m >= 0.0 &&
+         ground_filter.Check();
 }
 
 TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
@@ -274,13 +294,7 @@ TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
   }
   std::vector<Eigen::Vector3d> ground;
   if (first < sessions.size()) {
-    const GroundCloud& c = sessions[first];
-    for (std::size_t i = 0; i < c.points->size(); ++i) {
-      const Eigen::Vector3d& p = (*c.points)[i];
-      if (!IsVegetation(c, i) && p.allFinite() && reach.contains(p.head<2>())) {
-        ground.push_back(p);
-      }
-    }
+    ground = GroundCandidates(sessions[first], reach, options);
   }
   ground = Thin(ground, options.thin_cell_m);
   s.ground_points_first = ground.size();
@@ -300,9 +314,7 @@ TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
       }
       const double clearance = std::max(options.vegetation_clearance_m, 1e-3);
       const PointBuckets veg_buckets(vegetation, clearance);
-      for (std::size_t i = 0; i < c.points->size(); ++i) {
-        const Eigen::Vector3d& p = (*c.points)[i];
-        if (IsVegetation(c, i) || !p.allFinite() || !reach.contains(p.head<2>())) continue;
+      for (const Eigen::Vector3d& p : GroundCandidates(c, reach, options)) {
         const double z = model.Height(p.x(), p.y());
         if (std::isfinite(z) && std::abs(p.z() - z) > options.later_tolerance_m) continue;
         if (options.vegetation_clearance_m > 0.0 &&

@@ -36,6 +36,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/analysis/ground_filter.h"
+
 namespace crop4d::analysis {
 
 // A regular grid of the ENU xy plane: node (i, j) at origin + (i, j) · cell_m, i = 0..width-1
@@ -98,6 +100,8 @@ struct TerrainOptions {
   double noise_floor_m = 0.003;
   // Reweighting iterations of each fit.
   int iterations = 5;
+  // Soil-coloured points above the session's opened lowest surface are not ground.
+  GroundFilterOptions ground_filter;
   // Use the ground points of later sessions where the vegetation does not cover them.
   bool use_later_sessions = true;
   // A later session's soil point joins the ground within this distance of the first model, m.

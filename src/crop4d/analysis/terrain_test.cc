@@ -140,6 +140,50 @@ TEST(BuildTerrainTest, LaterSessionsFillHolesWithUncoveredSoil) {
   EXPECT_NEAR(b.Height(2.5, 1.5), BedHeight(2.5, 1.5), 0.005);
 }
 
+// A late session alone (the earliest one missing or left out): the canopy hides the bed crests,
+// and soil-coloured points (shaded leaves, stems) lie at its height. The ground filter keeps them
+// out, and the crests are fitted from the soil on both sides.
+TEST(BuildTerrainTest, ALateSessionAloneFindsTheSoilUnderItsCanopy) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Eigen::Vector3d> late;
+  std::vector<std::uint8_t> late_veg;
+  SampleGround(Eigen::AlignedBox2d(Eigen::Vector2d(0, 0), Eigen::Vector2d(3, 3)), 2000, 0.002, &rng,
+               &late, &late_veg);
+  const auto under_canopy = [](double x) {
+    const double d = std::remainder(x, 0.91);
+    return std::abs(d) < 0.12;
+  };
+  std::vector<Eigen::Vector3d> seen;
+  for (const Eigen::Vector3d& p : late) {
+    if (!under_canopy(p.x())) seen.push_back(p);
+  }
+  late = seen;
+  late_veg.assign(late.size(), 0);
+  for (int i = 0; i < 6000; ++i) {  // canopy over the crests: green on top, soil-coloured below
+    const double x = 0.91 * static_cast<int>(4 * u(rng)) + 0.24 * (u(rng) - 0.5);
+    const double y = 3 * u(rng);
+    const bool top = u(rng) < 0.4;
+    late.emplace_back(x, y, BedHeight(x, y) + (top ? 0.22 : 0.12) + 0.05 * u(rng));
+    late_veg.push_back(top ? 1 : 0);
+  }
+  const Eigen::AlignedBox2d bounds(Eigen::Vector2d(0.3, 0.3), Eigen::Vector2d(2.7, 2.7));
+  const auto crest_error = [&](const TerrainOptions& options) {
+    const TerrainModel dtm = BuildTerrain({{&late, &late_veg}}, bounds, options);
+    double worst = 0.0;
+    for (double y = 0.5; y < 2.5; y += 0.25) {
+      for (double x : {0.91, 1.82}) {
+        worst = std::max(worst, std::abs(dtm.Height(x, y) - BedHeight(x, y)));
+      }
+    }
+    return worst;
+  };
+  EXPECT_LT(crest_error(TerrainOptions{}), 0.01);
+  TerrainOptions unfiltered;
+  unfiltered.ground_filter.window_m = 0.0;
+  EXPECT_GT(crest_error(unfiltered), 0.03);
+}
+
 TEST(BuildTerrainTest, NoGroundPointsGiveAnEmptyModelNotACrash) {
   std::vector<Eigen::Vector3d> points = {{0, 0, 0}, {1, 1, 0.1}};
   std::vector<std::uint8_t> veg = {1, 1};

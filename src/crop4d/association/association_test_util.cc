@@ -196,7 +196,9 @@ std::vector<LandmarkObservation> GroundLandmarks(const View& view,
     observation.feature = static_cast<std::int32_t>(i);
     observation.position_world = *ground;
     if (noise_m > 0) {
-      observation.position_world += Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      // One draw per statement (the order of function arguments is unspecified in C++).
+      const double nz = noise(rng), ny = noise(rng), nx = noise(rng);
+      observation.position_world += Eigen::Vector3d(nx, ny, nz);
     }
     observation.landmark = static_cast<std::int32_t>(landmarks.size());
     if (positions != nullptr) positions->push_back(observation.position_world);

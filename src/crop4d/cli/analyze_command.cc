@@ -101,6 +101,15 @@ RunFunction SetupAnalyze(CLI::App& app) {
   app.add_option("--terrain-radius", o.terrain.fit_radius_m,
                  "Radius of each terrain node's local surface fit, m")
       ->capture_default_str();
+  app.add_option("--ground-filter-window", o.terrain.ground_filter.window_m,
+                 "Soil-coloured points above the opening of the ground with this window are not "
+                 "ground (wider than a row's canopy; 0: no filter), m")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
+  app.add_option("--ground-filter-height", o.terrain.ground_filter.max_height_m,
+                 "... when more than this above it, m")
+      ->check(CLI::Range(0.001, 10.0))
+      ->capture_default_str();
   app.add_flag("--first-session-terrain", args->single_session_terrain,
                "Build the terrain from the earliest session only (no later ground points)");
   app.add_option("--min-canopy-height", o.canopy.min_height_m,

@@ -84,6 +84,11 @@ RunFunction SetupFuse(CLI::App& app) {
                  "ties")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--max-imu-gap", o.quality.max_imu_gap_s,
+                 "A pass with no IMU sample for longer than this (s) degrades its session: it is "
+                 "registered onto the trusted sessions without moving them (docs/fusion.md)")
+      ->check(CLI::Range(0.001, 1e6))
+      ->capture_default_str();
   app.add_option("--max-reprojection-error", o.optimiser.row.max_reprojection_error_px,
                  "Observations above this error (px) are removed before the final solve")
       ->capture_default_str();

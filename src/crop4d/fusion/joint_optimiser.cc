@@ -11,6 +11,7 @@
 #include <numeric>
 #include <optional>
 #include <set>
+#include <span>
 #include <stdexcept>
 
 #include "crop4d/core/stopwatch.h"
@@ -40,18 +41,22 @@ struct BodyTie {
 class JointProblem {
  public:
   JointProblem(const JointOptimiser::Options& options,
-               const std::vector<JointOptimiser::Pass>& passes, std::vector<BodyTie> ties)
+               const std::vector<JointOptimiser::Pass>& passes, std::vector<BodyTie> ties,
+               std::vector<bool> fixed)
       : joint_options_(options),
         options_(options.row),
         passes_(passes),
         ties_(std::move(ties)),
-        ground_tie_loss_(std::make_unique<ceres::HuberLoss>(options.ground_tie_loss_scale)),
-        blocks_(passes.size()) {
+        fixed_(std::move(fixed)),
+        ground_tie_loss_(std::make_unique<ceres::HuberLoss>(options.ground_tie_loss_scale)) {
+    for (const JointOptimiser::Pass& pass : passes) {
+      for (const slam::RowState& s : pass.initial_states) storage_.push_back(slam::ToBlocks(s));
+    }
+    std::size_t begin = 0;
     for (std::size_t p = 0; p < passes.size(); ++p) {
-      for (const slam::RowState& s : passes[p].initial_states) {
-        blocks_[p].push_back(slam::ToBlocks(s));
-      }
-      graphs_.push_back(std::make_unique<slam::PassGraph>(options_, passes_[p], &blocks_[p]));
+      blocks_.emplace_back(storage_.data() + begin, passes[p].initial_states.size());
+      begin += passes[p].initial_states.size();
+      graphs_.push_back(std::make_unique<slam::PassGraph>(options_, passes_[p], blocks_[p]));
     }
   }
 
@@ -105,6 +110,14 @@ class JointProblem {
                                ground_tie_loss_.get(), blocks_[tie.pass_a][tie.state_a].pose,
                                blocks_[tie.pass_b][tie.state_b].pose);
     }
+    for (std::size_t p = 0; p < fixed_.size(); ++p) {
+      if (!fixed_[p]) continue;
+      for (slam::StateBlocks& b : blocks_[p]) {
+        for (double* block : {b.pose, b.vel, b.rate, b.bias}) {
+          if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
+        }
+      }
+    }
     return slam::RunSolver(options_, &problem, landmarks);
   }
 
@@ -135,9 +148,15 @@ class JointProblem {
   const slam::RowOptimiser::Options& options_;
   const std::vector<JointOptimiser::Pass>& passes_;
   std::vector<BodyTie> ties_;
+  std::vector<bool> fixed_;  // per pass (empty: none)
   // Shared by every tie: the problem options leave losses to their owner (slam::ProblemOptions).
   std::unique_ptr<ceres::LossFunction> ground_tie_loss_;
-  std::vector<std::vector<slam::StateBlocks>> blocks_;
+  // Every pass's state blocks in one array, in pass and state order, and each pass's part of it.
+  // Ceres orders the blocks of a linear-solver group by their address: with the addresses in the
+  // problem's order, a solve repeats to the last bit in any process (separate vectors per pass
+  // lie wherever the heap put them, which depends on what the process did before).
+  std::vector<slam::StateBlocks> storage_;
+  std::vector<std::span<slam::StateBlocks>> blocks_;
   std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
 };
 
@@ -186,13 +205,14 @@ geometry::Rigid3 TieAlignment(const std::vector<const GroundTie*>& ties) {
 // alignments, grown from the precise passes (or from the first pass of a group without any).
 void AlignPasses(const JointOptimiser::Options& options,
                  const std::vector<JointLandmark>& landmarks,
-                 const std::vector<JointGroundTie>& ground_ties,
+                 const std::vector<JointGroundTie>& ground_ties, const std::vector<bool>& fixed,
                  std::vector<JointOptimiser::Pass>* passes_io, JointOptimiser::Summary* summary) {
   std::vector<JointOptimiser::Pass>& passes = *passes_io;
   const std::size_t n = passes.size();
-  std::vector<bool> precise(n);
+  std::vector<bool> precise(n);  // fixed passes define the frame like precise ones
   for (std::size_t p = 0; p < n; ++p) {
-    precise[p] = MedianGpsSigma(passes[p]) <= options.precise_gps_sigma_m;
+    precise[p] =
+        (!fixed.empty() && fixed[p]) || MedianGpsSigma(passes[p]) <= options.precise_gps_sigma_m;
   }
   if (std::all_of(precise.begin(), precise.end(), [](bool b) { return b; })) return;
   std::vector<std::vector<geometry::Rigid3>> cameras(n);
@@ -380,11 +400,15 @@ JointOptimiser::JointOptimiser(Options options) : options_(std::move(options)) {
 
 JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
                                              const std::vector<JointLandmark>& landmarks,
-                                             const std::vector<JointGroundTie>& ground_ties) const {
+                                             const std::vector<JointGroundTie>& ground_ties,
+                                             const std::vector<bool>& fixed_passes) const {
   const slam::RowOptimiser::Options& op = options_.row;
   Result result;
   Summary& summary = result.summary;
   summary.num_passes = static_cast<int>(passes.size());
+  if (!fixed_passes.empty() && fixed_passes.size() != passes.size()) {
+    throw std::invalid_argument("JointOptimiser: fixed_passes does not match the passes");
+  }
   summary.num_landmarks_given = static_cast<int>(landmarks.size());
   for (const Pass& pass : passes) {
     if (pass.initial_states.size() < 2) {
@@ -432,8 +456,10 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
 
   // (0) Pre-alignment, on a copy of the inputs whose initial states it moves.
   std::vector<Pass> aligned = passes;
-  if (options_.align_passes) AlignPasses(options_, landmarks, ground_ties, &aligned, &summary);
-  JointProblem problem(options_, aligned, std::move(ties));
+  if (options_.align_passes) {
+    AlignPasses(options_, landmarks, ground_ties, fixed_passes, &aligned, &summary);
+  }
+  JointProblem problem(options_, aligned, std::move(ties), fixed_passes);
   problem.Preintegrate();
 
   // (1) Landmarks from the row-SLAM poses. Pixels of a pass whose camera differs from the

@@ -132,8 +132,12 @@ class JointOptimiser {
   // Throws std::invalid_argument for inconsistent input (a pass with fewer than 2 states or
   // unsorted times, an observation of a pass without camera or out of range, a tie out of
   // range).
+  // Passes with `fixed_passes[p]` (empty: none) keep their initial states: they are neither
+  // aligned nor optimised, and the others are registered onto them (a degraded session onto the
+  // trusted ones, pipeline/season_quality.h).
   Result Solve(const std::vector<Pass>& passes, const std::vector<JointLandmark>& landmarks,
-               const std::vector<JointGroundTie>& ground_ties = {}) const;
+               const std::vector<JointGroundTie>& ground_ties = {},
+               const std::vector<bool>& fixed_passes = {}) const;
 
   const Options& options() const { return options_; }
 

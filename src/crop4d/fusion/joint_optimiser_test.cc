@@ -8,6 +8,7 @@
 
 #include <random>
 
+#include "crop4d/geometry/rotation.h"
 #include "crop4d/slam/simulated_session_test_util.h"
 
 namespace crop4d::fusion {
@@ -255,6 +256,42 @@ TEST(JointOptimiser, APassKeepsTheLengthItsRowSlamHeldItAt) {
   EXPECT_NEAR(PassLength(held.states[1]), target, 0.006);
   // The other pass is untouched by it.
   EXPECT_NEAR(PassLength(held.states[0]), PassLength(free.states[0]), 0.002);
+}
+
+// A fixed pass (a trusted session's, after its own solve) keeps its states, and the
+// other pass is still registered onto it; here the RTK pass starts 3 cm off and stays there.
+TEST(JointOptimiser, AFixedPassKeepsItsStatesAndTheOtherIsRegisteredOntoIt) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  for (slam::RowState& st : tp.passes[0].initial_states) {
+    st.nav.world_from_body =
+        geometry::Rigid3(st.nav.world_from_body.rotation(),
+                         st.nav.world_from_body.translation() + Eigen::Vector3d(0.03, 0, 0));
+  }
+  const JointOptimiser::Result result = JointOptimiser(JointOptimiser::Options())
+                                            .Solve(tp.passes, Landmarks(tp, /*shared=*/true), {},
+                                                   /*fixed_passes=*/{true, false});
+  ASSERT_EQ(result.states[0].size(), tp.passes[0].initial_states.size());
+  for (std::size_t k = 0; k < result.states[0].size(); ++k) {
+    const slam::RowState& a = result.states[0][k];
+    const slam::RowState& b = tp.passes[0].initial_states[k];
+    EXPECT_LT((a.nav.world_from_body.translation() - b.nav.world_from_body.translation()).norm(),
+              1e-12);
+    EXPECT_LT(
+        geometry::AngleBetween(a.nav.world_from_body.rotation(), b.nav.world_from_body.rotation()),
+        1e-12);
+    EXPECT_LT((a.bias - b.bias).norm(), 1e-15);
+  }
+  // Registered onto the fixed pass: its 3 cm offset, not its own receiver's half metre.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const slam::RowState& st : result.states[1]) {
+    mean += st.nav.world_from_body.translation() - TrueBody(tp.s, st.t).translation();
+  }
+  mean /= static_cast<double>(result.states[1].size());
+  EXPECT_NEAR(mean.x(), 0.03, 0.02);
+  EXPECT_LT(mean.tail<2>().norm(), 0.03);
+  EXPECT_THROW(JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, {}, {}, {true}),
+               std::invalid_argument);
 }
 
 TEST(JointOptimiser, RejectsInconsistentInput) {

@@ -24,6 +24,7 @@
 #include "crop4d/io/geotiff.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/pipeline/analyze_plots.h"
+#include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/stage_files.h"
 
 namespace crop4d::pipeline {
@@ -33,8 +34,9 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 // Bump when the stage's outputs change for the same inputs and options.
-// 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out.
-constexpr int kAnalyzeStageRevision = 4;
+// 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out;
+// 5: ground filter.
+constexpr int kAnalyzeStageRevision = 5;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 json OptionsJson(const AnalyzeStageOptions& o) {
@@ -54,7 +56,11 @@ json OptionsJson(const AnalyzeStageOptions& o) {
             {"use_later_sessions", o.terrain.use_later_sessions},
             {"later_tolerance_m", o.terrain.later_tolerance_m},
             {"vegetation_clearance_m", o.terrain.vegetation_clearance_m},
-            {"max_fill_distance_m", o.terrain.max_fill_distance_m}}},
+            {"max_fill_distance_m", o.terrain.max_fill_distance_m},
+            {"ground_filter",
+             {{"window_m", o.terrain.ground_filter.window_m},
+              {"cell_m", o.terrain.ground_filter.cell_m},
+              {"max_height_m", o.terrain.ground_filter.max_height_m}}}}},
           {"canopy",
            {{"min_height_m", o.canopy.min_height_m},
             {"min_height_any_colour_m", o.canopy.min_height_any_colour_m},
@@ -353,6 +359,20 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     fingerprint.AddString(s.cloud.filename().string());
     fingerprint.AddString(FileHash(s.cloud));
   }
+  // Degraded sessions (season_quality.h) are measured, but never set the terrain, the stems,
+  // the growth bounds or the growth curves of the others.
+  const SeasonQuality quality = ReadSeasonQuality(workspace);
+  fingerprint.AddString(SeasonQualityToJson(quality).dump());
+  std::vector<bool> protects(inputs.size());
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    protects[k] = quality.Protects(inputs[k].id);
+    if (!protects[k]) {
+      spdlog::warn(
+          "analyze: {} is degraded: measured, but not used for the terrain, the plant "
+          "stems, the growth bounds or the growth curves",
+          inputs[k].id);
+    }
+  }
   fingerprint.AddString(fs::exists(measurements) ? FileHash(measurements) : "");
   const std::string stamp = std::to_string(fingerprint.hash());
   std::string why;
@@ -364,6 +384,13 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     report.sites = ReadSiteCsvs(out);
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return report;
+  }
+  // The previous results no longer match their inputs: they go before the new ones are made,
+  // so that a failure below leaves no stale heights for eval and the report to show.
+  if (fs::is_directory(out)) {
+    spdlog::info("analyze: the previous results in {} are removed ({})", out.string(),
+                 options.force ? "--force" : (why.empty() ? "some of them are missing" : why));
+    fs::remove_all(out);
   }
 
   // 1. Clouds and vegetation.
@@ -412,7 +439,9 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
 
   // 2. Terrain.
   std::vector<analysis::GroundCloud> ground;
-  for (const analysis::SessionCloud& c : clouds) ground.push_back(c.AsGround());
+  for (std::size_t k = 0; k < clouds.size(); ++k) {
+    ground.push_back(protects[k] ? clouds[k].AsGround() : analysis::GroundCloud{});
+  }
   const analysis::TerrainModel dtm =
       analysis::BuildTerrain(ground, area, options.terrain, &report.terrain);
   spdlog::info(
@@ -441,6 +470,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     const io::Site& site = sites[i];
     std::optional<analysis::GroundPlane> plane;
     for (std::size_t k = 0; k < clouds.size() && !plane; ++k) {
+      if (!protects[k]) continue;
       plane = analysis::FitSiteGroundPlane(clouds[k].AsGround(), site.center_enu, site.radius_m,
                                            options.plane);
     }
@@ -451,6 +481,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     // clusters of grown plants would pass for plants.
     std::vector<Eigen::Vector2d> stems;
     for (std::size_t k = 0; k < clouds.size() && stems.empty(); ++k) {
+      if (!protects[k]) continue;
       for (const analysis::DetectedPlant& p : detected[k]) {
         if ((p.stem - site.center_enu).norm() <= site.radius_m) stems.push_back(p.stem);
       }
@@ -466,7 +497,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
       r.stems = stems;
       r.ours = analysis::MeasureSite(clouds[k], dtm_ground, site, options.canopy, &stems,
                                      options.canopy.max_shrink_m >= 0 ? &max_tops : nullptr);
-      for (std::size_t n = 0; n < stems.size() && !r.ours.plant_tops.empty(); ++n) {
+      for (std::size_t n = 0; n < stems.size() && protects[k] && !r.ours.plant_tops.empty(); ++n) {
         if (std::isfinite(r.ours.plant_tops[n])) {
           max_tops[n] = r.ours.plant_tops[n] + options.canopy.max_shrink_m;
         }
@@ -485,13 +516,15 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   for (std::size_t k = 0; k + 1 < clouds.size(); ++k) {
     const std::size_t lowered = report.sessions[k].plant_tops_lowered;
     if (lowered == 0) continue;
+    std::size_t next = k + 1;  // the session whose tops bounded these
+    while (next + 1 < clouds.size() && !protects[next]) ++next;
     // A few: points floating above single plants. Many: the crop itself was taller than in the
     // next session (lodging, wilting), which the bound would hide.
     const bool many = lowered >= 5 && lowered * 5 >= measured[k];
     const std::string text = fmt::format(
         "analyze: {}: {} of {} plant tops lowered to the plant's top on {} + {:g} cm "
         "(--max-shrink){}",
-        inputs[k].id, lowered, measured[k], inputs[k + 1].id, 100.0 * options.canopy.max_shrink_m,
+        inputs[k].id, lowered, measured[k], inputs[next].id, 100.0 * options.canopy.max_shrink_m,
         many ? "; so many that the crop may have lost height (lodging, wilting): if so, raise "
                "--max-shrink (analyze.max_shrink_m of crop4d run) or set it to -1"
              : "");
@@ -507,6 +540,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   for (std::size_t i = 0; i < sites.size(); ++i) {
     std::vector<analysis::GrowthObservation> obs;
     for (std::size_t k = 0; k < clouds.size(); ++k) {
+      if (!protects[k]) continue;
       obs.push_back({DurationSeconds(day0, inputs[k].date) / 86400.0,
                      report.sites[i * clouds.size() + k].ours.height_m});
     }
@@ -594,6 +628,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
          {"vegetation_separability", r.vegetation.separability},
          {"vegetation_threshold_automatic", r.vegetation.automatic}});
   }
+  summary["quality"] = SeasonQualityToJson(quality);
   const analysis::TerrainSummary& t = report.terrain;
   summary["terrain"] = {{"nodes", t.nodes},
                         {"nodes_fitted", t.nodes_fitted},

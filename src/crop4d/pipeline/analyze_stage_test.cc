@@ -425,6 +425,13 @@ TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   cloud.colors.resize(cloud.colors.size() / 2);
   io::WritePly(workspace_ + "/dense/2016-06-01.ply", cloud);
   EXPECT_FALSE(RunAnalyzeStage(field_, workspace_, options).skipped);
+  // A damaged input: the analysis fails, and leaves no results of the inputs before (eval and
+  // the report would show them as current).
+  fs::resize_file(workspace_ + "/dense/2016-06-01.ply",
+                  fs::file_size(workspace_ + "/dense/2016-06-01.ply") / 3);
+  EXPECT_THROW(RunAnalyzeStage(field_, workspace_, options), InputError);
+  EXPECT_FALSE(fs::exists(out / "site_heights.csv"));
+  EXPECT_FALSE(fs::exists(out / "summary.json"));
 }
 
 TEST_F(AnalyzeStageTest, ClearErrorsForBadInput) {

@@ -30,6 +30,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/pass_data.h"
+#include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/reprojection_factor.h"
@@ -43,7 +44,7 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
-constexpr int kFuseStageRevision = 2;
+constexpr int kFuseStageRevision = 3;  // 3: degraded sessions do not move the others
 
 // One (pass, image, feature) as a node of the landmark graph.
 struct Node {
@@ -126,6 +127,132 @@ std::uint64_t ImageFeatureKey(int image, int feature) {
   return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
 }
 
+// The landmark graph of the season: its nodes, each pass's landmarks (their first node, and
+// the edges from it to the landmark's other observations), and each cross match (its edges:
+// the match and the tracks it joins, its descriptor distance and its two passes).
+struct LandmarkGraph {
+  NodeTable nodes;
+  std::vector<int> landmark_nodes;
+  std::vector<std::pair<int, int>> landmark_edges;
+  std::vector<std::vector<std::pair<int, int>>> match_edges;
+  std::vector<float> match_distances;
+  std::vector<std::pair<int, int>> match_passes;
+};
+
+// The joint landmarks over the passes with `use[p]` (observations keep the indices of
+// `passes`): each pass's own, then the cross matches between used passes best first (smallest
+// descriptor distance), refusing any union that would put two features of one image in a
+// landmark (counted in `num_conflicting`).
+std::vector<fusion::JointLandmark> JoinLandmarks(
+    const LandmarkGraph& graph, const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const std::vector<bool>& use, std::int64_t* num_conflicting) {
+  const NodeTable& nodes = graph.nodes;
+  ConsistentUnionFind uf(nodes);
+  std::vector<bool> in_graph(nodes.size(), false);
+  for (int id : graph.landmark_nodes) in_graph[id] = use[nodes.node(id).pass];
+  for (const auto& [a, b] : graph.landmark_edges) {
+    if (!use[nodes.node(a).pass]) continue;
+    uf.Union(a, b);
+    in_graph[a] = in_graph[b] = true;
+  }
+  std::vector<std::size_t> order;
+  for (std::size_t m = 0; m < graph.match_edges.size(); ++m) {
+    if (use[graph.match_passes[m].first] && use[graph.match_passes[m].second]) order.push_back(m);
+  }
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    return graph.match_distances[x] < graph.match_distances[y];
+  });
+  *num_conflicting = 0;
+  for (std::size_t m : order) {
+    const std::vector<std::pair<int, int>>& edges = graph.match_edges[m];
+    if (!uf.Union(edges.front().first, edges.front().second)) {
+      ++*num_conflicting;
+      continue;
+    }
+    for (const auto& [a, b] : edges) {
+      if (uf.Union(a, b)) in_graph[a] = in_graph[b] = true;
+    }
+  }
+  std::unordered_map<int, int> landmark_of_root;
+  std::vector<fusion::JointLandmark> landmarks;
+  std::vector<Eigen::Vector3i> color_sums;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (!in_graph[i]) continue;
+    const int root = uf.Find(static_cast<int>(i));
+    auto [it, inserted] = landmark_of_root.emplace(root, static_cast<int>(landmarks.size()));
+    if (inserted) {
+      landmarks.emplace_back();
+      color_sums.push_back(Eigen::Vector3i::Zero());
+    }
+    const Node& n = nodes.node(static_cast<int>(i));
+    const features::FeatureSet& f = passes[n.pass]->data.features[n.image];
+    landmarks[it->second].observations.push_back({n.pass, n.image, f.Point(n.feature)});
+    if (!f.colors.empty()) {
+      for (int c = 0; c < 3; ++c) color_sums[it->second](c) += f.colors[n.feature][c];
+    }
+  }
+  // A node whose only link was refused is alone: not a landmark.
+  std::size_t kept = 0;
+  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+    if (landmarks[l].observations.size() < 2) continue;
+    if (kept != l) {
+      landmarks[kept] = std::move(landmarks[l]);
+      color_sums[kept] = color_sums[l];
+    }
+    ++kept;
+  }
+  landmarks.resize(kept);
+  color_sums.resize(kept);
+  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+    auto& obs = landmarks[l].observations;
+    // The landmark's first pass first (IsCross counts the others' observations).
+    std::stable_sort(obs.begin(), obs.end(),
+                     [](const fusion::JointObservation& a, const fusion::JointObservation& b) {
+                       return a.pass != b.pass ? a.pass < b.pass : a.state < b.state;
+                     });
+    for (int c = 0; c < 3; ++c) {
+      landmarks[l].color[c] =
+          static_cast<std::uint8_t>(color_sums[l](c) / static_cast<int>(obs.size()));
+    }
+  }
+  return landmarks;
+}
+
+// The joint problem restricted to the passes with `keep[p]`, renumbered, with the index in the
+// whole problem of each pass kept. `landmarks` must see kept passes only (JoinLandmarks over
+// them); ties with another pass are left out.
+struct TrustedProblem {
+  std::vector<fusion::JointOptimiser::Pass> passes;
+  std::vector<fusion::JointLandmark> landmarks;
+  std::vector<fusion::JointGroundTie> ties;
+  std::vector<int> original_pass;
+};
+
+TrustedProblem RestrictToPasses(const std::vector<fusion::JointOptimiser::Pass>& passes,
+                                std::vector<fusion::JointLandmark> landmarks,
+                                const std::vector<fusion::JointGroundTie>& ties,
+                                const std::vector<bool>& keep) {
+  TrustedProblem out;
+  std::vector<int> index(passes.size(), -1);
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    if (!keep[p]) continue;
+    index[p] = static_cast<int>(out.passes.size());
+    out.passes.push_back(passes[p]);
+    out.original_pass.push_back(static_cast<int>(p));
+  }
+  for (fusion::JointLandmark& landmark : landmarks) {
+    for (fusion::JointObservation& obs : landmark.observations) obs.pass = index[obs.pass];
+    out.landmarks.push_back(std::move(landmark));
+  }
+  for (fusion::JointGroundTie tie : ties) {
+    if (!keep[tie.pass_a] || !keep[tie.pass_b]) continue;
+    tie.pass_a = index[tie.pass_a];
+    tie.pass_b = index[tie.pass_b];
+    out.ties.push_back(tie);
+  }
+  return out;
+}
+
 // The pass's row-SLAM problem rebuilt from the session's data and summary.json's "problem".
 void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
   const json summary = json::parse(pass->data.summary_json);
@@ -201,6 +328,7 @@ json OptionsJson(const FuseStageOptions& o) {
           {"cloud_min_parallax_deg", o.cloud.min_parallax_deg},
           {"cloud_max_reprojection_error_px", o.cloud.max_reprojection_error_px},
           {"write_colmap", o.write_colmap},
+          {"max_imu_gap_s", o.quality.max_imu_gap_s},
           {"ground_ties", o.ground_ties},
           {"ground_tie_max_matches", o.ground_tie_max_matches},
           {"ground_tie",
@@ -386,6 +514,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       report.skipped = true;
       report.num_sessions = static_cast<int>(sessions.size());
       report.num_passes = static_cast<int>(passes.size());
+      report.quality = ReadSeasonQuality(workspace);
       return report;
     }
     if (complete) spdlog::info("fuse: fused again: {}", why);
@@ -424,9 +553,8 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
 
   // The landmark graph: each pass's landmarks, then the cross matches with the cloud tracks
   // they join.
-  NodeTable nodes;
-  std::vector<std::pair<int, int>> landmark_edges;
-  std::vector<int> landmark_nodes;  // first node of every pass landmark
+  LandmarkGraph graph;
+  NodeTable& nodes = graph.nodes;
   for (std::size_t p = 0; p < passes.size(); ++p) {
     for (const PassTrack& t : passes[p]->data.tracks.landmarks) {
       int first = -1;
@@ -434,16 +562,13 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
         const int id = nodes.Get(static_cast<int>(p), o.image, o.feature);
         if (first < 0) {
           first = id;
-          landmark_nodes.push_back(id);
+          graph.landmark_nodes.push_back(id);
         } else {
-          landmark_edges.emplace_back(first, id);
+          graph.landmark_edges.emplace_back(first, id);
         }
       }
     }
   }
-  // Each cross match: its edges (match and the tracks it joins).
-  std::vector<std::vector<std::pair<int, int>>> match_edges;
-  std::vector<float> match_distances;
   // Pairs of passes of two sessions, with their number of cross matches.
   std::vector<std::tuple<int, int, std::int64_t>> session_pairs;
   for (const fs::path& path : association_files) {
@@ -495,8 +620,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
           edges.emplace_back(anchor, nodes.Get(p, o.image, o.feature));
         }
       }
-      match_edges.push_back(std::move(edges));
-      match_distances.push_back(m.distance);
+      graph.match_edges.push_back(std::move(edges));
+      graph.match_distances.push_back(m.distance);
+      graph.match_passes.emplace_back(pa, pb);
     }
     if (report.num_invalid_matches > 0) {
       spdlog::warn(
@@ -505,74 +631,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
     }
   }
 
-  // Landmarks: each pass's own, then the cross matches best first (smallest descriptor distance),
-  // refusing any union that would put two features of one image in a landmark.
-  ConsistentUnionFind uf(nodes);
-  std::vector<bool> in_graph(nodes.size(), false);
-  for (int id : landmark_nodes) in_graph[id] = true;
-  for (const auto& [a, b] : landmark_edges) {
-    uf.Union(a, b);
-    in_graph[a] = in_graph[b] = true;
-  }
-  std::vector<std::size_t> order(match_edges.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return match_distances[x] < match_distances[y];
-  });
-  for (std::size_t m : order) {
-    const std::vector<std::pair<int, int>>& edges = match_edges[m];
-    if (!uf.Union(edges.front().first, edges.front().second)) {
-      ++report.num_conflicting_matches;
-      continue;
-    }
-    for (const auto& [a, b] : edges) {
-      if (uf.Union(a, b)) in_graph[a] = in_graph[b] = true;
-    }
-  }
-  std::unordered_map<int, int> landmark_of_root;
-  std::vector<fusion::JointLandmark> landmarks;
-  std::vector<Eigen::Vector3i> color_sums;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    if (!in_graph[i]) continue;
-    const int root = uf.Find(static_cast<int>(i));
-    auto [it, inserted] = landmark_of_root.emplace(root, static_cast<int>(landmarks.size()));
-    if (inserted) {
-      landmarks.emplace_back();
-      color_sums.push_back(Eigen::Vector3i::Zero());
-    }
-    const Node& n = nodes.node(static_cast<int>(i));
-    const features::FeatureSet& f = passes[n.pass]->data.features[n.image];
-    landmarks[it->second].observations.push_back({n.pass, n.image, f.Point(n.feature)});
-    if (!f.colors.empty()) {
-      for (int c = 0; c < 3; ++c) color_sums[it->second](c) += f.colors[n.feature][c];
-    }
-  }
-  {
-    // A node whose only link was refused is alone: not a landmark.
-    std::size_t kept = 0;
-    for (std::size_t l = 0; l < landmarks.size(); ++l) {
-      if (landmarks[l].observations.size() < 2) continue;
-      if (kept != l) {
-        landmarks[kept] = std::move(landmarks[l]);
-        color_sums[kept] = color_sums[l];
-      }
-      ++kept;
-    }
-    landmarks.resize(kept);
-    color_sums.resize(kept);
-  }
-  for (std::size_t l = 0; l < landmarks.size(); ++l) {
-    auto& obs = landmarks[l].observations;
-    // The landmark's first pass first (IsCross counts the others' observations).
-    std::stable_sort(obs.begin(), obs.end(),
-                     [](const fusion::JointObservation& a, const fusion::JointObservation& b) {
-                       return a.pass != b.pass ? a.pass < b.pass : a.state < b.state;
-                     });
-    for (int c = 0; c < 3; ++c) {
-      landmarks[l].color[c] =
-          static_cast<std::uint8_t>(color_sums[l](c) / static_cast<int>(obs.size()));
-    }
-  }
+  const std::vector<bool> every_pass(passes.size(), true);
+  std::vector<fusion::JointLandmark> landmarks =
+      JoinLandmarks(graph, passes, every_pass, &report.num_conflicting_matches);
   spdlog::info(
       "fuse: {} passes of {} sessions, {} landmarks, {} cross matches from {} files ({} dropped "
       "as inconsistent)",
@@ -612,11 +673,46 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
     }
   }
 
-  // The joint problem.
+  // The grades of the sessions (season_quality.h): a degraded session must not move the others.
+  std::vector<PassFacts> facts;
+  for (const auto& pass : passes) {
+    facts.push_back(PassFactsFromSummary(json::parse(pass->data.summary_json)));
+    facts.back().session = pass->data.session;
+    facts.back().pass = pass->data.pass.id;
+  }
+  report.quality = GradeSeason(facts, options.quality);
+  std::vector<bool> protects(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    protects[p] = report.quality.Protects(passes[p]->data.session);
+  }
+  for (const SessionGrade* g : report.quality.Degraded()) {
+    std::string reasons;
+    for (const std::string& r : g->reasons) reasons += (reasons.empty() ? "" : "; ") + r;
+    spdlog::warn("fuse: {} is degraded ({}){}", g->session, reasons,
+                 report.quality.any_trusted
+                     ? ": registered onto the trusted sessions, which it does not move"
+                     : "; no session is trusted: all are fused together");
+  }
+
+  // The joint problem: with degraded sessions, first the trusted passes alone, then every pass
+  // with the trusted ones held where that solve put them.
   std::vector<fusion::JointOptimiser::Pass> inputs;
   for (const auto& pass : passes) inputs.push_back(pass->input);
   const fusion::JointOptimiser optimiser(options.optimiser);
-  const fusion::JointOptimiser::Result result = optimiser.Solve(inputs, landmarks, ties);
+  const bool two_steps = std::find(protects.begin(), protects.end(), false) != protects.end();
+  if (two_steps) {
+    std::int64_t conflicting = 0;
+    const TrustedProblem trusted = RestrictToPasses(
+        inputs, JoinLandmarks(graph, passes, protects, &conflicting), ties, protects);
+    spdlog::info("fuse: the {} trusted passes first, alone", trusted.passes.size());
+    const fusion::JointOptimiser::Result first =
+        optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties);
+    for (std::size_t k = 0; k < trusted.original_pass.size(); ++k) {
+      inputs[trusted.original_pass[k]].initial_states = first.states[k];
+    }
+  }
+  const fusion::JointOptimiser::Result result =
+      optimiser.Solve(inputs, landmarks, ties, two_steps ? protects : std::vector<bool>{});
   report.joint = result.summary;
 
   // Outputs.
@@ -792,6 +888,8 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
                         {"solve", s.solve_seconds},
                         {"final_solve", s.final_solve_seconds},
                         {"total", report.seconds}};
+  io::WriteFileAtomic(SeasonQualityPath(workspace),
+                      SeasonQualityToJson(report.quality).dump(2) + "\n");
   // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.
   RecordOutputs(&summary, out_dir, FilesBelow(out_dir));
   io::WriteFileAtomic((out_dir / "summary.json").string(), summary.dump(2) + "\n");
@@ -832,6 +930,16 @@ std::string FormatFuseReport(const FuseReport& report) {
                   pr.session.c_str(), pr.pass.c_str(), 100 * pr.mean_shift.x(),
                   100 * pr.mean_shift.y(), 100 * pr.mean_shift.z(), pr.rotation_change_deg);
     out << line;
+  }
+  for (const SessionGrade* g : report.quality.Degraded()) {
+    for (const std::string& reason : g->reasons) {
+      out << "  degraded " << g->session << ": " << reason << "\n";
+    }
+  }
+  if (!report.quality.Degraded().empty()) {
+    out << (report.quality.any_trusted
+                ? "  (degraded sessions were registered onto the trusted ones, held fixed)\n"
+                : "  (no session is trusted: all were fused together)\n");
   }
   return out.str();
 }

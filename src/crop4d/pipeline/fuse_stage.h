@@ -16,6 +16,9 @@
 //                         re-triangulated from the fused poses (colour, track length, error);
 //   landmarks.ply         the joint problem's landmarks, with the number of passes and
 //                         sessions that see each;
+//   quality.json          the grade of every session (season_quality.h): a degraded session
+//                         is registered onto the trusted ones, held fixed after a first solve
+//                         of the trusted passes alone, so that it cannot move them;
 //   colmap/               the whole 4D reconstruction as a COLMAP text model (one camera per
 //                         session, images named <session>/<pass>/<image file>, the joint
 //                         landmarks as 3D points);
@@ -27,6 +30,7 @@
 #include <vector>
 
 #include "crop4d/fusion/joint_optimiser.h"
+#include "crop4d/pipeline/season_quality.h"
 #include "crop4d/slam/triangulation.h"
 
 namespace crop4d::pipeline {
@@ -59,6 +63,8 @@ struct FuseStageOptions {
   // clouds the ground ties are measured on).
   slam::TriangulationOptions cloud;
   bool write_colmap = true;
+  // The grades of the sessions (season_quality.h).
+  QualityOptions quality;
   bool force = false;
   bool show_progress = true;
 
@@ -97,6 +103,8 @@ struct FuseReport {
   fusion::JointOptimiser::Summary joint;
   std::vector<FuseTiePairReport> tie_pairs;
   std::vector<FusePassReport> passes;
+  // The sessions' grades (written to quality.json; read back when the stage is up to date).
+  SeasonQuality quality;
   double seconds = 0;
 };
 

@@ -249,6 +249,10 @@ const std::vector<Key>& Keys() {
         "a solve stops when an iteration lowers the cost by less than this fraction of it",
         [](RunConfig& c) -> double& { return c.fuse.optimiser.row.function_tolerance; }, 1e-12,
         0.1));
+    k.push_back(Double(
+        "fuse", "max_imu_gap_s",
+        "a pass with no IMU sample for longer than this degrades its session (season_quality.h)",
+        [](RunConfig& c) -> double& { return c.fuse.quality.max_imu_gap_s; }, 0.001, 1e6));
     k.push_back(Choice(
         "fuse", "linear_solver",
         "exact (sparse Cholesky of the Schur complement) or iterative (conjugate gradients)",
@@ -347,6 +351,15 @@ const std::vector<Key>& Keys() {
     k.push_back(Double(
         "analyze", "terrain_radius_m", "radius of the terrain's local fits",
         [](RunConfig& c) -> double& { return c.analyze.terrain.fit_radius_m; }, 0.01, 100));
+    k.push_back(Double(
+        "analyze", "ground_filter_window_m",
+        "soil-coloured points above the ground's opening with this window are not ground (0: off)",
+        [](RunConfig& c) -> double& { return c.analyze.terrain.ground_filter.window_m; }, 0.0,
+        100));
+    k.push_back(Double(
+        "analyze", "ground_filter_height_m", "... when more than this above it",
+        [](RunConfig& c) -> double& { return c.analyze.terrain.ground_filter.max_height_m; }, 0.001,
+        10));
     k.push_back(Bool("analyze", "later_session_terrain",
                      "refine the terrain with later sessions' bare ground",
                      [](RunConfig& c) -> bool& { return c.analyze.terrain.use_later_sessions; }));

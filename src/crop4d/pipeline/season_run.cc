@@ -255,6 +255,19 @@ void SeasonRun::Fuse(StageRecord& stage) {
   const FuseReport report = RunFuseStage(field_, ws_, o);
   Item(stage, "", fmt::format("{} sessions, {} passes", report.num_sessions, report.num_passes),
        report.skipped ? kActionUpToDate : kActionDone, report.seconds);
+  // The grades of the sessions (season_quality.h): a degraded one is listed with its reasons
+  // and what was done about it.
+  for (const SessionGrade* g : report.quality.Degraded()) {
+    for (const std::string& reason : g->reasons) {
+      const std::string text =
+          reason + (report.quality.any_trusted
+                        ? " (registered onto the trusted sessions without moving them; not used "
+                          "for their terrain, stems or growth)"
+                        : " (no session is trusted: used like the others)");
+      log_.Add("fuse", g->session, "degraded", 0, text);
+      record_.skipped.push_back({"fuse", g->session, "", "degraded: " + text});
+    }
+  }
 }
 
 void SeasonRun::Densify(StageRecord& stage) {
@@ -353,6 +366,10 @@ void SeasonRun::Eval(StageRecord& stage) {
     return;
   }
   const auto start = std::chrono::steady_clock::now();
+  // The metrics of older inputs go first: if the evaluation fails, the report shows none
+  // rather than stale ones.
+  fs::remove(stamp_path);
+  fs::remove(metrics);
   eval::WorkspaceEvalOptions o = config_.eval_options;
   const eval::WorkspaceEval result = eval::EvaluateWorkspace(ws_, field_, o);
   eval::WriteWorkspaceEval(result);

@@ -10,9 +10,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <Eigen/Core>
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <random>
@@ -57,29 +61,85 @@ std::string Slurp(const fs::path& path) {
   return text.str();
 }
 
-// A view of the field with only its first `num_sessions` sessions: field.yaml rewritten, the
-// rest linked (the session folders and the ground truth are shared, read-only).
-void MakeFieldView(const fs::path& view, int num_sessions) {
+const std::vector<std::string> kSessionIds = {"2016-06-10", "2016-06-24", "2016-07-08"};
+
+// A view of the field with the sessions `ids` only: field.yaml rewritten, the rest linked (the
+// session folders and the ground truth are shared, read-only).
+void MakeFieldViewOf(const fs::path& view, const std::vector<std::string>& ids) {
   const fs::path source = ThreeSessionField();
   fs::create_directories(view / "sessions");
   std::string yaml = Slurp(source / "field.yaml");
-  const std::vector<std::string> ids = {"2016-06-10", "2016-06-24", "2016-07-08"};
-  for (int i = num_sessions; i < 3; ++i) {
-    const std::string line = "  - \"" + ids[i] + "\"\n";
+  for (const std::string& id : kSessionIds) {
+    if (std::find(ids.begin(), ids.end(), id) != ids.end()) continue;
+    const std::string line = "  - \"" + id + "\"\n";
     const std::size_t at = yaml.find(line);
     ASSERT_NE(at, std::string::npos) << line;
     yaml.erase(at, line.size());
   }
   std::ofstream(view / "field.yaml") << yaml;
-  for (int i = 0; i < num_sessions; ++i) {
-    if (!fs::exists(view / "sessions" / ids[i])) {
-      fs::create_directory_symlink(fs::absolute(source / "sessions" / ids[i]),
-                                   view / "sessions" / ids[i]);
+  for (const std::string& id : ids) {
+    if (!fs::exists(view / "sessions" / id)) {
+      fs::create_directory_symlink(fs::absolute(source / "sessions" / id), view / "sessions" / id);
     }
   }
   if (!fs::exists(view / "ground_truth")) {
     fs::create_directory_symlink(fs::absolute(source / "ground_truth"), view / "ground_truth");
   }
+}
+
+// A view of the field with only its first `num_sessions` sessions.
+void MakeFieldView(const fs::path& view, int num_sessions) {
+  MakeFieldViewOf(
+      view, std::vector<std::string>(kSessionIds.begin(), kSessionIds.begin() + num_sessions));
+}
+
+// In a field view, the folder of sensor `sensor` of session `id` becomes a folder of its own
+// (its files linked but `data.csv`, copied) and is returned: its data.csv can be changed
+// without touching the shared field.
+fs::path OwnSensorData(const fs::path& view, const std::string& id, const std::string& sensor) {
+  const fs::path session = view / "sessions" / id;
+  if (fs::is_symlink(session)) {
+    const fs::path target = fs::read_symlink(session);
+    fs::remove(session);
+    fs::create_directory(session);
+    for (const auto& e : fs::directory_iterator(target)) {
+      fs::create_symlink(e.path(), session / e.path().filename());
+    }
+  }
+  const fs::path folder = session / sensor;
+  if (fs::is_symlink(folder)) {
+    const fs::path target = fs::read_symlink(folder);
+    fs::remove(folder);
+    fs::create_directory(folder);
+    for (const auto& e : fs::directory_iterator(target)) {
+      if (e.path().filename() == "data.csv") {
+        fs::copy_file(e.path(), folder / "data.csv");
+      } else {
+        fs::create_symlink(e.path(), folder / e.path().filename());
+      }
+    }
+  }
+  return folder;
+}
+
+// Rewrites the data lines of a sensor CSV: `edit` returns false to drop a line.
+void EditCsv(const fs::path& csv, const std::function<bool(std::string&)>& edit) {
+  std::istringstream in(Slurp(csv));
+  std::ostringstream out;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line[0] != '#' && !edit(line)) continue;
+    out << line << "\n";
+  }
+  std::ofstream(csv, std::ios::trunc) << out.str();
+}
+
+// Every GPS fix of the receiver without a fix (fix column 0).
+void RemoveFixes(const fs::path& view, const std::string& id, const std::string& receiver) {
+  EditCsv(OwnSensorData(view, id, receiver) / "data.csv", [](std::string& line) {
+    line = line.substr(0, line.rfind(',')) + ",0";
+    return true;
+  });
 }
 
 // Starts `crop4d args...` with output to `log`; returns its pid.
@@ -157,6 +217,49 @@ void ExpectSameProducts(const std::map<std::string, std::string>& expected,
 void Truncate(const fs::path& path, double fraction) {
   ASSERT_TRUE(fs::exists(path)) << path;
   fs::resize_file(path, static_cast<std::uintmax_t>(fs::file_size(path) * fraction));
+}
+
+// Camera positions of a TUM file, by the time's text.
+std::map<std::string, Eigen::Vector3d> TumPositions(const fs::path& path) {
+  std::map<std::string, Eigen::Vector3d> out;
+  std::istringstream in(Slurp(path));
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string t;
+    Eigen::Vector3d p;
+    fields >> t >> p.x() >> p.y() >> p.z();
+    out[t] = p;
+  }
+  return out;
+}
+
+// Heights of a site_heights.csv or site_truth.csv: "site session" → height, m (NaN: none).
+std::map<std::string, double> SiteHeights(const fs::path& csv) {
+  std::map<std::string, double> out;
+  std::istringstream in(Slurp(csv));
+  std::string line;
+  std::getline(in, line);  // header
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::istringstream fields(line);
+    for (std::string v; std::getline(fields, v, ',');) f.push_back(v);
+    if (f.size() < 4) continue;
+    out[f[0] + " " + f[1]] = f[3].empty() ? std::nan("") : std::stod(f[3]);
+  }
+  return out;
+}
+
+// Whether run.json lists `session` at `stage` with a reason that contains `text`.
+bool Listed(const RunRecord& record, const std::string& stage, const std::string& session,
+            const std::string& text) {
+  for (const SkippedItem& s : record.skipped) {
+    if (s.stage == stage && s.session == session && s.reason.find(text) != std::string::npos) {
+      return true;
+    }
+  }
+  return false;
 }
 
 class SeasonRunTest : public ::testing::Test {
@@ -299,15 +402,10 @@ TEST_F(SeasonRunTest, BadDataInSessionsIsReportedAndTheRestOfTheSeasonIsProcesse
   const fs::path imu = field / "sessions" / "2016-06-24" / "imu0" / "data.csv";
   fs::resize_file(imu, fs::file_size(imu) / 2 + 7);
   for (const char* gps : {"gps0", "gps1"}) {
-    const fs::path csv = field / "sessions" / "2016-07-08" / gps / "data.csv";
-    std::istringstream in(Slurp(csv));
-    std::ostringstream out;
-    std::string line;
-    while (std::getline(in, line)) {
-      if (!line.empty() && line[0] != '#') line = line.substr(0, line.rfind(',')) + ",0";
-      out << line << "\n";
-    }
-    std::ofstream(csv, std::ios::trunc) << out.str();
+    EditCsv(field / "sessions" / "2016-07-08" / gps / "data.csv", [](std::string& line) {
+      line = line.substr(0, line.rfind(',')) + ",0";
+      return true;
+    });
   }
 
   const fs::path ws = dir_ / "ws";
@@ -429,6 +527,168 @@ TEST_F(SeasonRunTest, TruncatedOutputsAreRedoneAndGiveTheResultsOfAnUninterrupte
             std::set<std::string>{"2016-06-10/" + row_poses.filename().string()});
   EXPECT_EQ(DoneItems(events, last_run, "fuse").size(), 1u);
   EXPECT_EQ(DoneItems(events, last_run, "densify"), std::set<std::string>{"2016-06-24"});
+}
+
+// Case 1: a session whose RTK receiver has no fix is processed with its metre-level one. It is
+// listed as degraded and registered onto the healthy session without moving it, so the healthy
+// session's poses and canopy heights are those of a run without it (to 2 mm): here the run in
+// which it has no fix at all and is skipped. Case 2: that run takes its terrain from the later
+// session, whose heights must be no more biased against the truth than with the earliest one
+// (a canopy-top terrain made them 10-12 cm too low).
+TEST_F(SeasonRunTest, ADegradedSessionCannotMoveAHealthyOneNorSetItsTerrain) {
+  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never", "--no-report"};
+  const std::string early = "2016-06-10", late = "2016-06-24";
+  const fs::path full = dir_ / "full", spoiled = dir_ / "spoiled", alone = dir_ / "alone";
+  MakeFieldViewOf(full, {early, late});
+  MakeFieldViewOf(spoiled, {early, late});
+  RemoveFixes(spoiled, early, "gps0");
+  MakeFieldViewOf(alone, {early, late});
+  RemoveFixes(alone, early, "gps0");
+  RemoveFixes(alone, early, "gps1");
+  for (const fs::path& field : {full, spoiled, alone}) {
+    const std::string name = field.filename().string();
+    ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / ("ws_" + name), extra), dir_ / (name + ".log")), 0)
+        << Slurp(dir_ / (name + ".log"));
+  }
+  const RunRecord record = ReadRunRecord((dir_ / "ws_spoiled" / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  EXPECT_TRUE(Listed(record, "validate", early, "gps0 has no fix"));
+  EXPECT_TRUE(Listed(record, "fuse", early, "degraded: positioned with a metre-level GPS"))
+      << Slurp(dir_ / "spoiled.log");
+  EXPECT_NE(Slurp(dir_ / "ws_spoiled" / "fused" / "quality.json").find("\"trusted\": false"),
+            std::string::npos);
+  const RunRecord skipped = ReadRunRecord((dir_ / "ws_alone" / "run.json").string());
+  EXPECT_TRUE(Listed(skipped, "slam", early, "")) << Slurp(dir_ / "alone.log");
+  EXPECT_FALSE(fs::exists(dir_ / "ws_alone" / "fused" / early));
+
+  const auto with = TumPositions(dir_ / "ws_spoiled" / "fused" / late / "poses.tum");
+  const auto without = TumPositions(dir_ / "ws_alone" / "fused" / late / "poses.tum");
+  ASSERT_GT(without.size(), 50u);
+  ASSERT_EQ(with.size(), without.size());
+  double worst = 0;
+  for (const auto& [t, p] : without) {
+    ASSERT_TRUE(with.count(t)) << t;
+    worst = std::max(worst, (with.at(t) - p).norm());
+  }
+  EXPECT_LT(worst, 0.002);
+  const auto heights_with = SiteHeights(dir_ / "ws_spoiled" / "analysis" / "site_heights.csv");
+  const auto heights_without = SiteHeights(dir_ / "ws_alone" / "analysis" / "site_heights.csv");
+  int compared = 0;
+  for (const auto& [key, h] : heights_without) {
+    if (key.find(late) == std::string::npos) continue;
+    ASSERT_TRUE(heights_with.count(key)) << key;
+    EXPECT_NEAR(heights_with.at(key), h, 0.002) << key;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 4);
+
+  const auto truth = SiteHeights(ThreeSessionField() / "ground_truth" / "site_truth.csv");
+  const auto bias = [&](const fs::path& ws) {
+    double sum = 0;
+    int n = 0;
+    for (const auto& [key, h] : SiteHeights(ws / "analysis" / "site_heights.csv")) {
+      if (key.find(late) == std::string::npos || !std::isfinite(h)) continue;
+      sum += h - truth.at(key);
+      ++n;
+    }
+    EXPECT_EQ(n, 4) << ws;
+    return sum / std::max(n, 1);
+  };
+  const double bias_full = bias(dir_ / "ws_full"), bias_alone = bias(dir_ / "ws_alone");
+  EXPECT_LE(std::abs(bias_alone), std::abs(bias_full) + 0.02)
+      << "bias " << bias_alone << " m alone, " << bias_full << " m with the earliest session";
+}
+
+// A session without its RTK receiver's folder, and a pass with a 5 s IMU gap: each session is
+// listed as degraded with its reason, the pass named.
+TEST_F(SeasonRunTest, SessionsAreGradedByWhatTheirPassesHad) {
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 3);
+  OwnSensorData(field, "2016-06-24", "gps0");
+  fs::remove_all(field / "sessions" / "2016-06-24" / "gps0");
+  // 5 s without IMU samples inside the second pass of 2016-07-08 (its passes are 6-7 s long).
+  const fs::path imu = OwnSensorData(field, "2016-07-08", "imu0") / "data.csv";
+  std::vector<long long> times;
+  EditCsv(imu, [&](std::string& line) {
+    times.push_back(std::stoll(line.substr(0, line.find(','))));
+    return true;
+  });
+  ASSERT_GT(times.size(), 1000u);
+  const std::string ws_probe = (dir_ / "probe").string();
+  // The pass times come from a quick row SLAM of that session alone.
+  ASSERT_EQ(
+      RunToEnd({"slam", field.string(), "--workspace", ws_probe, "--session", "2016-07-08", "-q"},
+               dir_ / "probe.log"),
+      0)
+      << Slurp(dir_ / "probe.log");
+  const json pass = json::parse(
+      Slurp(fs::path(ws_probe) / "sessions" / "2016-07-08" / "rows" / "row01" / "summary.json"));
+  const long long begin = pass.at("t_begin_ns").get<long long>() + 1'000'000'000LL;
+  const long long end = begin + 5'000'000'000LL;
+  ASSERT_LT(end, pass.at("t_end_ns").get<long long>());
+  EditCsv(imu, [&](std::string& line) {
+    const long long t = std::stoll(line.substr(0, line.find(',')));
+    return t < begin || t > end;
+  });
+
+  const fs::path ws = dir_ / "ws";
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, {"--no-densify", "--eval", "never", "--no-report"}),
+                     dir_ / "run.log"),
+            0)
+      << Slurp(dir_ / "run.log");
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  EXPECT_TRUE(Listed(record, "fuse", "2016-06-24", "degraded: positioned with a metre-level GPS"))
+      << Slurp(dir_ / "run.log");
+  EXPECT_TRUE(Listed(record, "fuse", "2016-07-08", "degraded: pass row01: no IMU sample for 5.0 s"))
+      << Slurp(dir_ / "run.log");
+  EXPECT_FALSE(Listed(record, "fuse", "2016-06-10", "degraded"));
+  EXPECT_NE(Slurp(dir_ / "run.log").find("2016-07-08/row01: no IMU sample for 5.0 s"),
+            std::string::npos);
+}
+
+// A session folder named with a space and an accent goes through every stage, the evaluation
+// against its truth and the report included (the COLMAP export maps the space).
+TEST_F(SeasonRunTest, ASessionNamedWithASpaceRunsThroughEveryStage) {
+  const std::string id = "2016-06-10 fr\xc3\xbch";
+  const fs::path field = dir_ / "field";
+  fs::create_directories(field / "sessions");
+  fs::create_directories(field / "ground_truth");
+  std::string yaml = Slurp(ThreeSessionField() / "field.yaml");
+  for (const std::string& other : {"2016-06-24", "2016-07-08"}) {
+    const std::string line = "  - \"" + other + "\"\n";
+    yaml.erase(yaml.find(line), line.size());
+  }
+  yaml.replace(yaml.find("\"2016-06-10\""), 12, "\"" + id + "\"");
+  std::ofstream(field / "field.yaml") << yaml;
+  fs::create_directory_symlink(fs::absolute(ThreeSessionField() / "sessions" / "2016-06-10"),
+                               field / "sessions" / id);
+  for (const auto& e : fs::directory_iterator(ThreeSessionField() / "ground_truth")) {
+    const std::string name = e.path().filename().string();
+    if (name == "2016-06-24" || name == "2016-07-08") continue;
+    fs::create_symlink(fs::absolute(e.path()),
+                       field / "ground_truth" / (name == "2016-06-10" ? id : name));
+  }
+
+  const fs::path ws = dir_ / "ws";
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run.log"), 0) << Slurp(dir_ / "run.log");
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  EXPECT_TRUE(record.skipped.empty()) << record.skipped.front().reason;
+  for (const char* stage :
+       {"validate", "slam", "associate", "fuse", "densify", "analyze", "eval", "report"}) {
+    RunRecord copy = record;
+    ASSERT_NE(copy.Stage(stage), nullptr) << stage;
+    EXPECT_EQ(copy.Stage(stage)->status, "done") << stage;
+  }
+  EXPECT_TRUE(fs::exists(ws / "fused" / id / "poses.tum"));
+  EXPECT_TRUE(fs::exists(ws / "dense" / (id + ".ply")));
+  EXPECT_NE(Slurp(ws / "analysis" / "site_heights.csv").find(id), std::string::npos);
+  EXPECT_NE(Slurp(ws / "fused" / "colmap" / "images.txt").find("2016-06-10_fr\xc3\xbch/row00/"),
+            std::string::npos);
+  const json metrics = json::parse(Slurp(ws / "eval" / "metrics.json"));
+  EXPECT_EQ(metrics["fused"]["overall"]["num_evaluated"].get<int>(), 1);
+  EXPECT_NE(Slurp(ws / "report.html").find(id), std::string::npos);
 }
 
 }  // namespace

@@ -82,7 +82,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 6;
+constexpr int kSlamStageRevision = 7;
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
@@ -261,6 +261,18 @@ double MedianSigmaH(const std::vector<slam::GpsFixWorld>& fixes) {
 }
 
 // The session solution at t (linear between its states; clamped at the ends).
+// The longest time in [begin, end] without an element of `sorted` (ascending), seconds.
+double LongestGapSeconds(const std::vector<Timestamp>& sorted, Timestamp begin, Timestamp end) {
+  Timestamp previous = begin;
+  double longest = 0;
+  for (auto it = std::lower_bound(sorted.begin(), sorted.end(), begin);
+       it != sorted.end() && *it <= end; ++it) {
+    longest = std::max(longest, DurationSeconds(previous, *it));
+    previous = *it;
+  }
+  return std::max(longest, DurationSeconds(previous, end));
+}
+
 slam::RowState SessionStateAt(const std::vector<slam::RowState>& states, Timestamp t) {
   auto it = std::lower_bound(states.begin(), states.end(), t,
                              [](const slam::RowState& s, Timestamp x) { return s.t < x; });
@@ -484,17 +496,25 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     // A row pass is driven by a vehicle: the non-holonomic constraint holds.
     input.forward_axis_body = ctx.initialiser->forward_axis();
   }
+  {
+    // An IMU outage inside the pass is bridged by the camera and the GP prior only: recorded
+    // for the session's grade (season_quality.h).
+    std::vector<Timestamp> imu_times;
+    imu_times.reserve(imu.samples.size());
+    for (const slam::ImuSample& sample : imu.samples) imu_times.push_back(sample.timestamp);
+    const double longest = LongestGapSeconds(imu_times, times.front(), times.back());
+    if (longest > 0.5) {
+      spdlog::warn("{}/{}: no IMU sample for {:.1f} s inside the pass", ctx.session->id(), pass.id,
+                   longest);
+    }
+    summary["longest_imu_gap_s"] = longest;
+  }
   if (info.gps) {
     // Warn about GPS outages inside the pass (the IMU and the camera bridge them).
-    Timestamp previous = times.front();
-    double longest = 0;
-    for (const slam::GpsFixWorld& fix : ctx.factor_fixes) {
-      if (fix.t < times.front()) continue;
-      if (fix.t > times.back()) break;
-      longest = std::max(longest, DurationSeconds(previous, fix.t));
-      previous = fix.t;
-    }
-    longest = std::max(longest, DurationSeconds(previous, times.back()));
+    std::vector<Timestamp> fix_times;
+    fix_times.reserve(ctx.factor_fixes.size());
+    for (const slam::GpsFixWorld& fix : ctx.factor_fixes) fix_times.push_back(fix.t);
+    const double longest = LongestGapSeconds(fix_times, times.front(), times.back());
     if (longest > 2.0) {
       spdlog::warn("{}/{}: no GPS fix for {:.1f} s inside the pass; the IMU{} bridges the gap",
                    ctx.session->id(), pass.id, longest, camera != nullptr ? " and the camera" : "");

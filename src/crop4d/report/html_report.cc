@@ -303,6 +303,34 @@ Section Builder::SkippedSection() {
         "No run record (WS/run.json): what the stages skipped is not known here; their logs "
         "say.");
   }
+  // The sessions' grades (fuse writes them whether or not `crop4d run` ran).
+  std::vector<std::vector<std::string>> degraded;
+  bool any_trusted = true;
+  if (const auto quality = ReadJson(WsPath("fused/quality.json"))) {
+    any_trusted = quality->value("any_trusted", true);
+    if (const json* ss = At(*quality, {"sessions"}); ss != nullptr && ss->is_array()) {
+      for (const json& g : *ss) {
+        if (g.value("trusted", true) || !g.contains("reasons") || !g["reasons"].is_array())
+          continue;
+        std::string reasons;
+        for (const json& r : g["reasons"]) {
+          if (r.is_string()) reasons += (reasons.empty() ? "" : "; ") + r.get<std::string>();
+        }
+        degraded.push_back({E(Str(g, {"session"})), E(reasons)});
+      }
+    }
+  }
+  if (!degraded.empty()) {
+    h += "<h3>Degraded sessions (WS/fused/quality.json)</h3>\n";
+    h += Table({"session", "why"}, degraded, "ll", "skips");
+    h += "<p>" +
+         std::string(any_trusted
+                         ? "Each was registered onto the trusted sessions without moving them, and "
+                           "is left out of their terrain, plant stems and growth curves; its own "
+                           "heights are shown but deserve less trust."
+                         : "No session is trusted: all were fused and analysed together.") +
+         "</p>\n";
+  }
   if (!skipped_.empty()) {
     h += "<h3>By this report</h3>\n<ul class=\"skips\">\n";
     for (const std::string& line : skipped_) h += "<li>" + E(line) + "</li>\n";
@@ -310,7 +338,7 @@ Section Builder::SkippedSection() {
   } else {
     h += Empty("The report read every input it found.");
   }
-  s.info.has_data = !rows.empty() || !skipped_.empty();
+  s.info.has_data = !rows.empty() || !degraded.empty() || !skipped_.empty();
   return s;
 }
 

@@ -97,6 +97,11 @@ void MakeWorkspace(const TempDir& dir) {
                 "b": {"session": "2016-06-15", "pass": "row00"}, "method": "robust",
                 "type": "cross-session same direction", "matches": 321, "image_pairs": 40,
                 "putative": 400, "prealigned": false, "seconds": 3.25})");
+  WriteText(ws + "/fused/quality.json",
+            R"({"standard": "rtk", "any_trusted": true, "sessions": [
+                {"session": "2016-06-01", "trusted": true, "reasons": []},
+                {"session": "2016-06-15", "trusted": false,
+                 "reasons": ["positioned with a metre-level GPS (cam+imu+gps) while 1 of 2 sessions have RTK"]}]})");
   WriteText(ws + "/fused/summary.json",
             R"({"sessions": ["2016-06-01", "2016-06-15"], "joint": {"passes": 4,
                 "converged": true, "landmarks": 2000, "shared_landmarks": 300,
@@ -217,6 +222,10 @@ TEST(HtmlReportTest, ReportOfAHandWrittenWorkspace) {
   EXPECT_NE(html.find("10 min 00 s"), std::string::npos);  // 600.25 s of slam
   EXPECT_NE(html.find("too few images &lt;7&gt;"), std::string::npos);
   EXPECT_EQ(html.find("too few images <7>"), std::string::npos);
+  // The degraded session, from fused/quality.json.
+  EXPECT_NE(html.find("Degraded sessions (WS/fused/quality.json)"), std::string::npos);
+  EXPECT_NE(html.find("positioned with a metre-level GPS (cam+imu+gps) while 1 of 2"),
+            std::string::npos);
   // The broken dense summary is named in the page and in the result.
   EXPECT_NE(html.find("WS/dense/2016-06-15.json: not valid JSON"), std::string::npos);
   bool named = false;

@@ -280,7 +280,12 @@ void AppendPlantMesh(const World& world, const Plant& plant, Timestamp date,
   Random main_random(HashCombine(plant.seed, 0x3a17u));
   const double top_rise = 50.0 * kDeg;
   const double stem_height = std::max(0.5 * H, H - petiole * std::sin(top_rise) - 0.25 * leaflet);
-  const Vector3d lean(main_random.Normal(0.0, 0.05), main_random.Normal(0.0, 0.05), 1.0);
+  // Draws are separate statements wherever one expression would hold two: C++ leaves the order
+  // of function arguments unspecified (gcc and clang differ), and a seed must give the same field
+  // whatever the compiler. The order is the one gcc used, so fields stay as they were.
+  const double lean_y = main_random.Normal(0.0, 0.05);
+  const double lean_x = main_random.Normal(0.0, 0.05);
+  const Vector3d lean(lean_x, lean_y, 1.0);
   const Vector3d stem_top = stem_height * lean.normalized();
   if (lod == PlantLod::kFull) {
     out.Tube({Vector3d::Zero(), 0.5 * stem_top, stem_top}, 0.0015 + 0.002 * g, 0.001, stem_rgb, 4);

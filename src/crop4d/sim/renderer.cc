@@ -1120,9 +1120,10 @@ void Renderer::Impl::RenderFrame(const geometry::Rigid3& world_from_camera, cv::
                 static_cast<float>(undistorted.cx), static_cast<float>(undistorted.cy));
     Random cloud_random(
         HashCombine(world.options().seed, 0xc10du, static_cast<std::uint64_t>(session.date)));
-    glUniform2f(glGetUniformLocation(sky_program, "u_cloud_offset"),
-                static_cast<float>(cloud_random.Uniform(0, 100)),
-                static_cast<float>(cloud_random.Uniform(0, 100)));
+    // One draw per statement (the order of function arguments is unspecified in C++).
+    const float cloud_y = static_cast<float>(cloud_random.Uniform(0, 100));
+    const float cloud_x = static_cast<float>(cloud_random.Uniform(0, 100));
+    glUniform2f(glGetUniformLocation(sky_program, "u_cloud_offset"), cloud_x, cloud_y);
     glUniform1f(glGetUniformLocation(sky_program, "u_cloudiness"),
                 static_cast<float>(cloud_random.Uniform(0.2, 0.9)));
     glBindVertexArray(empty_vao);

@@ -219,7 +219,10 @@ cv::Mat GenerateSoilTexture(const SoilTextureOptions& o) {
         0.0015 * std::pow(7.0 / 1.5, std::pow(random.Uniform(), 1.5)) * texels_per_m);
     const float aspect = random.Uniform(0.55, 1.0);
     const float angle = random.Uniform(0, M_PI);
-    const Rgb color = Scale(stone_palette[random.UniformInt(6)], random.Uniform(0.85, 1.1));
+    // One draw per statement: the order of function arguments is unspecified in C++ (gcc and
+    // clang differ), and a seed must give the same texture whatever the compiler.
+    const float shade = random.Uniform(0.85, 1.1);
+    const Rgb color = Scale(stone_palette[random.UniformInt(6)], shade);
     const float c = std::cos(angle), s = std::sin(angle);
     const int R = static_cast<int>(std::ceil(r * 1.5f)) + 1;
     const int x0 = static_cast<int>(cx), y0 = static_cast<int>(cy);
@@ -279,7 +282,8 @@ cv::Mat GenerateSoilTexture(const SoilTextureOptions& o) {
     const float width = random.Uniform(0.0015, 0.0045) * texels_per_m;
     const float angle = random.Uniform(0, 2 * M_PI);
     const float bend = random.Uniform(-0.15, 0.15) * length;
-    const Rgb color = Scale(straw_palette[random.UniformInt(4)], random.Uniform(0.85, 1.1));
+    const float shade = random.Uniform(0.85, 1.1);  // before the index: see the stones
+    const Rgb color = Scale(straw_palette[random.UniformInt(4)], shade);
     const float dx = std::cos(angle), dy = std::sin(angle);
     const float half_w = 0.5f * width;
     const int R = static_cast<int>(std::ceil(half_w)) + 1;

@@ -57,8 +57,8 @@ RowState FromBlocks(Timestamp t, const StateBlocks& b) {
 }
 
 PassGraph::PassGraph(const RowOptimiser::Options& options, const RowOptimiser::Input& input,
-                     std::vector<StateBlocks>* blocks)
-    : options_(options), input_(input), blocks_(*blocks) {
+                     std::span<StateBlocks> blocks)
+    : options_(options), input_(input), blocks_(blocks) {
   reprojection_loss_ = std::make_unique<ceres::HuberLoss>(options.reprojection_loss_scale);
   gps_loss_ = std::make_unique<ceres::HuberLoss>(options.gps_loss_scale);
 }
@@ -264,7 +264,7 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
   return RunSolver(options, problem, blocks);
 }
 
-std::vector<geometry::Rigid3> CameraPoses(const std::vector<StateBlocks>& blocks,
+std::vector<geometry::Rigid3> CameraPoses(std::span<const StateBlocks> blocks,
                                           const geometry::Rigid3& body_from_camera) {
   std::vector<geometry::Rigid3> poses;
   poses.reserve(blocks.size());

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "crop4d/slam/pose_manifold.h"
@@ -31,11 +32,11 @@ StateBlocks ToBlocks(const RowState& s);
 RowState FromBlocks(Timestamp t, const StateBlocks& b);
 
 // The graph of one pass over its state blocks. `options`, `input` and `blocks` must outlive it
-// (and `blocks` must not be resized: factors hold pointers into it).
+// (factors hold pointers into `blocks`).
 class PassGraph {
  public:
   PassGraph(const RowOptimiser::Options& options, const RowOptimiser::Input& input,
-            std::vector<StateBlocks>* blocks);
+            std::span<StateBlocks> blocks);
 
   bool has_imu() const { return input_.imu_samples != nullptr && !input_.imu_samples->empty(); }
   bool has_gps() const { return !input_.gps_fixes.empty(); }
@@ -55,7 +56,7 @@ class PassGraph {
  private:
   const RowOptimiser::Options& options_;
   const RowOptimiser::Input& input_;
-  std::vector<StateBlocks>& blocks_;
+  std::span<StateBlocks> blocks_;
   std::vector<std::optional<ImuPreintegration>> preintegrations_;
   std::unique_ptr<ceres::LossFunction> reprojection_loss_, gps_loss_;
   mutable PoseManifold pose_manifold_;
@@ -72,7 +73,7 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
                                  std::vector<Eigen::Vector3d>* landmarks);
 
 // world_from_camera of every state.
-std::vector<geometry::Rigid3> CameraPoses(const std::vector<StateBlocks>& blocks,
+std::vector<geometry::Rigid3> CameraPoses(std::span<const StateBlocks> blocks,
                                           const geometry::Rigid3& body_from_camera);
 
 }  // namespace crop4d::slam

@@ -127,7 +127,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
   std::vector<StateBlocks> blocks;
   blocks.reserve(n);
   for (const RowState& s : input.initial_states) blocks.push_back(ToBlocks(s));
-  PassGraph builder(options_, input, &blocks);
+  PassGraph builder(options_, input, blocks);
   builder.Preintegrate(&summary);
   if (summary.num_imu_gaps > 0) {
     spdlog::warn(

@@ -1,0 +1,172 @@
+#include "crop4d/pipeline/season_quality.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "crop4d/core/error.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+using json = nlohmann::json;
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string PositioningWords(Positioning p) {
+  switch (p) {
+    case Positioning::kRtk:
+      return "RTK";
+    case Positioning::kGps:
+      return "a metre-level GPS";
+    case Positioning::kNone:
+      return "no GPS";
+  }
+  return "";
+}
+
+// The positioning that at least half of the sessions reach (the sessions' own positioning is
+// the worst of their passes).
+Positioning Standard(const std::vector<Positioning>& sessions) {
+  for (Positioning level : {Positioning::kRtk, Positioning::kGps}) {
+    const auto reach = std::count_if(sessions.begin(), sessions.end(),
+                                     [level](Positioning p) { return p >= level; });
+    if (2 * reach >= static_cast<std::ptrdiff_t>(sessions.size())) return level;
+  }
+  return Positioning::kNone;
+}
+
+}  // namespace
+
+const char* PositioningName(Positioning p) {
+  switch (p) {
+    case Positioning::kRtk:
+      return "rtk";
+    case Positioning::kGps:
+      return "gps";
+    case Positioning::kNone:
+      return "none";
+  }
+  return "none";
+}
+
+Positioning PositioningOf(const std::string& sensors) {
+  if (EndsWith(sensors, "+rtk")) return Positioning::kRtk;
+  if (EndsWith(sensors, "+gps")) return Positioning::kGps;
+  return Positioning::kNone;
+}
+
+PassFacts PassFactsFromSummary(const json& summary) {
+  PassFacts f;
+  f.session = summary.value("session", "");
+  f.pass = summary.value("pass", "");
+  f.sensors = summary.value("sensors", "");
+  f.positioning = PositioningOf(f.sensors);
+  f.longest_imu_gap_s = summary.value("longest_imu_gap_s", 0.0);
+  return f;
+}
+
+bool QualityOptions::Check() const { return max_imu_gap_s > 0.0 && std::isfinite(max_imu_gap_s); }
+
+bool SeasonQuality::Protects(const std::string& session) const {
+  if (!any_trusted) return true;
+  for (const SessionGrade& g : sessions) {
+    if (g.session == session) return g.trusted;
+  }
+  return true;
+}
+
+std::vector<const SessionGrade*> SeasonQuality::Degraded() const {
+  std::vector<const SessionGrade*> out;
+  for (const SessionGrade& g : sessions) {
+    if (!g.trusted) out.push_back(&g);
+  }
+  return out;
+}
+
+SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOptions& options) {
+  if (!options.Check()) throw std::invalid_argument("GradeSeason: invalid options");
+  SeasonQuality q;
+  std::map<std::string, std::size_t> index;
+  std::vector<Positioning> positioning;
+  std::vector<std::string> sensors;  // of the worst-positioned pass
+  for (const PassFacts& p : passes) {
+    auto [it, inserted] = index.emplace(p.session, q.sessions.size());
+    if (inserted) {
+      q.sessions.push_back({p.session, true, {}});
+      positioning.push_back(p.positioning);
+      sensors.push_back(p.sensors);
+    } else if (p.positioning < positioning[it->second]) {
+      positioning[it->second] = p.positioning;
+      sensors[it->second] = p.sensors;
+    }
+  }
+  q.standard = Standard(positioning);
+  const auto at_standard = std::count_if(positioning.begin(), positioning.end(),
+                                         [&](Positioning p) { return p >= q.standard; });
+  for (std::size_t s = 0; s < q.sessions.size(); ++s) {
+    if (positioning[s] >= q.standard) continue;
+    q.sessions[s].reasons.push_back(fmt::format(
+        "positioned with {} ({}) while {} of {} sessions have {}", PositioningWords(positioning[s]),
+        sensors[s], at_standard, q.sessions.size(), PositioningWords(q.standard)));
+  }
+  for (const PassFacts& p : passes) {
+    if (p.longest_imu_gap_s <= options.max_imu_gap_s) continue;
+    q.sessions[index.at(p.session)].reasons.push_back(
+        fmt::format("pass {}: no IMU sample for {:.1f} s (more than {:.1f} s)", p.pass,
+                    p.longest_imu_gap_s, options.max_imu_gap_s));
+  }
+  for (SessionGrade& g : q.sessions) g.trusted = g.reasons.empty();
+  q.any_trusted = std::any_of(q.sessions.begin(), q.sessions.end(),
+                              [](const SessionGrade& g) { return g.trusted; });
+  return q;
+}
+
+json SeasonQualityToJson(const SeasonQuality& quality) {
+  json sessions = json::array();
+  for (const SessionGrade& g : quality.sessions) {
+    sessions.push_back({{"session", g.session}, {"trusted", g.trusted}, {"reasons", g.reasons}});
+  }
+  return {{"standard", PositioningName(quality.standard)},
+          {"any_trusted", quality.any_trusted},
+          {"sessions", sessions}};
+}
+
+std::string SeasonQualityPath(const std::string& workspace) {
+  return (std::filesystem::path(workspace) / "fused" / "quality.json").string();
+}
+
+SeasonQuality ReadSeasonQuality(const std::string& workspace) {
+  const std::string path = SeasonQualityPath(workspace);
+  SeasonQuality q;
+  std::ifstream in(path);
+  if (!in) return q;
+  try {
+    const json j = json::parse(in);
+    const std::string standard = j.at("standard").get<std::string>();
+    q.standard = standard == "rtk"   ? Positioning::kRtk
+                 : standard == "gps" ? Positioning::kGps
+                                     : Positioning::kNone;
+    q.any_trusted = j.at("any_trusted").get<bool>();
+    for (const json& s : j.at("sessions")) {
+      q.sessions.push_back({s.at("session").get<std::string>(), s.at("trusted").get<bool>(),
+                            s.at("reasons").get<std::vector<std::string>>()});
+    }
+  } catch (const json::exception& e) {
+    throw InputError(
+        path, 0,
+        std::string("cannot read the session grades (rerun `crop4d fuse --force`): ") + e.what());
+  }
+  return q;
+}
+
+}  // namespace crop4d::pipeline

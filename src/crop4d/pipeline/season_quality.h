@@ -1,0 +1,88 @@
+#pragma once
+
+// Quality gates of a season: every session is graded from what its row passes actually had and
+// what row SLAM made of them (the passes' summary.json), so that a session below the season's
+// standard cannot spoil the others.
+//
+// A session is **degraded** when
+//   - its positioning is below the season's standard: the passes ran with a metre-level
+//     receiver (`+gps`) or none while at least half of the sessions had RTK (`+rtk`), or without
+//     any GPS while at least half had one (a receiver without a fix, a missing receiver folder);
+//   - one of its passes went longer than `max_imu_gap_s` without an IMU sample (the pass is
+//     named): the motion there is bridged by the camera and a smoothness prior only.
+// A degraded session is still fused, densified and analysed, but it never moves a trusted one:
+// the joint problem is solved on the trusted passes first, then the degraded passes are
+// registered onto them held fixed (fuse_stage.h); the terrain, the plant stems and the growth
+// bounds come from the trusted sessions only (analyze_stage.h). When no session is trusted, the
+// grades are reported and every session is used as before: there is nothing better to protect.
+//
+// `crop4d fuse` writes the grades to WS/fused/quality.json (its owner); analyze, run and report
+// read them from there.
+
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+namespace crop4d::pipeline {
+
+// How a pass was positioned, from its sensor set: worst to best.
+enum class Positioning { kNone = 0, kGps = 1, kRtk = 2 };
+
+// "none", "gps" or "rtk".
+const char* PositioningName(Positioning p);
+// The positioning of a sensor set name ("cam+imu+rtk" → kRtk, "cam+imu+gps" → kGps, else kNone).
+Positioning PositioningOf(const std::string& sensors);
+
+// What grading needs of one row pass.
+struct PassFacts {
+  std::string session;
+  std::string pass;
+  Positioning positioning = Positioning::kNone;
+  std::string sensors;
+  // The longest time inside the pass without an IMU sample, s (0 without an IMU).
+  double longest_imu_gap_s = 0.0;
+};
+
+// The facts of a pass from its row-SLAM summary.json. A summary without `longest_imu_gap_s`
+// (an older workspace) counts as no gap.
+PassFacts PassFactsFromSummary(const nlohmann::json& summary);
+
+struct QualityOptions {
+  // A pass without IMU samples for longer than this degrades its session, s.
+  double max_imu_gap_s = 1.0;
+
+  bool Check() const;
+};
+
+struct SessionGrade {
+  std::string session;
+  bool trusted = true;
+  std::vector<std::string> reasons;  // why it is degraded (empty when trusted)
+};
+
+struct SeasonQuality {
+  // The positioning that at least half of the sessions have.
+  Positioning standard = Positioning::kNone;
+  // Every session with passes, in the order of the facts.
+  std::vector<SessionGrade> sessions;
+  // False when no session is trusted: every session is then used (see above).
+  bool any_trusted = true;
+
+  // Whether `session` may set the frame, the terrain and the bounds of the others: a trusted
+  // session, any session when none is trusted, and a session without grade.
+  bool Protects(const std::string& session) const;
+  // The degraded sessions.
+  std::vector<const SessionGrade*> Degraded() const;
+};
+
+// Grades the sessions of `passes` (grouped by session, in order of first appearance).
+SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOptions& options);
+
+nlohmann::json SeasonQualityToJson(const SeasonQuality& quality);
+// Reads WS/fused/quality.json; a missing file gives an empty SeasonQuality (every session
+// protects). Throws InputError naming the file when it cannot be parsed.
+SeasonQuality ReadSeasonQuality(const std::string& workspace);
+// The path of the file.
+std::string SeasonQualityPath(const std::string& workspace);
+
+}  // namespace crop4d::pipeline

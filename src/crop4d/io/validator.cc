@@ -255,6 +255,12 @@ SessionReport ValidateSession(const std::string& folder, const std::string& id,
                               const ValidateOptions& options, Diagnostics* diag) {
   SessionReport report;
   report.id = id;
+  report.name_problem = NameProblem(id);
+  if (!report.name_problem.empty()) {
+    diag->Error(folder, 0,
+                "session '" + id + "': " + report.name_problem +
+                    " (rename the folder and its line in field.yaml)");
+  }
   try {
     report.date = ReadSessionYaml((fs::path(folder) / kSessionYaml).string(), id, diag).date;
   } catch (const InputError& e) {
@@ -351,6 +357,23 @@ std::string FormatFixCounts(const std::map<int, std::int64_t>& fix_counts, std::
 
 }  // namespace
 
+std::string NameProblem(const std::string& name) {
+  if (name.empty()) return "the name is empty";
+  for (const char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    if (c == ',' || c == '"') {
+      return fmt::format("the name contains '{}', which the CSV outputs cannot hold", c);
+    }
+    if (c == '/' || c == '\\') {
+      return fmt::format("the name contains '{}', which would make its output files a path", c);
+    }
+    if (u < 0x20 || u == 0x7f) {
+      return fmt::format("the name contains the control character 0x{:02x}", u);
+    }
+  }
+  return "";
+}
+
 ValidationReport ValidateField(const std::string& folder, const ValidateOptions& options) {
   CROP4D_CHECK(options.Check());
   ValidationReport report;
@@ -379,6 +402,13 @@ ValidationReport ValidateField(const std::string& folder, const ValidateOptions&
       report.sessions.push_back(ValidateSession(field.SessionFolder(id), id, options, &diag));
     }
     WarnAboutMissingSensors(field, &report.sessions, &diag);
+    for (const Site& site : field.info().sites) {
+      const std::string problem = NameProblem(site.id);
+      if (!problem.empty()) {
+        diag.Error((fs::path(folder) / "field.yaml").string(), 0,
+                   "site '" + site.id + "': " + problem);
+      }
+    }
   } catch (const InputError& e) {
     diag.Error(e.file(), e.line(), e.message());
   }

@@ -76,7 +76,17 @@ struct SessionReport {
   // GPS receiver without a single fix, a sensor the other sessions have): each is also a
   // warning. `crop4d run` lists the session as degraded with these reasons.
   std::vector<std::string> degradations;
+  // Why the session's name cannot be written into every output (NameProblem); empty when it
+  // can. `crop4d run` skips such a session.
+  std::string name_problem;
 };
+
+// Why `name` (a session folder or a site id) cannot be written into every output of crop4d:
+// the CSV files (site_heights.csv, growth.csv, ...) hold it unquoted, so a comma, a double quote
+// or a control character (a line break) would break their rows; a slash or backslash would
+// make a file name of it a path. Empty when it can (spaces and any other Unicode can: the
+// COLMAP export, which cannot hold a space, maps it to '_').
+std::string NameProblem(const std::string& name);
 
 struct ValidationReport {
   std::string folder;

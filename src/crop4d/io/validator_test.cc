@@ -323,5 +323,37 @@ TEST(ValidatorFieldTest, ASensorThatTheOtherSessionsHaveIsMissing) {
   EXPECT_EQ(extra.sessions[1].degradations.size(), 1u);
 }
 
+TEST(ValidatorNameTest, NamesThatAnOutputCannotHold) {
+  EXPECT_EQ(NameProblem("2016-06-10"), "");
+  EXPECT_EQ(NameProblem("2016-06-10 fr\xc3\xbch"), "");  // spaces and Unicode are fine
+  EXPECT_EQ(NameProblem("a,b"), "the name contains ',', which the CSV outputs cannot hold");
+  EXPECT_NE(NameProblem("say \"hi\""), "");
+  EXPECT_NE(NameProblem("a/b"), "");
+  EXPECT_NE(NameProblem("a\\b"), "");
+  EXPECT_EQ(NameProblem("line\nbreak"), "the name contains the control character 0x0a");
+  EXPECT_EQ(NameProblem(""), "the name is empty");
+}
+
+TEST(ValidatorFieldTest, ASessionNamedWithACommaIsAnError) {
+  TempDir dir;
+  SampleFieldOptions options;
+  options.sessions = {"2016-05-25", "2016-06-01, evening"};
+  WriteSampleField(dir.path(), options);
+  ValidateOptions vo;
+  vo.progress = false;
+  const ValidationReport report = ValidateField(dir.path(), vo);
+  EXPECT_FALSE(report.ok());
+  ASSERT_EQ(report.sessions.size(), 2u);
+  EXPECT_EQ(report.sessions[0].name_problem, "");
+  EXPECT_EQ(report.sessions[1].name_problem,
+            "the name contains ',', which the CSV outputs cannot hold");
+  bool named = false;
+  for (const Diagnostic& d : report.diagnostics) {
+    named = named || (d.severity == Severity::kError &&
+                      d.message.find("session '2016-06-01, evening'") == 0);
+  }
+  EXPECT_TRUE(named);
+}
+
 }  // namespace
 }  // namespace crop4d::io

@@ -165,8 +165,17 @@ void SeasonRun::Validate(StageRecord& stage) {
     auto& [count, first] = per_session[session];
     if (count++ == 0) first = d.ToString();
   }
+  // A session whose name the outputs cannot hold is not processed at all (io::NameProblem).
+  std::set<std::string> unnamable;
+  for (const io::SessionReport& session : report.sessions) {
+    if (session.name_problem.empty()) continue;
+    unnamable.insert(session.id);
+    Item(stage, session.id, "", kActionSkipped, 0,
+         session.name_problem + ": not processed (rename the folder and its line in field.yaml)");
+  }
   for (const std::string& id : sessions_) {
     auto it = per_session.find(id);
+    if (unnamable.count(id)) continue;
     if (it == per_session.end()) {
       Item(stage, id, "", kActionDone, 0);
     } else {
@@ -183,6 +192,9 @@ void SeasonRun::Validate(StageRecord& stage) {
   if (per_session.count("")) {
     spdlog::warn("validate: {}", per_session[""].second);
   }
+  sessions_.erase(std::remove_if(sessions_.begin(), sessions_.end(),
+                                 [&](const std::string& id) { return unnamable.count(id) > 0; }),
+                  sessions_.end());
   // A session below what its data promise (a receiver without a fix, a sensor the others have)
   // is listed as degraded with the reason: the stages still use what it has.
   for (const io::SessionReport& session : report.sessions) {

@@ -1,5 +1,6 @@
 // crop4d import: makes a session of our dataset format from an RTKLIB solution file (.pos) and
-// an IMU text file with a column and unit mapping (docs/import.md). Exit code 0 when the
+// an IMU text file with a column and unit mapping, or from an EuRoC / ASL sequence as it is
+// (--euroc; docs/import.md). Exit code 0 when the
 // session was written, 2 on bad input (nothing is written then).
 
 #include <spdlog/spdlog.h>
@@ -16,6 +17,7 @@
 #include "crop4d/core/logging.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/dataset_format.h"
+#include "crop4d/io/euroc_import.h"
 #include "crop4d/io/importer.h"
 
 namespace crop4d::cli {
@@ -35,6 +37,7 @@ struct ImportArgs {
   std::string imu_time_scale = "pos";
   std::string imu_rpy_deg;   // "roll,pitch,yaw"
   std::string imu_position;  // "x,y,z"
+  std::string euroc;         // an EuRoC / ASL sequence (its mav0/ or the folder above)
 };
 
 // "a,b,c" with exactly `min_count`..3 finite numbers; missing trailing ones are 0.
@@ -56,7 +59,43 @@ Eigen::Vector3d ParseNumbers(const std::string& text, const std::string& option,
   return v;
 }
 
+// Prints an import's summary (unless quiet) and logs what was written; the exit code 0.
+int Report(const std::string& text, const std::string& session_folder, bool sessions_updated) {
+  if (!IsQuiet()) {
+    std::fputs(text.c_str(), stdout);
+    std::fflush(stdout);
+  }
+  spdlog::info("import: wrote {}{}", session_folder,
+               sessions_updated ? " and added it to field.yaml's sessions" : "");
+  return 0;
+}
+
+// --euroc: the sequence as it is; the .pos and IMU-file options do not apply.
+int RunEurocImport(const ImportArgs& args) {
+  if (!args.options.pos_path.empty() || !args.options.imu_path.empty()) {
+    throw InputError("--euroc", 0,
+                     "takes the sequence's own IMU and has no GNSS: leave out --pos and --imu");
+  }
+  io::EurocImportOptions options;
+  options.sequence_folder = args.euroc;
+  options.field_folder = args.options.field_folder;
+  options.session_id = args.options.session_id;
+  options.field_name = args.options.field_name;
+  options.overwrite = args.options.overwrite;
+  if (!args.origin.empty()) {
+    const Eigen::Vector3d v = ParseNumbers(args.origin, "--origin", 2, "lat,lon[,alt]");
+    options.origin = geometry::GeodeticPoint{v.x(), v.y(), v.z()};
+  }
+  const io::EurocImportSummary summary = io::ImportEuroc(options);
+  return Report(io::FormatEurocImportSummary(summary), summary.session_folder,
+                summary.field_sessions_updated);
+}
+
 int RunImport(const ImportArgs& args) {
+  if (!args.euroc.empty()) return RunEurocImport(args);
+  if (args.options.session_id.empty()) {
+    throw InputError("--session", 0, "the session's folder name is required (a date is good)");
+  }
   io::SessionImporter::Options options = args.options;
   if (!args.origin.empty()) {
     const Eigen::Vector3d v = ParseNumbers(args.origin, "--origin", 2, "lat,lon[,alt]");
@@ -103,13 +142,8 @@ int RunImport(const ImportArgs& args) {
   }
 
   const io::SessionImporter::Summary summary = io::SessionImporter(options).Run();
-  if (!IsQuiet()) {
-    std::fputs(io::FormatImportSummary(summary).c_str(), stdout);
-    std::fflush(stdout);
-  }
-  spdlog::info("import: wrote {}{}", summary.session_folder,
-               summary.field_sessions_updated ? " and added it to field.yaml's sessions" : "");
-  return 0;
+  return Report(io::FormatImportSummary(summary), summary.session_folder,
+                summary.field_sessions_updated);
 }
 
 }  // namespace
@@ -121,7 +155,9 @@ RunFunction SetupImport(CLI::App& app) {
       "Make a session of the crop4d dataset format (docs/format.md) from an RTKLIB solution "
       "file (.pos, → gps0/) and an IMU text file with a column and unit mapping (→ imu0/). "
       "Creates the field folder (field.yaml with the origin and no rows) or adds the session "
-      "to an existing field. A session without rows is processed as one pass.\n"
+      "to an existing field. A session without rows is processed as one pass. Or, with --euroc, "
+      "an EuRoC / ASL sequence (cam*/ and imu*/ verbatim, its ground truth for crop4d eval; no "
+      "GPS).\n"
       "Timestamps keep the input's time scale (GPST stays GPST) unless --leap-seconds converts "
       "GPST to UTC. RTKLIB Q → NMEA fix: 1 fix→4, 2 float→5, 3 sbas→2, 4 dgps→2, 5 single→1, "
       "6 ppp→2. sigma_h = sqrt((sdn²+sde²)/2), sigma_v = sdu. See docs/import.md.\n"
@@ -130,9 +166,14 @@ RunFunction SetupImport(CLI::App& app) {
       ->required()
       ->type_name("FIELD");
   app.add_option("--session", o.session_id,
-                 "Session folder name under sessions/ (a date, YYYY-MM-DD..., is a good choice)")
-      ->required()
+                 "Session folder name under sessions/ (a date, YYYY-MM-DD..., is a good choice; "
+                 "required except with --euroc, where the first IMU sample's date is the default)")
       ->type_name("ID");
+  app.add_option("--euroc", args->euroc,
+                 "Import an EuRoC / ASL sequence as it is: its mav0/ folder or the folder above "
+                 "(camera and IMU folders verbatim, ground truth into ground_truth/; no GPS: a new "
+                 "field's origin is 0,0,0 unless --origin)")
+      ->type_name("PATH");
   app.add_option("--name", o.field_name, "Field name for a new field.yaml (default: folder name)");
   app.add_option("--notes", o.notes, "Free text for session.yaml's notes");
   app.add_flag("--overwrite", o.overwrite,

@@ -138,6 +138,9 @@ RunFunction SetupSlam(CLI::App& app) {
   app.add_flag(
       "--no-motion-constraint", [&o](std::int64_t) { o.motion_constraint = false; },
       "No non-holonomic constraint on row passes (a rig that slides sideways)");
+  app.add_flag(
+      "--no-standstill", [&o](std::int64_t) { o.standstills = false; },
+      "Do not detect standstills (zero velocity, one pose while the rig stands still)");
   app.add_flag("--force", o.force, "Recompute passes that are up to date");
   return [args] {
     args->options.optimiser.num_threads = args->options.front_end.num_threads;

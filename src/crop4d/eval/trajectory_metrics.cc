@@ -92,6 +92,36 @@ double RotationAngleDeg(const Eigen::Quaterniond& q) {
   return angle * 180.0 / M_PI;
 }
 
+Wander TrajectoryWander(const std::vector<Rigid3>& poses, const Eigen::Vector3d& axis) {
+  Wander w;
+  if (poses.empty()) return w;
+  const auto heading = [&](const Rigid3& pose) {
+    const Eigen::Vector3d a = pose.rotation() * axis;
+    return std::atan2(a.y(), a.x());
+  };
+  const double h0 = heading(poses.front());
+  for (const Rigid3& pose : poses) {
+    const double change = std::abs(std::remainder(heading(pose) - h0, 2.0 * M_PI));
+    w.max_heading_change_deg = std::max(w.max_heading_change_deg, change * 180.0 / M_PI);
+    w.max_displacement_m =
+        std::max(w.max_displacement_m, (pose.translation() - poses.front().translation()).norm());
+  }
+  return w;
+}
+
+double MaxTiltErrorDeg(const std::vector<Rigid3>& estimate, const std::vector<Rigid3>& truth) {
+  CROP4D_CHECK(estimate.size() == truth.size());
+  double worst = 0.0;
+  for (std::size_t k = 0; k < estimate.size(); ++k) {
+    const Eigen::Vector3d up_estimate = estimate[k].rotation().inverse() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d up_truth = truth[k].rotation().inverse() * Eigen::Vector3d::UnitZ();
+    // atan2 of sine and cosine: exact near 0, where acos of the dot product is not.
+    const double angle = std::atan2(up_estimate.cross(up_truth).norm(), up_estimate.dot(up_truth));
+    worst = std::max(worst, angle * 180.0 / M_PI);
+  }
+  return worst;
+}
+
 Rigid3 AlignSE3(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst) {
   CROP4D_CHECK(src.size() == dst.size());
   CROP4D_CHECK(src.size() >= 3);

@@ -109,6 +109,22 @@ TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<geometry::Rigid3>& 
 geometry::Rigid3 AlignSE3(const std::vector<Eigen::Vector3d>& src,
                           const std::vector<Eigen::Vector3d>& dst);
 
+// How far a trajectory wanders from its first pose, the drift of a standstill: the largest
+// change of the heading of `axis` (in the pose's frame; for a camera its optical axis z) projected
+// on the world's horizontal plane, degrees, and the largest distance from the first position, m.
+struct Wander {
+  double max_heading_change_deg = 0.0;
+  double max_displacement_m = 0.0;
+};
+Wander TrajectoryWander(const std::vector<geometry::Rigid3>& poses,
+                        const Eigen::Vector3d& axis = Eigen::Vector3d::UnitZ());
+
+// The largest angle between the world's up direction (z) seen from the estimated and from the
+// true pose (roll and pitch error; heading and position ignored, so frames that differ by a
+// rotation about the vertical and a shift compare), degrees. Same length.
+double MaxTiltErrorDeg(const std::vector<geometry::Rigid3>& estimate,
+                       const std::vector<geometry::Rigid3>& truth);
+
 // The rotation angle of R in degrees, in [0, 180].
 double RotationAngleDeg(const Eigen::Quaterniond& q);
 

@@ -270,5 +270,29 @@ TEST(AssociateByTimeTest, OutOfSpanAndGapsAreDroppedAndCounted) {
   EXPECT_EQ(AssociateByTime(estimate, {}, 20 * kMs).dropped_out_of_span, 7);
 }
 
+TEST(TrajectoryWanderTest, HeadingChangeAndDisplacementFromTheFirstPose) {
+  // A camera looking north-east and down; later poses turn by 2° about the vertical and move.
+  const Eigen::Quaterniond look(Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(-2.0, Eigen::Vector3d::UnitX()));
+  std::vector<Rigid3> poses;
+  for (int k = 0; k < 5; ++k) {
+    const Eigen::Quaterniond turn(
+        Eigen::AngleAxisd(k * 0.5 * M_PI / 180, Eigen::Vector3d::UnitZ()));
+    poses.emplace_back(turn * look, Eigen::Vector3d(k * 0.001, 0, -k * 0.002));
+  }
+  const Wander w = TrajectoryWander(poses);
+  EXPECT_NEAR(w.max_heading_change_deg, 2.0, 1e-9);
+  EXPECT_NEAR(w.max_displacement_m, std::sqrt(0.004 * 0.004 + 0.008 * 0.008), 1e-12);
+  // A turn about the vertical and a shift leave the tilt unchanged; a roll of 1° does not.
+  std::vector<Rigid3> other;
+  const Eigen::Quaterniond yaw(Eigen::AngleAxisd(1.0, Eigen::Vector3d::UnitZ()));
+  for (const Rigid3& p : poses)
+    other.emplace_back(yaw * p.rotation(), p.translation() + Eigen::Vector3d(5, 6, 7));
+  EXPECT_LT(MaxTiltErrorDeg(poses, other), 1e-6);
+  other[2] = Rigid3(Eigen::AngleAxisd(M_PI / 180, Eigen::Vector3d::UnitX()) * poses[2].rotation(),
+                    poses[2].translation());
+  EXPECT_NEAR(MaxTiltErrorDeg(poses, other), 1.0, 1e-6);
+}
+
 }  // namespace
 }  // namespace crop4d::eval

@@ -218,22 +218,30 @@ SessionImporter::Summary SessionImporter::Run() const {
                                summary.time_scale == "UTC" ? "UTC" : "GPS time (GPST, not UTC)");
   WriteSessionYaml((session_folder / kSessionYaml).string(), session);
 
+  AddSessionToField(o.field_folder, std::move(field), o.field_name, summary.origin, o.session_id,
+                    &summary.field_created, &summary.field_sessions_updated);
+  return summary;
+}
+
+void AddSessionToField(const std::string& field_folder, std::optional<FieldInfo> field,
+                       const std::string& name, const geometry::GeodeticPoint& origin,
+                       const std::string& session_id, bool* created, bool* sessions_updated) {
+  *created = *sessions_updated = false;
+  const fs::path folder(field_folder);
+  const std::string yaml = (folder / kFieldYaml).string();
   if (!field) {
     FieldInfo info;
-    info.name = o.field_name.empty()
-                    ? fs::absolute(field_folder).lexically_normal().filename().string()
-                    : o.field_name;
-    if (info.name.empty()) info.name = fs::absolute(field_folder).parent_path().filename().string();
-    info.origin = summary.origin;
-    WriteFieldYaml(field_yaml.string(), info);
-    summary.field_created = true;
+    info.name = name.empty() ? fs::absolute(folder).lexically_normal().filename().string() : name;
+    if (info.name.empty()) info.name = fs::absolute(folder).parent_path().filename().string();
+    info.origin = origin;
+    WriteFieldYaml(yaml, info);
+    *created = true;
   } else if (!field->sessions.empty() && std::find(field->sessions.begin(), field->sessions.end(),
-                                                   o.session_id) == field->sessions.end()) {
-    field->sessions.push_back(o.session_id);
-    WriteFieldYaml(field_yaml.string(), *field);
-    summary.field_sessions_updated = true;
+                                                   session_id) == field->sessions.end()) {
+    field->sessions.push_back(session_id);
+    WriteFieldYaml(yaml, *field);
+    *sessions_updated = true;
   }
-  return summary;
 }
 
 std::string FormatImportSummary(const SessionImporter::Summary& s) {

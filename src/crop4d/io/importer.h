@@ -118,6 +118,13 @@ class SessionImporter {
   Options options_;
 };
 
+// Registers session `session_id` in the field at `field_folder`: writes a new field.yaml (named
+// `name`, or after the folder; with `origin`) when `field` is unset, else appends the id to
+// field.yaml's session list when the field has one. Sets *created and *sessions_updated.
+void AddSessionToField(const std::string& field_folder, std::optional<FieldInfo> field,
+                       const std::string& name, const geometry::GeodeticPoint& origin,
+                       const std::string& session_id, bool* created, bool* sessions_updated);
+
 // The body_from_sensor rotation of SessionImporter::Options::imu_rpy_deg.
 Eigen::Matrix3d RotationFromRollPitchYawDeg(const Eigen::Vector3d& rpy_deg);
 

@@ -294,6 +294,21 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     input.forward_axis_body = Eigen::Vector3d(a.at(0), a.at(1), a.at(2));
   }
   input.anchor_state = problem.value("anchor_state", 0);
+  if (problem.contains("anchor_sigma_velocity") && !problem.at("anchor_sigma_velocity").is_null()) {
+    input.anchor_sigma_velocity = problem.at("anchor_sigma_velocity").get<double>();
+  }
+  if (problem.contains("still_intervals")) {
+    // [first, last) state index ranges of the standstills (slam_stage.cc).
+    const std::size_t n = input.initial_states.size();
+    for (const json& range : problem.at("still_intervals")) {
+      const std::size_t first = range.at(0), last = range.at(1);
+      if (first >= last || last >= n) {
+        throw InputError(where + ": a standstill outside the pass's states");
+      }
+      if (input.still_intervals.empty()) input.still_intervals.assign(n - 1, false);
+      std::fill(input.still_intervals.begin() + first, input.still_intervals.begin() + last, true);
+    }
+  }
   if (problem.contains("length_prior") && !problem.at("length_prior").is_null()) {
     const json& prior = problem.at("length_prior");
     input.length_prior_m = prior.at("length_m").get<double>();

@@ -175,6 +175,9 @@ const std::vector<Key>& Keys() {
     k.push_back(Bool("slam", "motion_constraint",
                      "the non-holonomic constraint of a vehicle on row passes",
                      [](RunConfig& c) -> bool& { return c.slam.motion_constraint; }));
+    k.push_back(Bool("slam", "standstills",
+                     "detect standstills (zero velocity, one pose while the rig stands still)",
+                     [](RunConfig& c) -> bool& { return c.slam.standstills; }));
     k.push_back(Double(
         "slam", "camera_height_m",
         "camera above the ground, measured on the rig: the scale of passes without RTK (0: the "

@@ -22,6 +22,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/pass_files.h"
+#include "crop4d/pipeline/pass_standstills.h"
 #include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/session_streams.h"
 
@@ -47,6 +48,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
       {"session_state_rate_hz", o.session_state_rate_hz},
       {"session_solve_max_sigma_m", o.session_solve_max_sigma_m},
       {"motion_constraint", o.motion_constraint},
+      {"standstills", o.standstills},
       {"camera_height_m", o.camera_height_m},
       {"use_camera_height", o.use_camera_height},
       {"session_bias_sigma", {o.session_bias_sigma_gyro, o.session_bias_sigma_accel}},
@@ -74,6 +76,18 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
         {"gp_qc_translation", op.gp.qc_translation},
         {"gp_qc_rotation", op.gp.qc_rotation},
         {"max_iterations", op.max_iterations}}},
+      {"standstill",
+       {{"window_s", op.standstill.window_s},
+        {"mean_change_sigmas", op.standstill.mean_change_sigmas},
+        {"max_gravity_error", op.standstill.max_gravity_error},
+        {"gyro_floor", op.standstill.gyro_floor},
+        {"accel_floor", op.standstill.accel_floor},
+        {"max_image_motion_px", op.standstill.max_image_motion_px},
+        {"max_gps_speed", op.standstill.max_gps_speed},
+        {"min_duration_s", op.standstill.min_duration_s},
+        {"sigmas",
+         {op.standstill.sigma_velocity, op.standstill.sigma_rate, op.standstill.sigma_translation,
+          op.standstill.sigma_rotation}}}},
       {"cloud",
        {{"min_parallax_deg", o.cloud.min_parallax_deg},
         {"max_reprojection_error_px", o.cloud.max_reprojection_error_px}}},
@@ -82,7 +96,15 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 7;
+constexpr int kSlamStageRevision = 8;
+
+// The gauge prior's velocity sigma of a pass that starts moving without any GPS, m/s: a ground
+// vehicle's speed, i.e. no information.
+constexpr double kUnknownVelocitySigma = 2.0;
+
+// A pass with a GPS outage longer than this is flagged (its drift over the gap is the IMU's and
+// the camera's), s.
+constexpr double kGpsGapFlagSeconds = 2.0;
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
@@ -194,6 +216,20 @@ void WritePassList(const std::string& path, const std::vector<slam::RowPass>& pa
         << p.end_world.y() << ',' << p.length_m << '\n';
   }
   io::WriteFileAtomic(path, out.str());
+}
+
+// The one pass of a session without GPS: every image (the IMU's span without a camera).
+slam::RowPass WholeSessionWithoutGps(const slam::SessionStreams& streams) {
+  slam::RowPass pass;
+  pass.id = "all";
+  if (streams.camera && !streams.camera->images.empty()) {
+    pass.t_begin = streams.camera->images.front().t;
+    pass.t_end = streams.camera->images.back().t;
+  } else {
+    pass.t_begin = streams.imu->samples.front().timestamp;
+    pass.t_end = streams.imu->samples.back().timestamp;
+  }
+  return pass;
 }
 
 // Everything one session's passes share.
@@ -346,6 +382,32 @@ void SolveSession(const SlamStageOptions& options, SessionContext* ctx, const sl
   }
 }
 
+// What the pass's estimate cannot be trusted for (summary.json "trust", docs/slam.md), each also
+// a warning. Without GPS, the heading and the origin are set by convention (not observed), and
+// the position drifts with the distance travelled, unless the rig never moved.
+json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
+                const std::vector<bool>& still, const json& summary) {
+  json flags = json::array();
+  const std::string where = ctx.session->id() + "/" + pass.id;
+  if (!ctx.has_best_gps) {
+    flags.push_back("heading_by_convention");
+    flags.push_back("origin_by_convention");
+    const bool moved = std::find(still.begin(), still.end(), false) != still.end() || still.empty();
+    if (moved) {
+      flags.push_back("drift_without_gps");
+      spdlog::warn(
+          "{}: no GPS: heading and origin are set by convention and the position drifts with "
+          "the distance travelled (docs/slam.md, \"Without GPS\")",
+          where);
+    } else {
+      spdlog::info("{}: no GPS: heading and origin set by convention; the rig stood still", where);
+    }
+  } else if (summary.value("longest_gps_gap_s", 0.0) > kGpsGapFlagSeconds) {
+    flags.push_back("gps_gap");
+  }
+  return flags;
+}
+
 PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const slam::RowPass& pass,
                     const std::string& folder, const std::string& fingerprint,
                     const json& options_json, const std::vector<Timestamp>& times) {
@@ -416,6 +478,12 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     init_summary.forward_axis_body = ctx.initialiser->forward_axis();
   } else if (info.gps) {
     initial = ctx.initialiser->Initialise(times, ctx.factor_antenna, &init_summary);
+  } else if (!ctx.has_best_gps) {
+    // No GPS at all: the local level frame of the first state (docs/slam.md, "Without GPS"), at
+    // rest when the pass starts with a standstill; else its velocity is left to the camera and
+    // the IMU.
+    initial =
+        ctx.initialiser->InitialiseFromAnchor(ctx.initialiser->LocalLevelState(times[0]), times);
   } else {
     // cam+imu: the best GPS only anchors the pass at one instant, its middle, where the motion
     // is steady (the gauge: position, heading and velocity from a ±2 s line fit); nothing else.
@@ -454,12 +522,42 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     all_tracks = features::TrackBuilder(tb).Build(num_features, front.pairs);
   }
 
+  // Standstills: from the IMU, the image motion and a precise GPS track.
+  const bool precise_gps =
+      ctx.has_best_gps && MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m;
+  const std::vector<bool> still =
+      options.standstills
+          ? DetectPassStandstills(times, *ctx.streams.imu, camera != nullptr ? &front : nullptr,
+                                  precise_gps ? &ctx.best_gps.fixes : nullptr,
+                                  options.optimiser.standstill)
+          : std::vector<bool>();
+  const std::vector<slam::TimeInterval> still_spans = slam::StillSpans(times, still);
+  {
+    json spans = json::array();
+    for (const slam::TimeInterval& span : still_spans) {
+      spans.push_back(
+          {DurationSeconds(times.front(), span.begin), DurationSeconds(times.front(), span.end)});
+    }
+    summary["standstills_s"] = spans;
+    if (!still_spans.empty()) {
+      double total = 0;
+      for (const slam::TimeInterval& span : still_spans) total += span.seconds();
+      spdlog::info("{}/{}: standing still for {:.1f} s in {} standstill{}", ctx.session->id(),
+                   pass.id, total, still_spans.size(), still_spans.size() == 1 ? "" : "s");
+    }
+  }
+
   // Back end.
   slam::RowOptimiser::Options op = options.optimiser;
   const slam::RowOptimiser optimiser(op);
   slam::RowOptimiser::Input input;
   input.initial_states = initial;
   input.anchor_state = anchor_state;
+  input.still_intervals = still;
+  if (!ctx.has_best_gps && !(still.empty() ? false : still.front())) {
+    // Without GPS a pass that starts moving has an unknown velocity.
+    input.anchor_sigma_velocity = kUnknownVelocitySigma;
+  }
   if (camera != nullptr) {
     input.camera = &camera->sensor.camera;
     input.body_from_camera = camera->sensor.body_from_sensor;
@@ -515,7 +613,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     fix_times.reserve(ctx.factor_fixes.size());
     for (const slam::GpsFixWorld& fix : ctx.factor_fixes) fix_times.push_back(fix.t);
     const double longest = LongestGapSeconds(fix_times, times.front(), times.back());
-    if (longest > 2.0) {
+    if (longest > kGpsGapFlagSeconds) {
       spdlog::warn("{}/{}: no GPS fix for {:.1f} s inside the pass; the IMU{} bridges the gap",
                    ctx.session->id(), pass.id, longest, camera != nullptr ? " and the camera" : "");
     }
@@ -536,6 +634,19 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     for (const GpsOutage& g : options.gps_outages) outages.push_back({g.start_s, g.duration_s});
     problem["gps_outages"] = outages;
     problem["anchor_state"] = input.anchor_state;
+    problem["anchor_sigma_velocity"] =
+        input.anchor_sigma_velocity ? json(*input.anchor_sigma_velocity) : json();
+    // The standstills as [first, last) state index ranges.
+    json still_ranges = json::array();
+    for (std::size_t k = 0; k < still.size(); ++k) {
+      if (!still[k]) continue;
+      if (!still_ranges.empty() && still_ranges.back()[1].get<std::size_t>() == k) {
+        still_ranges.back()[1] = k + 1;
+      } else {
+        still_ranges.push_back({k, k + 1});
+      }
+    }
+    problem["still_intervals"] = still_ranges;
     problem["forward_axis_body"] =
         input.forward_axis_body
             ? json::array({input.forward_axis_body->x(), input.forward_axis_body->y(),
@@ -651,6 +762,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   summary["back_end"] = {{"imu_factors", s.num_imu_factors},
                          {"imu_gaps", s.num_imu_gaps},
                          {"gps_factors", s.num_gps_factors},
+                         {"still_intervals", s.num_still_intervals},
                          {"tracks", s.num_tracks},
                          {"landmarks_triangulated", s.num_landmarks_triangulated},
                          {"landmarks", s.num_landmarks_final},
@@ -669,6 +781,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                                 {"soil_points", s.soil_points},
                                 {"scale", s.camera_height_scale}};
   }
+  summary["trust"] = TrustFlags(ctx, pass, still, summary);
   summary["seconds"] = {{"front_end", front_end_seconds},
                         {"initialisation", init_seconds},
                         {"inertial_solve", s.inertial_seconds},
@@ -744,6 +857,14 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       ctx.factor_antenna = gps->sensor.antenna_in_body;
       ctx.factor_gps_name = gps->sensor.name;
     }
+    if (!ctx.has_best_gps && !session.gps_receivers().empty()) {
+      // Receivers without a single fix are a broken recording, not a rig without GPS: the
+      // session cannot be placed in the field with the others.
+      throw InputError(session.folder(), 0,
+                       "row SLAM needs GPS fixes (to find the row passes and anchor each pass in "
+                       "the field frame); this session has none (a session without any GPS "
+                       "receiver runs cam+imu in its own local frame)");
+    }
     // Initialisation from the receiver the factors use; cam+imu anchors each pass with the best
     // receiver.
     ctx.init_gps = ctx.best_gps;
@@ -751,17 +872,20 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       ctx.init_gps = *ctx.streams.FindGps(info.gps_kind);
       ctx.init_gps.fixes = ctx.factor_fixes;
     }
-    if (!ctx.has_best_gps) {
-      throw InputError(session.folder(), 0,
-                       "row SLAM needs GPS fixes (to find the row passes and anchor each pass in "
-                       "the field frame); this session has none");
-    }
     slam::StateInitialiser::Options init_options = options.initialisation;
     if (info.gps && info.gps_kind == io::GpsKind::kStandard) {
       // A metre-level receiver needs a long fit for a usable course.
       init_options.gps_half_window_s = std::max(init_options.gps_half_window_s, 3.0);
     }
-    {
+    if (!ctx.has_best_gps) {
+      // No GPS: the body x axis is taken as forward (it only sets the heading convention).
+      ctx.initialiser =
+          std::make_unique<slam::StateInitialiser>(init_options, *ctx.streams.imu, nullptr);
+      spdlog::info(
+          "session {}: no GPS: one pass in the local level frame of its first image (z up, x "
+          "along the body x axis, origin at the body)",
+          id);
+    } else {
       // The forward axis from the best track (RTK when there is one).
       slam::StateInitialiser best(options.initialisation, *ctx.streams.imu, &ctx.best_gps);
       slam::StateInitialiser::Summary s;
@@ -786,7 +910,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
     // The session solve needs a precise receiver: with a metre-level one the turns do not make
     // the accelerometer bias observable, and a wrong tight bias prior does more harm than the
     // weak zero-mean one.
-    if (options.session_state_rate_hz > 0) {
+    if (options.session_state_rate_hz > 0 && ctx.has_best_gps) {
       if (info.gps && MedianSigmaH(ctx.factor_fixes) <= options.session_solve_max_sigma_m) {
         SolveSession(options, &ctx, ctx.init_gps, /*keep_states=*/true);
       } else if (MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m) {
@@ -796,7 +920,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       }
     }
 
-    // Row passes from the best track.
+    // Row passes from the best track (without GPS, one pass over the camera's images).
     std::vector<slam::TrackPoint> track;
     for (const slam::GpsFixWorld& fix : ctx.best_gps.fixes) {
       track.push_back({fix.t, fix.position_world});
@@ -812,7 +936,9 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
     }
     slam::RowPassSegmenter::Summary seg_summary;
     const std::vector<slam::RowPass> passes =
-        slam::RowPassSegmenter(pass_options).Segment(track, field.info().rows, &seg_summary);
+        ctx.has_best_gps
+            ? slam::RowPassSegmenter(pass_options).Segment(track, field.info().rows, &seg_summary)
+            : std::vector<slam::RowPass>{WholeSessionWithoutGps(ctx.streams)};
     if (seg_summary.whole_session) {
       spdlog::warn("session {}: no row structure in the GPS track; processing it as one pass", id);
     }

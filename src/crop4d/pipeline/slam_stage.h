@@ -84,6 +84,10 @@ struct SlamStageOptions {
   slam::TriangulationOptions cloud;
   // The non-holonomic constraint of a vehicle (slam/motion_constraint_factor.h) on row passes.
   bool motion_constraint = true;
+  // Standstills found from the IMU, the image motion and a precise GPS track hold the pose, zero
+  // velocity and zero rate over them (slam/standstill.h; detection thresholds and sigmas in
+  // optimiser.standstill).
+  bool standstills = true;
   // The camera's optical centre above the ground the vehicle stands on, m, measured on the rig
   // (0: the camera's sensor.yaml `height_above_ground_m`, else unknown), and whether to use it at
   // all. Sets the scale of row

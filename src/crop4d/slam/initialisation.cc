@@ -296,6 +296,16 @@ std::vector<RowState> StateInitialiser::Initialise(const std::vector<Timestamp>&
   return states;
 }
 
+RowState StateInitialiser::LocalLevelState(Timestamp t) const {
+  RowState s;
+  s.t = t;
+  s.nav.world_from_body = geometry::Rigid3(
+      Eigen::Quaterniond(AttitudeFromCourse(UpInBody(t), Eigen::Vector3d::UnitX())),
+      Eigen::Vector3d::Zero());
+  s.nav.rate_body = InterpolateImu(imu_.samples, t).gyro_body;
+  return s;
+}
+
 std::vector<RowState> StateInitialiser::InitialiseFromAnchor(
     const RowState& anchor, const std::vector<Timestamp>& times) const {
   std::vector<RowState> states(times.size());

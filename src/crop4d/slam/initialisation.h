@@ -104,6 +104,11 @@ class StateInitialiser {
   std::vector<RowState> InitialiseFromAnchor(const RowState& anchor,
                                              const std::vector<Timestamp>& times) const;
 
+  // Without any GPS: the state at t in the local level frame of a session (docs/slam.md, "Without
+  // GPS"): z up along gravity (the mean specific force around t), x along the horizontal
+  // direction of the forward axis, origin at the body; at rest, angular rate from the gyro.
+  RowState LocalLevelState(Timestamp t) const;
+
   // Up direction in the body (normalised mean specific force around t).
   Eigen::Vector3d UpInBody(Timestamp t) const;
 

@@ -116,3 +116,37 @@ TEST(StateInitialiser, StatesOfARowPassAreCloseToTheTruth) {
 
 }  // namespace
 }  // namespace crop4d::slam
+
+namespace crop4d::slam {
+namespace {
+
+TEST(StateInitialiser, LocalLevelStateIsGravityAlignedAndHeadedAlongTheForwardAxis) {
+  // A tilted body at rest (roll 4°, pitch −6°, heading 70°), an IMU without noise.
+  const Eigen::Matrix3d truth = geometry::ExpSO3(Eigen::Vector3d(0, 0, 70 * M_PI / 180)) *
+                                geometry::ExpSO3(Eigen::Vector3d(0, -6 * M_PI / 180, 0)) *
+                                geometry::ExpSO3(Eigen::Vector3d(4 * M_PI / 180, 0, 0));
+  ImuStream imu;
+  for (int k = 0; k < 400; ++k) {
+    ImuSample s;
+    s.timestamp = SecondsToTimestamp(k / 200.0);
+    s.gyro_body = Eigen::Vector3d(0.001, 0, -0.002);
+    s.accel_body = truth.transpose() * Eigen::Vector3d(0, 0, 9.81);
+    imu.samples.push_back(s);
+  }
+  StateInitialiser initialiser(StateInitialiser::Options(), imu, nullptr);
+  const RowState state = initialiser.LocalLevelState(SecondsToTimestamp(1.0));
+  const Eigen::Matrix3d R = state.nav.world_from_body.RotationMatrix();
+  // Roll and pitch as the truth's: the body's up maps onto the world's up.
+  EXPECT_LT((R * truth.transpose() * Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ()).norm(),
+            1e-9);
+  // Heading zero by convention: the body x axis points east (no north component).
+  const Eigen::Vector3d x = R * Eigen::Vector3d::UnitX();
+  EXPECT_NEAR(x.y(), 0, 1e-9);
+  EXPECT_GT(x.x(), 0.99);
+  EXPECT_LT(state.nav.world_from_body.translation().norm(), 1e-12);
+  EXPECT_LT(state.nav.vel_world.norm(), 1e-12);
+  EXPECT_NEAR(state.nav.rate_body.z(), -0.002, 1e-12);
+}
+
+}  // namespace
+}  // namespace crop4d::slam

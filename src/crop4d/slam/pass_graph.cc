@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <thread>
 
 #include "crop4d/slam/camera_height_scale.h"
@@ -12,6 +13,7 @@
 #include "crop4d/slam/motion_constraint_factor.h"
 #include "crop4d/slam/pose_prior_factor.h"
 #include "crop4d/slam/reprojection_factor.h"
+#include "crop4d/slam/standstill.h"
 
 namespace crop4d::slam {
 namespace {
@@ -149,6 +151,7 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
   } else {
     for (StateBlocks& b : blocks_) problem->SetParameterBlockConstant(b.bias);
   }
+  AddStandstills(problem, summary);
   int gps_factors = 0;
   for (const GpsFixWorld& fix : input_.gps_fixes) {
     if (fix.t < st.front().t || fix.t > st.back().t) continue;
@@ -178,11 +181,42 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
         PosePriorFactor::Create(input_.initial_states[anchor].nav.world_from_body,
                                 options_.anchor_sigma_position, options_.anchor_sigma_rotation),
         nullptr, blocks_[anchor].pose);
-    const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() / options_.anchor_sigma_velocity;
+    const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() /
+                              input_.anchor_sigma_velocity.value_or(options_.anchor_sigma_velocity);
     problem->AddResidualBlock(
         new ceres::NormalPrior(A, input_.initial_states[anchor].nav.vel_world), nullptr,
         blocks_[anchor].vel);
   }
+}
+
+// Over each still interval: the two poses are one; the velocity and the angular rate of its
+// states are zero.
+void PassGraph::AddStandstills(ceres::Problem* problem, RowOptimiser::Summary* summary) const {
+  const std::vector<bool>& still = input_.still_intervals;
+  if (still.empty()) return;
+  if (still.size() + 1 != blocks_.size()) {
+    throw std::invalid_argument("RowOptimiser: still_intervals needs one entry per interval");
+  }
+  const StandstillOptions& o = options_.standstill;
+  std::vector<bool> still_state(blocks_.size(), false);
+  int count = 0;
+  for (std::size_t k = 0; k < still.size(); ++k) {
+    if (!still[k]) continue;
+    problem->AddResidualBlock(StandstillPoseFactor::Create(o.sigma_translation, o.sigma_rotation),
+                              nullptr, blocks_[k].pose, blocks_[k + 1].pose);
+    still_state[k] = still_state[k + 1] = true;
+    ++count;
+  }
+  const Eigen::Matrix3d velocity_information = Eigen::Matrix3d::Identity() / o.sigma_velocity;
+  const Eigen::Matrix3d rate_information = Eigen::Matrix3d::Identity() / o.sigma_rate;
+  for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    if (!still_state[k]) continue;
+    problem->AddResidualBlock(new ceres::NormalPrior(velocity_information, Eigen::Vector3d::Zero()),
+                              nullptr, blocks_[k].vel);
+    problem->AddResidualBlock(new ceres::NormalPrior(rate_information, Eigen::Vector3d::Zero()),
+                              nullptr, blocks_[k].rate);
+  }
+  if (summary != nullptr) summary->num_still_intervals = count;
 }
 
 // Reprojection factors of the landmarks (observations with keep[l][o] true).

@@ -54,6 +54,9 @@ class PassGraph {
   ceres::LossFunction* reprojection_loss() const { return reprojection_loss_.get(); }
 
  private:
+  // The standstill constraints of Input::still_intervals.
+  void AddStandstills(ceres::Problem* problem, RowOptimiser::Summary* summary) const;
+
   const RowOptimiser::Options& options_;
   const RowOptimiser::Input& input_;
   std::span<StateBlocks> blocks_;

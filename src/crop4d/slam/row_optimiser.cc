@@ -105,7 +105,7 @@ bool RowOptimiser::Options::Check() const {
          bias_prior_sigma_accel > 0 && anchor_sigma_position > 0 && anchor_sigma_rotation > 0 &&
          anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 && max_imu_gap_s > 0 &&
          max_iterations > 0 && max_linear_iterations > 0 && function_tolerance > 0 &&
-         function_tolerance < 1 && num_threads >= 0 && camera_height.Check();
+         function_tolerance < 1 && num_threads >= 0 && camera_height.Check() && standstill.Check();
 }
 
 RowOptimiser::RowOptimiser(Options options) : options_(std::move(options)) {

@@ -11,7 +11,9 @@
 //   - a GPS factor at every GPS time, interpolating the GP trajectory between its two
 //     neighbouring states, with the antenna lever arm and the fix's sigmas (gps_factor.h);
 //   - a prior on the first bias (turn-on bias of a MEMS IMU), and, without GPS, a prior on the
-//     pose and velocity of one state (Input::anchor_state) that fixes the gauge.
+//     pose and velocity of one state (Input::anchor_state) that fixes the gauge;
+//   - over a standstill (Input::still_intervals, standstill.h): one pose for consecutive states,
+//     zero velocity and zero angular rate.
 // Solving runs in phases: (1) without the camera (IMU + GP + GPS) to refine the initial states;
 // (2) landmarks triangulated from those poses, then the full problem; (3) observations whose
 // reprojection error exceeds 10 px removed, the IMU re-preintegrated at the estimated biases,
@@ -32,6 +34,7 @@
 #include "crop4d/slam/imu_preintegration.h"
 #include "crop4d/slam/initialisation.h"
 #include "crop4d/slam/session_streams.h"
+#include "crop4d/slam/standstill.h"
 #include "crop4d/slam/triangulation.h"
 
 namespace crop4d::slam {
@@ -87,6 +90,8 @@ class RowOptimiser {
     double motion_constraint_sigma = 0.05;
     // An interval whose IMU samples are further apart than this has no IMU factor, s.
     double max_imu_gap_s = 0.1;
+    // The constraints of a standstill (its sigma_* fields; detection is the caller's).
+    StandstillOptions standstill;
     // Ceres iterations per phase and threads (0: all cores).
     int max_iterations = 50;
     // The linear solver with landmarks: the exact Schur complement factorised by sparse Cholesky
@@ -126,8 +131,14 @@ class RowOptimiser {
     // The vehicle's forward axis in the body frame: when set, every state gets the
     // non-holonomic motion constraint (a wheeled vehicle in a row; not a person walking).
     std::optional<Eigen::Vector3d> forward_axis_body;
-    // Without GPS factors, the gauge prior (pose and velocity as initialised) sits on this state.
+    // Without GPS factors, the gauge prior (pose and velocity as initialised) sits on this state;
+    // its velocity's standard deviation, m/s (unset: Options::anchor_sigma_velocity; a pass that
+    // starts moving without GPS does not know its velocity).
     int anchor_state = 0;
+    std::optional<double> anchor_sigma_velocity;
+    // Per interval between consecutive states (empty, or one entry per interval): true when the
+    // rig stands still over it (standstill.h).
+    std::vector<bool> still_intervals;
     // Prior on the first state's bias [bg; ba]: mean and standard deviations (unset: zero mean
     // and Options::bias_prior_sigma_*). A session-wide inertial solve, whose turns make the
     // biases observable, gives a much tighter prior than a straight pass alone.
@@ -156,6 +167,8 @@ class RowOptimiser {
     int num_imu_factors = 0;
     int num_imu_gaps = 0;
     int num_gps_factors = 0;
+    // Intervals between states held by the standstill constraints.
+    int num_still_intervals = 0;
     int num_tracks = 0;
     // Landmarks triangulated for phase 2 and kept for the final solve.
     int num_landmarks_triangulated = 0;

@@ -1,0 +1,86 @@
+// Row SLAM on a real camera + IMU recording without GPS that starts with a standstill: the start
+// of EuRoC V1_01_easy (../shared/data/euroc_v101_start, its README), imported as it is. The MAV
+// stands on the floor with its rotors spinning for all 95 images (the ground truth moves by
+// under 3 mm): yaw and position must not wander, and the pass must say that its heading and
+// origin are set by convention, but not that it drifted.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
+#include "crop4d/core/progress.h"
+#include "crop4d/eval/trajectory_metrics.h"
+#include "crop4d/io/euroc_import.h"
+#include "crop4d/io/tum.h"
+#include "crop4d/pipeline/slam_stage.h"
+
+namespace crop4d::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kEuroc = std::string(CROP4D_SHARED_DATA_DIR) + "/euroc_v101_start";
+constexpr const char* kSession = "2014-06-25";
+
+TEST(EurocTest, CameraAndImuWithoutGpsHoldStillOverAStandstill) {
+  if (!fs::exists(kEuroc + "/mav0/cam0/data.csv")) GTEST_SKIP() << "no " << kEuroc;
+  Progress::SetGloballySilent(true);
+  const fs::path dir =
+      fs::path(::testing::TempDir()) / ("crop4d_euroc_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  io::EurocImportOptions import;
+  import.sequence_folder = kEuroc;
+  import.field_folder = (dir / "field").string();
+  io::ImportEuroc(import);
+
+  SlamStageOptions options;
+  options.show_progress = false;
+  const std::vector<PassReport> reports =
+      RunSlamStage(import.field_folder, (dir / "ws").string(), options);
+  ASSERT_EQ(reports.size(), 1u);
+  ASSERT_FALSE(reports[0].failed) << reports[0].message;
+  EXPECT_EQ(reports[0].sensors, "cam+imu");
+
+  const fs::path pass = dir / "ws" / "sessions" / kSession / "rows" / "all";
+  const std::vector<io::StampedPose> poses = io::ReadTum((pass / "poses.tum").string());
+  ASSERT_EQ(poses.size(), 95u);
+  std::vector<geometry::Rigid3> estimate, truth;
+  std::map<Timestamp, geometry::Rigid3> truth_at;
+  for (const io::StampedPose& p :
+       io::ReadTum((dir / "field" / "ground_truth" / kSession / "cam0_poses.tum").string())) {
+    truth_at[p.t] = p.pose;
+  }
+  for (const io::StampedPose& p : poses) {
+    ASSERT_TRUE(truth_at.count(p.t));
+    estimate.push_back(p.pose);
+    truth.push_back(truth_at[p.t]);
+  }
+  // Measured: 0.03° and 2.5 mm (bench/RESULTS.md, "EuRoC V1_01 standstill").
+  const eval::Wander wander = eval::TrajectoryWander(estimate);
+  EXPECT_LT(wander.max_heading_change_deg, 0.5);
+  EXPECT_LT(wander.max_displacement_m, 0.01);
+  // Roll and pitch against the ground truth (gravity), within the accelerometer bias's reach
+  // (measured: 0.89°).
+  EXPECT_LT(eval::MaxTiltErrorDeg(estimate, truth), 2.0);
+
+  // The standstill was found and the pass says what it cannot know, but no drift.
+  std::ifstream in(pass / "summary.json");
+  const nlohmann::json summary = nlohmann::json::parse(in);
+  double still_s = 0;
+  for (const auto& span : summary.at("standstills_s")) {
+    still_s += span.at(1).get<double>() - span.at(0).get<double>();
+  }
+  EXPECT_GT(still_s, 4.5);  // of 4.7 s
+  const std::vector<std::string> trust = summary.at("trust");
+  EXPECT_NE(std::find(trust.begin(), trust.end(), "heading_by_convention"), trust.end());
+  EXPECT_EQ(std::find(trust.begin(), trust.end(), "drift_without_gps"), trust.end());
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace crop4d::pipeline

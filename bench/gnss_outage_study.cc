@@ -6,7 +6,7 @@
 // error at the window's last removed fix, maximum and RMS horizontal error over the window, RMS
 // 3D error; and for the all-fixes run, the normalised residuals of the fixed epochs.
 //
-//   build/release/bench/gnss_outage_study [--data DIR] [--work DIR] [--keep]
+//   build/release/bench/gnss_outage_study [--data DIR] [--work DIR] [--keep] [--stated-noise]
 //       [--noise-factor F] [--walk-factor F] [--antenna X,Y,Z]
 //       [--qc-translation Q] [--qc-rotation Q] [--state-rate HZ] [--windows S:D,S:D,...]
 //
@@ -46,6 +46,8 @@ struct Args {
   std::string work;
   bool keep = false;
   double noise_factor = 1.0;
+  // Keep the stated noise (crop4d slam --imu-noise stated) instead of fitting it to the data.
+  bool stated_noise = false;
   double walk_factor = 1.0;
   Eigen::Vector3d antenna = Eigen::Vector3d::Zero();
   double qc_translation = -1, qc_rotation = -1;  // < 0: the optimiser's default
@@ -78,6 +80,8 @@ Args ParseArgs(int argc, char** argv) {
       a.work = value();
     } else if (arg == "--keep") {
       a.keep = true;
+    } else if (arg == "--stated-noise") {
+      a.stated_noise = true;
     } else if (arg == "--noise-factor") {
       a.noise_factor = std::stod(value());
     } else if (arg == "--walk-factor") {
@@ -160,6 +164,7 @@ std::vector<io::StampedPose> RunStage(const Args& a, const std::string& field,
   o.gps_outages = outages;
   o.state_rate_hz = a.state_rate_hz;
   o.show_progress = false;
+  o.imu_noise_auto = !a.stated_noise;
   if (a.qc_translation > 0) o.optimiser.gp.qc_translation = a.qc_translation;
   if (a.qc_rotation > 0) o.optimiser.gp.qc_rotation = a.qc_rotation;
   const auto start = std::chrono::steady_clock::now();

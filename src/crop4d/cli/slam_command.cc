@@ -138,6 +138,18 @@ RunFunction SetupSlam(CLI::App& app) {
   app.add_flag(
       "--no-motion-constraint", [&o](std::int64_t) { o.motion_constraint = false; },
       "No non-holonomic constraint on row passes (a rig that slides sideways)");
+  app.add_option_function<std::string>(
+         "--imu-noise",
+         [&o](const std::string& mode) {
+           if (mode != "auto" && mode != "stated") {
+             throw CLI::ValidationError("--imu-noise", "expected auto or stated, got " + mode);
+           }
+           o.imu_noise_auto = mode == "auto";
+         },
+         "IMU noise: auto (inflate imu0/sensor.yaml's noise by 2, 4, 8, ... when the session's "
+         "IMU + GPS fit misses the fixes by more than 1.5 sigmas) or stated (as sensor.yaml "
+         "says; a warning only)")
+      ->default_str("auto");
   app.add_flag(
       "--no-standstill", [&o](std::int64_t) { o.standstills = false; },
       "Do not detect standstills (zero velocity, one pose while the rig stands still)");

@@ -272,10 +272,13 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
   }
   const slam::ImuStream& imu = *streams.imu;
   input.imu_samples = &imu.samples;
-  input.imu_noise.gyro_noise_density = imu.sensor.gyroscope_noise_density;
-  input.imu_noise.accel_noise_density = imu.sensor.accelerometer_noise_density;
-  input.imu_noise.gyro_random_walk = imu.sensor.gyroscope_random_walk;
-  input.imu_noise.accel_random_walk = imu.sensor.accelerometer_random_walk;
+  // The noise row SLAM used: sensor.yaml's times the factor the data asked for.
+  const double noise_factor = problem.value("imu_noise_factor", 1.0);
+  if (!(noise_factor > 0)) throw InputError(where + ": an IMU noise factor that is not positive");
+  input.imu_noise.gyro_noise_density = noise_factor * imu.sensor.gyroscope_noise_density;
+  input.imu_noise.accel_noise_density = noise_factor * imu.sensor.accelerometer_noise_density;
+  input.imu_noise.gyro_random_walk = noise_factor * imu.sensor.gyroscope_random_walk;
+  input.imu_noise.accel_random_walk = noise_factor * imu.sensor.accelerometer_random_walk;
   input.imu_rate_hz = imu.sensor.rate_hz;
   const std::string gps_name = problem.value("gps", "");
   if (!gps_name.empty()) {

@@ -175,6 +175,10 @@ const std::vector<Key>& Keys() {
     k.push_back(Bool("slam", "motion_constraint",
                      "the non-holonomic constraint of a vehicle on row passes",
                      [](RunConfig& c) -> bool& { return c.slam.motion_constraint; }));
+    k.push_back(Bool("slam", "imu_noise_auto",
+                     "inflate the stated IMU noise when the session's IMU + GPS fit misses the "
+                     "fixes by more than 1.5 sigmas (false: warn only)",
+                     [](RunConfig& c) -> bool& { return c.slam.imu_noise_auto; }));
     k.push_back(Bool("slam", "standstills",
                      "detect standstills (zero velocity, one pose while the rig stands still)",
                      [](RunConfig& c) -> bool& { return c.slam.standstills; }));

@@ -49,6 +49,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
       {"session_solve_max_sigma_m", o.session_solve_max_sigma_m},
       {"motion_constraint", o.motion_constraint},
       {"standstills", o.standstills},
+      {"imu_noise_auto", o.imu_noise_auto},
       {"camera_height_m", o.camera_height_m},
       {"use_camera_height", o.use_camera_height},
       {"session_bias_sigma", {o.session_bias_sigma_gyro, o.session_bias_sigma_accel}},
@@ -96,7 +97,25 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 8;
+constexpr int kSlamStageRevision = 9;
+
+// Noise that fits the data (docs/slam.md, "IMU noise that fits the data"): a fit whose GPS
+// residuals are more than kNoiseMisfit times the fixes' sigmas (RMS over the axes) says that
+// the stated IMU noise is overconfident; with --imu-noise auto it is multiplied by 2, 4, 8, ...
+// (at most kMaxNoiseFactor) until the residuals are within kNoiseTarget of the sigmas.
+constexpr double kNoiseMisfit = 1.5;
+constexpr double kNoiseTarget = 1.2;
+constexpr double kMaxNoiseFactor = 32.0;
+
+// The IMU noise of imu0/sensor.yaml times `factor` (white noise and bias random walks).
+slam::ImuPreintegration::Options ImuNoise(const io::ImuSensor& sensor, double factor) {
+  slam::ImuPreintegration::Options noise;
+  noise.gyro_noise_density = factor * sensor.gyroscope_noise_density;
+  noise.accel_noise_density = factor * sensor.accelerometer_noise_density;
+  noise.gyro_random_walk = factor * sensor.gyroscope_random_walk;
+  noise.accel_random_walk = factor * sensor.accelerometer_random_walk;
+  return noise;
+}
 
 // The gauge prior's velocity sigma of a pass that starts moving without any GPS, m/s: a ground
 // vehicle's speed, i.e. no information.
@@ -251,6 +270,9 @@ struct SessionContext {
   std::string factor_gps_name;
   std::unique_ptr<slam::StateInitialiser> initialiser;
   std::string data_stamp;
+  // The factor on imu0/sensor.yaml's noise that the session's IMU + GPS fit asked for (1: the
+  // stated noise fits; ImuNoiseFit).
+  double imu_noise_factor = 1.0;
 };
 
 struct PassOutcome {
@@ -350,14 +372,34 @@ void SolveSession(const SlamStageOptions& options, SessionContext* ctx, const sl
   input.initial_states = initialiser.Initialise(times, gps.sensor.antenna_in_body);
   input.imu_samples = &imu;
   const io::ImuSensor& sensor = ctx->streams.imu->sensor;
-  input.imu_noise.gyro_noise_density = sensor.gyroscope_noise_density;
-  input.imu_noise.accel_noise_density = sensor.accelerometer_noise_density;
-  input.imu_noise.gyro_random_walk = sensor.gyroscope_random_walk;
-  input.imu_noise.accel_random_walk = sensor.accelerometer_random_walk;
+  input.imu_noise = ImuNoise(sensor, 1.0);
   input.imu_rate_hz = sensor.rate_hz;
   input.gps_fixes = gps.fixes;
   input.p_body_antenna = gps.sensor.antenna_in_body;
-  const slam::RowOptimiser::Result result = slam::RowOptimiser(options.optimiser).Solve(input);
+  const slam::RowOptimiser optimiser(options.optimiser);
+  slam::RowOptimiser::Result result = optimiser.Solve(input);
+  // Noise that fits the data: the IMU + GPS fit over the whole session measures it best.
+  const double stated_misfit = result.summary.gps_normalised_rms;
+  if (stated_misfit > kNoiseMisfit) {
+    spdlog::warn(
+        "session {}: the IMU + GPS fit misses the GPS fixes by {:.2f} times their sigmas: the "
+        "IMU noise of {}/sensor.yaml is overconfident for this recording{}",
+        ctx->session->id(), stated_misfit, sensor.name,
+        options.imu_noise_auto ? "" : " (--imu-noise auto would inflate it)");
+    if (options.imu_noise_auto) {
+      double factor = 1.0;
+      while (result.summary.gps_normalised_rms > kNoiseTarget && factor < kMaxNoiseFactor) {
+        factor *= 2.0;
+        input.imu_noise = ImuNoise(sensor, factor);
+        result = optimiser.Solve(input);
+      }
+      ctx->imu_noise_factor = factor;
+      spdlog::info(
+          "session {}: IMU noise x{:g} (white noise and bias walks): the GPS residuals are "
+          "{:.2f} times their sigmas (were {:.2f})",
+          ctx->session->id(), factor, result.summary.gps_normalised_rms, stated_misfit);
+    }
+  }
   if (keep_states) ctx->session_states = result.states;
   // The forward axis from the attitudes in turns, where the heading is well observed.
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -404,6 +446,14 @@ json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
     }
   } else if (summary.value("longest_gps_gap_s", 0.0) > kGpsGapFlagSeconds) {
     flags.push_back("gps_gap");
+  }
+  const double misfit = summary.at("back_end").value("gps_normalised_rms", 0.0);
+  if (misfit > kNoiseMisfit) {
+    flags.push_back("noise_misfit");
+    spdlog::warn(
+        "{}: the solve misses the GPS fixes by {:.2f} times their sigmas: the stated noise of "
+        "the sensors (or the fixes' sigmas) does not fit this recording",
+        where, misfit);
   }
   return flags;
 }
@@ -565,10 +615,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   }
   const slam::ImuStream& imu = *ctx.streams.imu;
   input.imu_samples = &imu.samples;
-  input.imu_noise.gyro_noise_density = imu.sensor.gyroscope_noise_density;
-  input.imu_noise.accel_noise_density = imu.sensor.accelerometer_noise_density;
-  input.imu_noise.gyro_random_walk = imu.sensor.gyroscope_random_walk;
-  input.imu_noise.accel_random_walk = imu.sensor.accelerometer_random_walk;
+  input.imu_noise = ImuNoise(imu.sensor, ctx.imu_noise_factor);
   input.imu_rate_hz = imu.sensor.rate_hz;
   if (!ctx.session_states.empty()) {
     input.bias_prior_mean = initial.front().bias;
@@ -633,6 +680,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     json outages = json::array();
     for (const GpsOutage& g : options.gps_outages) outages.push_back({g.start_s, g.duration_s});
     problem["gps_outages"] = outages;
+    problem["imu_noise_factor"] = ctx.imu_noise_factor;
     problem["anchor_state"] = input.anchor_state;
     problem["anchor_sigma_velocity"] =
         input.anchor_sigma_velocity ? json(*input.anchor_sigma_velocity) : json();
@@ -763,6 +811,8 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                          {"imu_gaps", s.num_imu_gaps},
                          {"gps_factors", s.num_gps_factors},
                          {"still_intervals", s.num_still_intervals},
+                         {"gps_normalised_rms", s.gps_normalised_rms},
+                         {"gps_normalised_rms_horizontal", s.gps_normalised_rms_horizontal},
                          {"tracks", s.num_tracks},
                          {"landmarks_triangulated", s.num_landmarks_triangulated},
                          {"landmarks", s.num_landmarks_final},

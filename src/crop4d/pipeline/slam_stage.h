@@ -88,6 +88,10 @@ struct SlamStageOptions {
   // velocity and zero rate over them (slam/standstill.h; detection thresholds and sigmas in
   // optimiser.standstill).
   bool standstills = true;
+  // IMU noise that fits the data (docs/slam.md): when the session's IMU + GPS fit misses the
+  // fixes by more than 1.5 times their sigmas, multiply imu0/sensor.yaml's noise by 2, 4, 8, ...
+  // until it does not (false: warn only).
+  bool imu_noise_auto = true;
   // The camera's optical centre above the ground the vehicle stands on, m, measured on the rig
   // (0: the camera's sensor.yaml `height_above_ground_m`, else unknown), and whether to use it at
   // all. Sets the scale of row

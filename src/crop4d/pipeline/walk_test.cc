@@ -1,10 +1,10 @@
 // The row SLAM stage on a real recording: the handheld IMU + RTK walk of
-// ../shared/data/gnss_imu_walk (its README), imu+rtk sensor set. With every fix fused the
-// antenna track must agree with the RTK-fixed epochs within their sigmas; with GNSS removed for
-// 10 s (25–35 s after the first fix, inside the RTK-fixed part of the walk) the estimate at the
-// end of the window and over it must stay close to the removed fixes — far closer than the
-// source's EKF (55 cm, maximum over its 15 s window from 25 s). bench/gnss_outage_study.cc measures
-// more windows (bench/RESULTS.md).
+// ../shared/data/gnss_imu_walk (its README), imported with its datasheet IMU noise, default
+// options (imu+rtk). With every fix fused the antenna track must agree with the RTK-fixed epochs
+// within their sigmas once the noise fits the data; with GNSS removed over the README's two 15 s
+// windows (25–40 s and 70–85 s after the first fix) the largest horizontal error over each must
+// be at most half the source's EKF's (55 and 22 cm). bench/gnss_outage_study.cc measures more
+// windows (bench/RESULTS.md).
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -12,6 +12,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -33,22 +35,22 @@ const char* kSession = "2025-08-28";
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kG = 9.80665;
 
-// The source's configuration multiplies the datasheet noise by 4 "to account for unmodeled
-// errors" (imu_noise_factors of walk_config.py); with the bare datasheet values the all-fixes
-// residuals are 4σ (bench/RESULTS.md).
-constexpr double kNoiseFactor = 4.0;
-
-// Bounds, with margin over the values measured (bench/RESULTS.md, "GNSS outages on a real walk").
-// All fixes: normalised residual RMS 1.42 (horizontal 1.19), 93 % of the fixed epochs within
-// 3σ_h horizontally, horizontal RMS 1.7 cm.
-constexpr double kMaxNormalisedRms = 2.0;
-constexpr double kMaxNormalisedRmsHorizontal = 1.6;
-constexpr double kMinWithin3Sigma = 0.85;
-constexpr double kMaxHorizontalRms = 0.025;
-// Outage 25–35 s: 1.9 cm at the window's end, 12.1 cm at most over it (the EKF: 55 cm over
-// 25–40 s; twice better is 27 cm).
-constexpr double kMaxEndHorizontal = 0.06;
-constexpr double kMaxWindowHorizontal = 0.20;
+// The walk is imported with its README's datasheet noise and run with default options: the
+// stated noise is overconfident for this handheld rig (the all-fixes residuals are 4.25 σ with
+// it), and row SLAM's IMU noise that fits the data (docs/slam.md) inflates it, ×8 here. The
+// source's own configuration multiplies it by 4 by hand ("to account for unmodeled errors").
+//
+// Bounds (bench/RESULTS.md, "GNSS outages on a real walk"). All fixes: normalised residual RMS
+// 1.17 (horizontal 1.01), 98 % of the fixed epochs within 3σ_h horizontally, horizontal RMS
+// 1.4 cm; the issue's bound on the normalised RMS is 1.5.
+constexpr double kMaxNormalisedRms = 1.5;
+constexpr double kMaxNormalisedRmsHorizontal = 1.3;
+constexpr double kMinWithin3Sigma = 0.9;
+constexpr double kMaxHorizontalRms = 0.02;
+// The README's 15 s outages: at most half the source's EKF's largest horizontal error (55 and
+// 22 cm); measured 25.0 and 10.7 cm.
+constexpr double kMaxHorizontal25To40 = 0.27;
+constexpr double kMaxHorizontal70To85 = 0.11;
 
 class WalkTest : public ::testing::Test {
  protected:
@@ -60,7 +62,7 @@ class WalkTest : public ::testing::Test {
     dir_ =
         new fs::path(fs::temp_directory_path() / ("crop4d_walk_test_" + std::to_string(getpid())));
     fs::remove_all(*dir_);
-    // The README's rig: IMU mounted roll 180°, yaw −90°; its datasheet noise times kNoiseFactor.
+    // The README's rig: IMU mounted roll 180°, yaw −90°; its datasheet noise.
     io::SessionImporter::Options o;
     o.field_folder = (*dir_ / "walk").string();
     o.session_id = kSession;
@@ -69,10 +71,10 @@ class WalkTest : public ::testing::Test {
     o.imu.columns = io::ParseImuColumns("t,ax,ay,az,gx,gy,gz,...");
     o.imu.accel_unit = io::AccelUnit::kStandardGravity;
     o.imu_rpy_deg = Eigen::Vector3d(180, 0, -90);
-    o.gyroscope_noise_density = kNoiseFactor * 0.0038 * kPi / 180;
-    o.gyroscope_random_walk = kNoiseFactor * 3.8e-5 * kPi / 180;
-    o.accelerometer_noise_density = kNoiseFactor * 70e-6 * kG;
-    o.accelerometer_random_walk = kNoiseFactor * 7e-6 * kG;
+    o.gyroscope_noise_density = 0.0038 * kPi / 180;
+    o.gyroscope_random_walk = 3.8e-5 * kPi / 180;
+    o.accelerometer_noise_density = 70e-6 * kG;
+    o.accelerometer_random_walk = 7e-6 * kG;
     io::SessionImporter(o).Run();
 
     const io::Field field(o.field_folder);
@@ -102,11 +104,13 @@ class WalkTest : public ::testing::Test {
     ASSERT_NE(fixed_, nullptr) << "the walk could not be imported";
   }
 
-  // Runs the stage (imu+rtk, states at 10 Hz) and returns the residuals of the fixed epochs.
+  // Runs the stage with default options (imu+rtk, the walk having no camera; states at 10 Hz)
+  // and returns the residuals of the fixed epochs; `noise_factor` gets the IMU noise factor the
+  // pass used.
   static std::vector<eval::GnssResidual> Run(const std::string& name,
-                                             const std::vector<GpsOutage>& outages) {
+                                             const std::vector<GpsOutage>& outages,
+                                             double* noise_factor = nullptr) {
     SlamStageOptions o;
-    o.sensors = slam::SensorSet::kImuRtk;
     o.gps_outages = outages;
     o.show_progress = false;
     const std::vector<PassReport> reports =
@@ -115,6 +119,10 @@ class WalkTest : public ::testing::Test {
       ADD_FAILURE() << "the slam stage failed: "
                     << (reports.empty() ? std::string("no pass") : reports[0].message);
       return {};
+    }
+    if (noise_factor != nullptr) {
+      std::ifstream in(reports[0].folder + "/summary.json");
+      *noise_factor = nlohmann::json::parse(in).at("problem").at("imu_noise_factor");
     }
     const std::vector<io::StampedPose> poses = io::ReadTum(reports[0].folder + "/poses.tum");
     return eval::CompareWithFixes(poses, *fixed_, Eigen::Vector3d::Zero());
@@ -172,8 +180,12 @@ TEST(GnssCheckTest, ResidualsOfAKnownTrajectory) {
   EXPECT_EQ(window.last.t, SecondsToTimestamp(2.37));
 }
 
-TEST_F(WalkTest, AllFixesAgreeWithTheirSigmas) {
-  const std::vector<eval::GnssResidual> residuals = Run("ws_all", {});
+TEST_F(WalkTest, AllFixesAgreeWithTheirSigmasOnceTheNoiseFitsTheData) {
+  double noise_factor = 0;
+  const std::vector<eval::GnssResidual> residuals = Run("ws_all", {}, &noise_factor);
+  // The datasheet noise was found overconfident and inflated (×8 measured).
+  EXPECT_GE(noise_factor, 4.0);
+  EXPECT_LE(noise_factor, 16.0);
   const eval::GnssResidualStats s = eval::SummariseResiduals(residuals);
   // 349 RTK-fixed epochs, 5 of them before the IMU's first sample.
   EXPECT_EQ(s.count, 344);
@@ -184,16 +196,18 @@ TEST_F(WalkTest, AllFixesAgreeWithTheirSigmas) {
   EXPECT_LT(s.horizontal_m.rmse, kMaxHorizontalRms);
 }
 
-TEST_F(WalkTest, TenSecondOutageBridgedByTheImu) {
-  const GpsOutage outage{25.0, 10.0};
-  const std::vector<eval::GnssResidual> residuals = Run("ws_outage", {outage});
-  const eval::GnssResidualStats s =
-      eval::SummariseResiduals(residuals, first_fix_ + SecondsToTimestamp(outage.start_s),
-                               first_fix_ + SecondsToTimestamp(outage.start_s + outage.duration_s));
-  // 4 Hz over 10 s, all RTK-fixed.
-  EXPECT_EQ(s.count, 40);
-  EXPECT_LT(s.last.horizontal(), kMaxEndHorizontal);
-  EXPECT_LT(s.horizontal_m.max, kMaxWindowHorizontal);
+TEST_F(WalkTest, FifteenSecondOutagesBridgedByTheImu) {
+  for (const auto& [outage, bound] : {std::pair{GpsOutage{25.0, 15.0}, kMaxHorizontal25To40},
+                                      std::pair{GpsOutage{70.0, 15.0}, kMaxHorizontal70To85}}) {
+    const std::vector<eval::GnssResidual> residuals =
+        Run("ws_outage_" + std::to_string(static_cast<int>(outage.start_s)), {outage});
+    const eval::GnssResidualStats s = eval::SummariseResiduals(
+        residuals, first_fix_ + SecondsToTimestamp(outage.start_s),
+        first_fix_ + SecondsToTimestamp(outage.start_s + outage.duration_s));
+    // 4 Hz over 15 s, all RTK-fixed.
+    EXPECT_EQ(s.count, 60) << outage.start_s;
+    EXPECT_LT(s.horizontal_m.max, bound) << outage.start_s;
+  }
 }
 
 }  // namespace

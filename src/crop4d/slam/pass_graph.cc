@@ -153,26 +153,13 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
   }
   AddStandstills(problem, summary);
   int gps_factors = 0;
-  for (const GpsFixWorld& fix : input_.gps_fixes) {
-    if (fix.t < st.front().t || fix.t > st.back().t) continue;
-    // The states i, j = i + 1 around the fix: t_i ≤ τ ≤ t_j.
-    std::size_t j = std::lower_bound(st.begin(), st.end(), fix.t,
-                                     [](const RowState& s, Timestamp t) { return s.t < t; }) -
-                    st.begin();
-    if (j == 0) j = 1;
-    if (j >= n) continue;
-    const std::size_t i = j - 1;
-    GpsMeasurement m;
-    m.position_world = fix.position_world;
-    m.sigma_horizontal = std::max(fix.sigma_h, 1e-3);
-    m.sigma_vertical = std::max(fix.sigma_v, 1e-3);
-    const double dt = DurationSeconds(st[i].t, st[j].t);
-    const double s = std::clamp(DurationSeconds(st[i].t, fix.t), 0.0, dt);
+  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s) {
+    const std::size_t j = i + 1;
     problem->AddResidualBlock(GpsInterpolatedFactor::Create(m, input_.p_body_antenna, dt, s),
                               gps_loss_.get(), blocks_[i].pose, blocks_[i].vel, blocks_[i].rate,
                               blocks_[j].pose, blocks_[j].vel, blocks_[j].rate);
     ++gps_factors;
-  }
+  });
   if (summary != nullptr) summary->num_gps_factors = gps_factors;
   if (gps_factors == 0) {
     const std::size_t anchor = std::min<std::size_t>(input_.anchor_state, n - 1);
@@ -187,6 +174,41 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
         new ceres::NormalPrior(A, input_.initial_states[anchor].nav.vel_world), nullptr,
         blocks_[anchor].vel);
   }
+}
+
+template <typename F>
+void PassGraph::ForEachGpsFix(F&& f) const {
+  const std::vector<RowState>& st = input_.initial_states;
+  const std::size_t n = st.size();
+  for (const GpsFixWorld& fix : input_.gps_fixes) {
+    if (n < 2 || fix.t < st.front().t || fix.t > st.back().t) continue;
+    // The states i, j = i + 1 around the fix: t_i ≤ τ ≤ t_j.
+    std::size_t j = std::lower_bound(st.begin(), st.end(), fix.t,
+                                     [](const RowState& s, Timestamp t) { return s.t < t; }) -
+                    st.begin();
+    if (j == 0) j = 1;
+    if (j >= n) continue;
+    const std::size_t i = j - 1;
+    GpsMeasurement m;
+    m.position_world = fix.position_world;
+    m.sigma_horizontal = std::max(fix.sigma_h, 1e-3);
+    m.sigma_vertical = std::max(fix.sigma_v, 1e-3);
+    const double dt = DurationSeconds(st[i].t, st[j].t);
+    f(i, m, dt, std::clamp(DurationSeconds(st[i].t, fix.t), 0.0, dt));
+  }
+}
+
+std::vector<Eigen::Vector3d> PassGraph::GpsNormalisedResiduals() const {
+  std::vector<Eigen::Vector3d> residuals;
+  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s) {
+    const GpsInterpolatedFactor factor(m, input_.p_body_antenna, dt, s);
+    const StateBlocks& a = blocks_[i];
+    const StateBlocks& b = blocks_[i + 1];
+    Eigen::Vector3d r;
+    factor(a.pose, a.vel, a.rate, b.pose, b.vel, b.rate, r.data());
+    residuals.push_back(r);
+  });
+  return residuals;
 }
 
 // Over each still interval: the two poses are one; the velocity and the angular rate of its

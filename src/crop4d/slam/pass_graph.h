@@ -50,10 +50,17 @@ class PassGraph {
   std::int64_t AddLandmarks(ceres::Problem* problem, std::vector<Eigen::Vector3d>* landmarks,
                             const std::vector<int>& tracks,
                             const std::vector<std::vector<bool>>& keep) const;
+  // The GPS residuals at the current states, whitened (error / σ: east, north, up), one per fix
+  // inside the states' span: how well the solve fits the fixes' stated sigmas.
+  std::vector<Eigen::Vector3d> GpsNormalisedResiduals() const;
   // The robust loss of the reprojection factors (owned by the graph).
   ceres::LossFunction* reprojection_loss() const { return reprojection_loss_.get(); }
 
  private:
+  // Calls f(fix, i, measurement, dt, s) for every GPS fix inside the states' span: the states
+  // i and i + 1 around it, dt between them and s from state i to the fix, seconds.
+  template <typename F>
+  void ForEachGpsFix(F&& f) const;
   // The standstill constraints of Input::still_intervals.
   void AddStandstills(ceres::Problem* problem, RowOptimiser::Summary* summary) const;
 

@@ -269,6 +269,18 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
     result.landmark_observations_kept = std::move(kept_masks);
   }
 
+  if (builder.has_gps()) {
+    double all = 0, horizontal = 0;
+    const std::vector<Eigen::Vector3d> residuals = builder.GpsNormalisedResiduals();
+    for (const Eigen::Vector3d& r : residuals) {
+      all += r.squaredNorm();
+      horizontal += r.head<2>().squaredNorm();
+    }
+    if (!residuals.empty()) {
+      summary.gps_normalised_rms = std::sqrt(all / (3.0 * residuals.size()));
+      summary.gps_normalised_rms_horizontal = std::sqrt(horizontal / (2.0 * residuals.size()));
+    }
+  }
   result.states.reserve(n);
   for (std::size_t k = 0; k < n; ++k) {
     result.states.push_back(FromBlocks(input.initial_states[k].t, blocks[k]));

@@ -179,6 +179,12 @@ class RowOptimiser {
     double initial_cost = 0;
     double final_cost = 0;
     int iterations = 0;
+    // RMS of the GPS residuals after the final solve in units of the fixes' stated sigmas, over
+    // the three axes and over east and north (0 without GPS factors). About 1 when the solve fits
+    // the fixes as closely as their sigmas say; well above 1 when something else (an
+    // overconfident IMU noise) pulls the trajectory off them.
+    double gps_normalised_rms = 0;
+    double gps_normalised_rms_horizontal = 0;
     // RMS reprojection error of the kept observations after the final solve, px.
     double reprojection_rms_px = 0;
     // Wall-clock seconds.

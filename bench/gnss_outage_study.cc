@@ -1,21 +1,26 @@
-// GNSS outages on a real walk (bench/RESULTS.md, "GNSS outages on a real walk (imu+rtk)"): the
-// handheld IMU + RTK walk of ../shared/data/gnss_imu_walk is imported into a temporary field and
-// the row SLAM stage runs with the imu+rtk sensor set, once with every fix and once per outage
-// window (GNSS removed from the factors and the initialisation). Printed per window: the removed
-// RTK-fixed epochs against the estimated antenna track (eval/gnss_check.h): horizontal and 3D
-// error at the window's last removed fix, maximum and RMS horizontal error over the window, RMS
-// 3D error; and for the all-fixes run, the normalised residuals of the fixed epochs.
+// GNSS outages (bench/RESULTS.md, "GNSS outages on a real walk (imu+rtk)"): a session with an IMU
+// and an RTK receiver — by default the handheld walk of ../shared/data/gnss_imu_walk, imported
+// into a temporary field; with --field any field (imported or simulated) — is solved by the row
+// SLAM stage with the imu+rtk sensor set, once with every fix and once per outage window (GNSS
+// removed from the factors and the initialisation). Printed per window: the removed RTK-fixed
+// epochs against the estimated antenna track of every pass (eval/gnss_check.h): horizontal and
+// 3D error at the window's last removed fix, maximum and RMS horizontal error over the window,
+// RMS 3D error; and for the all-fixes run, the normalised residuals of the fixed epochs.
 //
-//   build/release/bench/gnss_outage_study [--data DIR] [--work DIR] [--keep] [--stated-noise]
-//       [--noise-factor F] [--walk-factor F] [--antenna X,Y,Z]
+//   build/release/bench/gnss_outage_study [--field DIR [--session ID]] [--data DIR] [--work DIR]
+//       [--keep] [--stated-noise] [--noise-factor F] [--walk-factor F] [--antenna X,Y,Z]
 //       [--qc-translation Q] [--qc-rotation Q] [--state-rate HZ] [--windows S:D,S:D,...]
 //
-// IMU noise: the rig's datasheet values (the data's README), the white-noise densities times
-// --noise-factor and the bias random walks times --walk-factor (defaults 1).
+// Windows: seconds after the receiver's first fix, start:duration. The walk's IMU noise: the
+// rig's datasheet values (the data's README), the white-noise densities times --noise-factor and
+// the bias random walks times --walk-factor (defaults 1); --antenna its lever arm. With --field
+// the field's own sensor.yaml files are used (those four options do not apply).
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -42,6 +47,9 @@ constexpr double kG = 9.80665;
 const char* kSession = "2025-08-28";
 
 struct Args {
+  // A field to study instead of the walk, and its session (default: the first).
+  std::string field;
+  std::string session;
   std::string data = std::string(CROP4D_SHARED_DATA_DIR) + "/gnss_imu_walk";
   std::string work;
   bool keep = false;
@@ -74,7 +82,11 @@ Args ParseArgs(int argc, char** argv) {
       if (i + 1 >= argc) throw std::invalid_argument(arg + " needs a value");
       return argv[++i];
     };
-    if (arg == "--data") {
+    if (arg == "--field") {
+      a.field = value();
+    } else if (arg == "--session") {
+      a.session = value();
+    } else if (arg == "--data") {
       a.data = value();
     } else if (arg == "--work") {
       a.work = value();
@@ -138,15 +150,19 @@ void ImportWalk(const Args& a, const std::string& field) {
   io::SessionImporter(o).Run();
 }
 
-// The RTK-fixed epochs of the walk in the field frame, and the first fix's time (the origin of
-// the outage windows).
-std::vector<eval::GnssFix> FixedEpochs(const std::string& field, Timestamp* first_fix) {
+// The RTK-fixed epochs of the session in the field frame, the first fix's time (the origin of
+// the outage windows) and the receiver's antenna in the body frame.
+std::vector<eval::GnssFix> FixedEpochs(const std::string& field, const std::string& id,
+                                       Timestamp* first_fix, Eigen::Vector3d* antenna) {
   const io::Field f(field);
-  const io::Session session = f.OpenSession(kSession);
+  const io::Session session = f.OpenSession(id);
   const slam::SessionStreams streams = slam::LoadSessionStreams(f, session);
   const slam::GpsStream* gps = streams.FindGps(io::GpsKind::kRtk);
-  if (gps == nullptr || gps->fixes.empty()) throw std::runtime_error("no RTK fixes");
+  if (gps == nullptr || gps->fixes.empty()) {
+    throw std::runtime_error("session " + id + " has no RTK receiver with fixes");
+  }
   *first_fix = gps->fixes.front().t;
+  *antenna = gps->sensor.antenna_in_body;
   std::vector<eval::GnssFix> out;
   for (const slam::GpsFixWorld& g : gps->fixes) {
     if (g.fix != io::GpsFix::kRtkFixed) continue;
@@ -155,12 +171,14 @@ std::vector<eval::GnssFix> FixedEpochs(const std::string& field, Timestamp* firs
   return out;
 }
 
+// Every pass's body poses (imu+rtk), in time order.
 std::vector<io::StampedPose> RunStage(const Args& a, const std::string& field,
-                                      const std::string& workspace,
+                                      const std::string& session, const std::string& workspace,
                                       const std::vector<pipeline::GpsOutage>& outages,
                                       double* seconds) {
   pipeline::SlamStageOptions o;
   o.sensors = slam::SensorSet::kImuRtk;
+  o.session = session;
   o.gps_outages = outages;
   o.state_rate_hz = a.state_rate_hz;
   o.show_progress = false;
@@ -170,11 +188,21 @@ std::vector<io::StampedPose> RunStage(const Args& a, const std::string& field,
   const auto start = std::chrono::steady_clock::now();
   const std::vector<pipeline::PassReport> reports = pipeline::RunSlamStage(field, workspace, o);
   *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (reports.size() != 1 || reports[0].failed) {
-    throw std::runtime_error("the slam stage failed: " +
-                             (reports.empty() ? std::string("no pass") : reports[0].message));
+  if (reports.empty()) throw std::runtime_error("the slam stage found no pass");
+  std::vector<io::StampedPose> poses;
+  for (const pipeline::PassReport& r : reports) {
+    if (r.failed) throw std::runtime_error("pass " + r.pass.id + " failed: " + r.message);
+    for (const io::StampedPose& p : io::ReadTum(r.folder + "/poses.tum")) poses.push_back(p);
   }
-  return io::ReadTum(reports[0].folder + "/poses.tum");
+  // Overlapping windows of a long trajectory: each time once, in order.
+  std::sort(poses.begin(), poses.end(),
+            [](const io::StampedPose& x, const io::StampedPose& y) { return x.t < y.t; });
+  poses.erase(std::unique(poses.begin(), poses.end(),
+                          [](const io::StampedPose& x, const io::StampedPose& y) {
+                            return x.t == y.t;
+                          }),
+              poses.end());
+  return poses;
 }
 
 }  // namespace
@@ -186,23 +214,32 @@ int main(int argc, char** argv) {
     spdlog::set_level(spdlog::level::err);
     Progress::SetGloballySilent(true);
     fs::create_directories(a.work);
-    const std::string field = (fs::path(a.work) / "walk").string();
-    ImportWalk(a, field);
+    std::string field = a.field, session = a.session;
+    if (field.empty()) {
+      field = (fs::path(a.work) / "walk").string();
+      ImportWalk(a, field);
+      session = kSession;
+    } else if (session.empty()) {
+      session = io::Field(field).session_ids().at(0);
+    }
     Timestamp t0 = 0;
-    const std::vector<eval::GnssFix> fixes = FixedEpochs(field, &t0);
+    Eigen::Vector3d antenna;
+    const std::vector<eval::GnssFix> fixes = FixedEpochs(field, session, &t0, &antenna);
     std::printf(
-        "walk: %zu RTK-fixed epochs; IMU noise x%.3g, bias walk x%.3g, antenna (%.3f, %.3f, %.3f) "
-        "m, "
-        "states %.0f Hz\n\n",
-        fixes.size(), a.noise_factor, a.walk_factor, a.antenna.x(), a.antenna.y(), a.antenna.z(),
-        a.state_rate_hz);
+        "%s/%s: %zu RTK-fixed epochs; antenna (%.3f, %.3f, %.3f) m, states %.0f Hz%s\n\n",
+        field.c_str(), session.c_str(), fixes.size(), antenna.x(), antenna.y(), antenna.z(),
+        a.state_rate_hz,
+        a.field.empty()
+            ? fmt::format("; IMU noise x{:.3g}, bias walk x{:.3g}", a.noise_factor, a.walk_factor)
+                  .c_str()
+            : "");
 
     double seconds = 0;
     {
       const std::vector<io::StampedPose> poses =
-          RunStage(a, field, (fs::path(a.work) / "ws_all").string(), {}, &seconds);
+          RunStage(a, field, session, (fs::path(a.work) / "ws_all").string(), {}, &seconds);
       const std::vector<eval::GnssResidual> residuals =
-          eval::CompareWithFixes(poses, fixes, a.antenna);
+          eval::CompareWithFixes(poses, fixes, antenna);
       const eval::GnssResidualStats s = eval::SummariseResiduals(residuals);
       std::printf(
           "All fixes fused (%.1f s): %d fixed epochs, horizontal RMS %.2f cm (max %.2f), "
@@ -223,9 +260,10 @@ int main(int argc, char** argv) {
     for (std::size_t w = 0; w < a.windows.size(); ++w) {
       const pipeline::GpsOutage& g = a.windows[w];
       const std::vector<io::StampedPose> poses = RunStage(
-          a, field, (fs::path(a.work) / ("ws_" + std::to_string(w))).string(), {g}, &seconds);
+          a, field, session, (fs::path(a.work) / ("ws_" + std::to_string(w))).string(), {g},
+          &seconds);
       const std::vector<eval::GnssResidual> residuals =
-          eval::CompareWithFixes(poses, fixes, a.antenna);
+          eval::CompareWithFixes(poses, fixes, antenna);
       const eval::GnssResidualStats s =
           eval::SummariseResiduals(residuals, t0 + SecondsToTimestamp(g.start_s),
                                    t0 + SecondsToTimestamp(g.start_s + g.duration_s));

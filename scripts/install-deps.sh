@@ -17,6 +17,8 @@ PACKAGES=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   # parallelism and spatial search
   libtbb-dev libnanoflann-dev
+  # recordings of real rigs: ROS 1 bags (crop4d import --bag), JPEG EXIF (crop4d import --images)
+  librosbag-storage-dev libsensor-msgs-dev libexiv2-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev chromium
   # headless OpenGL 3.3 through EGL (Mesa llvmpipe, surfaceless platform)

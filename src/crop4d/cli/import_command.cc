@@ -17,8 +17,12 @@
 #include "crop4d/core/logging.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/dataset_format.h"
+#include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/euroc_import.h"
+#include "crop4d/io/exif_import.h"
 #include "crop4d/io/importer.h"
+#include "crop4d/io/kalibr.h"
+#include "crop4d/io/rosbag/bag_import.h"
 
 namespace crop4d::cli {
 namespace {
@@ -35,9 +39,21 @@ struct ImportArgs {
   std::string imu_delimiter = "auto";
   std::string imu_time_offset = "0";  // seconds, decimal text (parsed exactly)
   std::string imu_time_scale = "pos";
-  std::string imu_rpy_deg;   // "roll,pitch,yaw"
-  std::string imu_position;  // "x,y,z"
-  std::string euroc;         // an EuRoC / ASL sequence (its mav0/ or the folder above)
+  std::string imu_rpy_deg;                // "roll,pitch,yaw"
+  std::string imu_position;               // "x,y,z"
+  std::string euroc;                      // an EuRoC / ASL sequence (its mav0/ or the folder above)
+  std::string bag;                        // a ROS 1 bag (--bag)
+  std::vector<std::string> bag_topics;    // --topic SENSOR=TOPIC, repeatable
+  std::string bag_stamp = "header";       // --stamp header|receive
+  std::vector<std::string> sensor_yamls;  // --sensor-yaml SENSOR=FILE, repeatable
+
+  // --images and the Kalibr files.
+  std::string images;           // a folder of JPEGs with EXIF time and GPS (--images)
+  std::string kalibr_camchain;  // Kalibr camchain-imucam.yaml
+  std::string kalibr_imu;       // Kalibr imu.yaml
+  std::string camera_yaml;      // cam0 calibration in our sensor.yaml format (--images)
+  std::string time_zone;        // the camera clock's UTC offset, "+02:00" (--images)
+  std::string gps_sigma;        // "H[,V]" default GPS sigmas, metres (--images)
 };
 
 // "a,b,c" with exactly `min_count`..3 finite numbers; missing trailing ones are 0.
@@ -57,6 +73,24 @@ Eigen::Vector3d ParseNumbers(const std::string& text, const std::string& option,
     }
   }
   return v;
+}
+
+// --origin "lat,lon[,alt]" (unset when empty).
+std::optional<geometry::GeodeticPoint> ParseOrigin(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  const Eigen::Vector3d v = ParseNumbers(text, "--origin", 2, "lat,lon[,alt]");
+  return geometry::GeodeticPoint{v.x(), v.y(), v.z()};
+}
+
+// --gps-kind auto|rtk|standard (unset for auto).
+std::optional<io::GpsKind> ParseGpsKindOption(const std::string& text) {
+  if (text == "auto") return std::nullopt;
+  const std::optional<io::GpsKind> kind = io::ParseGpsKind(text);
+  if (!kind) {
+    throw InputError("--gps-kind", 0,
+                     "unknown kind '" + text + "' (expected auto, rtk or standard)");
+  }
+  return kind;
 }
 
 // Prints an import's summary (unless quiet) and logs what was written; the exit code 0.
@@ -82,33 +116,174 @@ int RunEurocImport(const ImportArgs& args) {
   options.session_id = args.options.session_id;
   options.field_name = args.options.field_name;
   options.overwrite = args.options.overwrite;
-  if (!args.origin.empty()) {
-    const Eigen::Vector3d v = ParseNumbers(args.origin, "--origin", 2, "lat,lon[,alt]");
-    options.origin = geometry::GeodeticPoint{v.x(), v.y(), v.z()};
+  options.origin = ParseOrigin(args.origin);
+  if (!args.kalibr_camchain.empty() || !args.kalibr_imu.empty()) {
+    options.kalibr = io::ReadKalibr(args.kalibr_camchain, args.kalibr_imu);
   }
   const io::EurocImportSummary summary = io::ImportEuroc(options);
   return Report(io::FormatEurocImportSummary(summary), summary.session_folder,
                 summary.field_sessions_updated);
 }
 
+// "NAME=VALUE" of a repeatable option such as --topic cam0=/camera/image_raw.
+std::pair<std::string, std::string> SplitAssignment(const std::string& text, const char* option,
+                                                    const char* expected) {
+  const std::size_t at = text.find('=');
+  if (at == std::string::npos || at == 0 || at + 1 == text.size()) {
+    throw InputError(option, 0, "expected " + std::string(expected) + ", got '" + text + "'");
+  }
+  return {text.substr(0, at), text.substr(at + 1)};
+}
+
+// --bag: a ROS 1 bag; its own sensors, so the .pos, IMU-file and EuRoC options do not apply.
+int RunBagImport(const ImportArgs& args) {
+  if (!args.options.pos_path.empty() || !args.options.imu_path.empty() || !args.euroc.empty()) {
+    throw InputError("--bag", 0, "imports the bag's own sensors: leave out --pos, --imu, --euroc");
+  }
+  io::BagImportOptions options;
+  options.bag_path = args.bag;
+  options.field_folder = args.options.field_folder;
+  options.session_id = args.options.session_id;
+  options.field_name = args.options.field_name;
+  options.notes = args.options.notes;
+  options.overwrite = args.options.overwrite;
+  options.gyroscope_noise_density = args.options.gyroscope_noise_density;
+  options.gyroscope_random_walk = args.options.gyroscope_random_walk;
+  options.accelerometer_noise_density = args.options.accelerometer_noise_density;
+  options.accelerometer_random_walk = args.options.accelerometer_random_walk;
+  options.origin = ParseOrigin(args.origin);
+  options.gps_kind = ParseGpsKindOption(args.gps_kind);
+  if (!args.antenna.empty()) {
+    options.antenna_in_body = ParseNumbers(args.antenna, "--antenna", 3, "x,y,z in metres");
+  }
+  for (const std::string& text : args.bag_topics) {
+    const auto [sensor, topic] = SplitAssignment(text, "--topic", "SENSOR=TOPIC");
+    if (!options.topics.emplace(sensor, topic).second) {
+      throw InputError("--topic", 0, "'" + sensor + "' is given twice");
+    }
+  }
+  if (args.bag_stamp == "header") {
+    options.stamp = io::BagStamp::kHeader;
+  } else if (args.bag_stamp == "receive") {
+    options.stamp = io::BagStamp::kReceive;
+  } else {
+    throw InputError("--stamp", 0,
+                     "unknown stamp '" + args.bag_stamp + "' (expected header or receive)");
+  }
+  // Calibration files in crop4d's sensor.yaml format, one per sensor folder name.
+  for (const std::string& text : args.sensor_yamls) {
+    const auto [sensor, path] = SplitAssignment(text, "--sensor-yaml", "SENSOR=FILE");
+    const std::optional<io::SensorKind> kind = io::SensorKindFromFolder(sensor);
+    if (!kind) {
+      throw InputError("--sensor-yaml", 0,
+                       "'" + sensor +
+                           "' is not a sensor folder name (cam<N>, imu<N>, gps<N>, "
+                           "mag<N>)");
+    }
+    switch (*kind) {
+      case io::SensorKind::kCamera:
+        options.cameras[sensor] = io::ReadCameraSensorYaml(path);
+        break;
+      case io::SensorKind::kImu:
+        options.imus[sensor] = io::ReadImuSensorYaml(path);
+        break;
+      case io::SensorKind::kGps:
+        options.gps[sensor] = io::ReadGpsSensorYaml(path);
+        break;
+      case io::SensorKind::kMag:
+        options.mags[sensor] = io::ReadMagSensorYaml(path);
+        break;
+    }
+    options.sensor_yaml_files[sensor] = path;  // copied into the session as it is
+  }
+  // Kalibr results: each camera of the chain (intrinsics, distortion, T_BS, image times moved
+  // by timeshift_cam_imu onto the IMU clock) and imu0's noise; --sensor-yaml for the same
+  // sensor is a conflict.
+  if (!args.kalibr_camchain.empty() || !args.kalibr_imu.empty()) {
+    const io::KalibrCalibration kalibr = io::ReadKalibr(args.kalibr_camchain, args.kalibr_imu);
+    for (const io::KalibrCamera& camera : kalibr.cameras) {
+      const std::string& name = camera.sensor.name;
+      if (!options.cameras.emplace(name, camera.sensor).second) {
+        throw InputError("--kalibr-camchain", 0, name + " is also given with --sensor-yaml");
+      }
+      options.camera_time_shift_ns[name] = camera.time_shift_ns;
+    }
+    if (kalibr.imu && !options.imus.emplace("imu0", kalibr.imu->sensor).second) {
+      throw InputError("--kalibr-imu", 0, "imu0 is also given with --sensor-yaml");
+    }
+  }
+  const io::BagImportSummary summary = io::ImportBag(options);
+  return Report(io::FormatBagImportSummary(summary), summary.session_folder,
+                summary.field_sessions_updated);
+}
+
+// --images: a folder of JPEGs with EXIF time and GPS (cam0/ + gps0/, no IMU).
+int RunImagesImport(const ImportArgs& args) {
+  if (!args.options.pos_path.empty() || !args.options.imu_path.empty() || !args.euroc.empty()) {
+    throw InputError("--images", 0,
+                     "takes time and GPS from the EXIF tags: leave out --pos, --imu and --euroc");
+  }
+  if (!args.camera_yaml.empty() && !args.kalibr_camchain.empty()) {
+    throw InputError("--camera-yaml", 0, "give --camera-yaml or --kalibr-camchain, not both");
+  }
+  io::ExifImportOptions options;
+  options.image_folder = args.images;
+  options.field_folder = args.options.field_folder;
+  options.session_id = args.options.session_id;
+  options.field_name = args.options.field_name;
+  options.notes = args.options.notes;
+  options.overwrite = args.options.overwrite;
+  options.origin = ParseOrigin(args.origin);
+  if (!args.antenna.empty()) {
+    options.antenna_in_body = ParseNumbers(args.antenna, "--antenna", 3, "x,y,z in metres");
+  }
+  options.gps_kind = ParseGpsKindOption(args.gps_kind);
+  if (!args.gps_sigma.empty()) {
+    const Eigen::Vector3d v = ParseNumbers(args.gps_sigma, "--gps-sigma", 1, "H[,V] in metres");
+    options.sigma_h = v.x();
+    if (v.y() != 0.0) options.sigma_v = v.y();
+  }
+  if (!args.time_zone.empty()) {
+    int seconds = 0;
+    if (!io::ParseUtcOffset(args.time_zone, &seconds)) {
+      throw InputError("--time-zone", 0,
+                       "'" + args.time_zone + "' is not a UTC offset (+HH:MM, -HH:MM or Z)");
+    }
+    options.utc_offset_s = seconds;
+  }
+  if (!args.camera_yaml.empty()) {
+    options.camera = io::ReadCameraSensorYaml(args.camera_yaml);
+    options.camera_source = args.camera_yaml;
+  }
+  if (!args.kalibr_camchain.empty() || !args.kalibr_imu.empty()) {
+    const io::KalibrCalibration kalibr = io::ReadKalibr(args.kalibr_camchain, args.kalibr_imu);
+    if (const io::KalibrCamera* cam0 = kalibr.FindCamera("cam0")) {
+      options.camera = cam0->sensor;
+      options.camera_source = args.kalibr_camchain + " (Kalibr cam0)";
+      options.camera_time_shift_ns = cam0->time_shift_ns;
+    }
+  }
+  const io::ExifImportSummary summary = io::ImportExifFolder(options);
+  return Report(io::FormatExifImportSummary(summary), summary.session_folder,
+                summary.field_sessions_updated);
+}
+
 int RunImport(const ImportArgs& args) {
+  if (!args.images.empty()) return RunImagesImport(args);
   if (!args.euroc.empty()) return RunEurocImport(args);
+  if (!args.bag.empty()) return RunBagImport(args);
+  if (!args.kalibr_camchain.empty() || !args.kalibr_imu.empty() || !args.camera_yaml.empty() ||
+      !args.time_zone.empty() || !args.gps_sigma.empty()) {
+    throw InputError("--kalibr-camchain", 0,
+                     "--kalibr-camchain, --kalibr-imu, --camera-yaml, --time-zone and --gps-sigma "
+                     "apply to --images (and the Kalibr files to --euroc), not to --pos / --imu");
+  }
   if (args.options.session_id.empty()) {
     throw InputError("--session", 0, "the session's folder name is required (a date is good)");
   }
   io::SessionImporter::Options options = args.options;
-  if (!args.origin.empty()) {
-    const Eigen::Vector3d v = ParseNumbers(args.origin, "--origin", 2, "lat,lon[,alt]");
-    options.origin = geometry::GeodeticPoint{v.x(), v.y(), v.z()};
-  }
-  if (args.gps_kind != "auto") {
-    const std::optional<io::GpsKind> kind = io::ParseGpsKind(args.gps_kind);
-    if (!kind) {
-      throw InputError("--gps-kind", 0,
-                       "unknown kind '" + args.gps_kind + "' (expected auto, rtk or standard)");
-    }
-    options.gps_kind = *kind;
-  }
+  options.origin = ParseOrigin(args.origin);
+  options.gps_kind = ParseGpsKindOption(args.gps_kind);
   if (!args.antenna.empty()) {
     options.antenna_in_body = ParseNumbers(args.antenna, "--antenna", 3, "x,y,z in metres");
   }
@@ -174,6 +349,60 @@ RunFunction SetupImport(CLI::App& app) {
                  "(camera and IMU folders verbatim, ground truth into ground_truth/; no GPS: a new "
                  "field's origin is 0,0,0 unless --origin)")
       ->type_name("PATH");
+  const char* bag_group = "ROS 1 bag (--bag)";
+  app.add_option("--bag", args->bag,
+                 "Import a ROS 1 bag (plain, bz2 or lz4): sensor_msgs/Image and CompressedImage "
+                 "-> cam<N>/, Imu -> imu<N>/, NavSatFix -> gps<N>/, MagneticField -> mag<N>/ "
+                 "(session id default: the date of the first stamp)")
+      ->type_name("FILE")
+      ->group(bag_group);
+  app.add_option("--topic", args->bag_topics,
+                 "Which topic feeds which sensor folder, repeatable: cam0=/camera/image_raw, "
+                 "imu0=/imu/data, gps0=/fix, mag0=/mag, cam0_info=/camera/camera_info (default: "
+                 "the bag's only topic of a sensor's types)")
+      ->type_name("SENSOR=TOPIC")
+      ->group(bag_group);
+  app.add_option("--stamp", args->bag_stamp,
+                 "Sample times: header (header.stamp) or receive (the bag's record time)")
+      ->capture_default_str()
+      ->group(bag_group);
+  app.add_option("--sensor-yaml", args->sensor_yamls,
+                 "Calibration of a sensor as a crop4d sensor.yaml, repeatable: cam0=FILE; "
+                 "a camera without one uses the bag's CameraInfo")
+      ->type_name("SENSOR=FILE")
+      ->group(bag_group);
+  const char* images_group = "Image folder with EXIF time and GPS (--images)";
+  app.add_option("--images", args->images,
+                 "Import a folder of JPEGs (phone, action camera, drone) as cam0/ + gps0/ (no "
+                 "IMU): time from DateTimeOriginal + SubSecTimeOriginal, GPS from EXIF GPSInfo; "
+                 "session id default: the date of the first image (docs/import.md)")
+      ->type_name("DIR")
+      ->group(images_group);
+  app.add_option("--camera-yaml", args->camera_yaml,
+                 "cam0 calibration in crop4d's sensor.yaml format (default: a starting value "
+                 "from the EXIF focal length)")
+      ->type_name("FILE")
+      ->group(images_group);
+  app.add_option("--time-zone", args->time_zone,
+                 "UTC offset of the camera clock for images without OffsetTimeOriginal, e.g. "
+                 "+02:00 (default: from the GPS date/time stamps, else an error)")
+      ->type_name("+HH:MM")
+      ->group(images_group);
+  app.add_option("--gps-sigma", args->gps_sigma,
+                 "1-sigma of images without GPSHPositioningError, metres: H[,V] (default 5,10; "
+                 "0.02,0.04 with --gps-kind rtk; V default 2 H)")
+      ->type_name("H[,V]")
+      ->group(images_group);
+  const char* kalibr_group = "Kalibr calibration (with --euroc, --images or --bag)";
+  app.add_option("--kalibr-camchain", args->kalibr_camchain,
+                 "Kalibr camchain-imucam.yaml: intrinsics, radtan distortion, T_BS = T_cam_imu^-1; "
+                 "image times + timeshift_cam_imu (onto the IMU clock)")
+      ->type_name("FILE")
+      ->group(kalibr_group);
+  app.add_option("--kalibr-imu", args->kalibr_imu,
+                 "Kalibr imu.yaml: IMU noise densities and random walks (and T_i_b)")
+      ->type_name("FILE")
+      ->group(kalibr_group);
   app.add_option("--name", o.field_name, "Field name for a new field.yaml (default: folder name)");
   app.add_option("--notes", o.notes, "Free text for session.yaml's notes");
   app.add_flag("--overwrite", o.overwrite,

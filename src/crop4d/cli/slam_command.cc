@@ -150,6 +150,24 @@ RunFunction SetupSlam(CLI::App& app) {
          "IMU + GPS fit misses the fixes by more than 1.5 sigmas) or stated (as sensor.yaml "
          "says; a warning only)")
       ->default_str("auto");
+  app.add_option_function<std::string>(
+         "--passes",
+         [&o](const std::string& mode) {
+           const std::optional<pipeline::PassMode> parsed = pipeline::ParsePassMode(mode);
+           if (!parsed) {
+             throw CLI::ValidationError("--passes", "expected auto, rows or whole, got " + mode);
+           }
+           o.pass_mode = *parsed;
+         },
+         "How a session is cut: auto (row passes where the drive has rows, declared or clearly "
+         "found; else one trajectory), rows (every straight pass along the rows' axis), whole "
+         "(one trajectory in windows of at most --max-window seconds)")
+      ->default_str("auto");
+  app.add_option("--max-window", o.max_window_s,
+                 "A session processed as one trajectory is cut into windows of at most this "
+                 "many seconds, overlapping by 15 s")
+      ->capture_default_str()
+      ->check(CLI::Range(30.0, 1e6));
   app.add_flag(
       "--no-standstill", [&o](std::int64_t) { o.standstills = false; },
       "Do not detect standstills (zero velocity, one pose while the rig stands still)");

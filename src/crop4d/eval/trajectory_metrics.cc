@@ -136,6 +136,26 @@ Rigid3 AlignSE3(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen
                 Eigen::Vector3d(m.topRightCorner<3, 1>()));
 }
 
+Rigid3 AlignYawTranslation(const std::vector<Rigid3>& estimate, const std::vector<Rigid3>& truth) {
+  CROP4D_CHECK(estimate.size() == truth.size());
+  CROP4D_CHECK(!estimate.empty());
+  // max_θ Σ tr(Rz(θ)ᵀ M_k) over the horizontal block of M_k = R_truth R_estᵀ.
+  double c = 0, s = 0;
+  Eigen::Vector3d mean_estimate = Eigen::Vector3d::Zero(), mean_truth = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < estimate.size(); ++k) {
+    const Eigen::Matrix3d M = truth[k].RotationMatrix() * estimate[k].RotationMatrix().transpose();
+    c += M(0, 0) + M(1, 1);
+    s += M(1, 0) - M(0, 1);
+    mean_estimate += estimate[k].translation();
+    mean_truth += truth[k].translation();
+  }
+  mean_estimate /= static_cast<double>(estimate.size());
+  mean_truth /= static_cast<double>(truth.size());
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(std::atan2(s, c), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return Rigid3(R, Eigen::Vector3d(mean_truth - R * mean_estimate));
+}
+
 TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<Rigid3>& estimate,
                                            const std::vector<Rigid3>& truth,
                                            const TrajectoryMetricsOptions& options) {

@@ -109,6 +109,14 @@ TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<geometry::Rigid3>& 
 geometry::Rigid3 AlignSE3(const std::vector<Eigen::Vector3d>& src,
                           const std::vector<Eigen::Vector3d>& dst);
 
+// The rotation about the world's vertical and the translation, truth_from_estimate, that take
+// `estimate` to `truth` (4 degrees of freedom: both frames have z up, as a gravity-aligned frame
+// and the field's ENU frame do). The heading is the one closest to every R_truth R_estᵀ (least
+// squares over the poses' orientations: it is observed even while the rig stands still, when the
+// positions cannot give it); the translation then matches the centroids. Same count, at least 1.
+geometry::Rigid3 AlignYawTranslation(const std::vector<geometry::Rigid3>& estimate,
+                                     const std::vector<geometry::Rigid3>& truth);
+
 // How far a trajectory wanders from its first pose, the drift of a standstill: the largest
 // change of the heading of `axis` (in the pose's frame; for a camera its optical axis z) projected
 // on the world's horizontal plane, degrees, and the largest distance from the first position, m.

@@ -150,6 +150,27 @@ TEST(TrajectoryMetricsTest, UmeyamaRecoversAKnownSE3) {
   EXPECT_LT(m.rpe_translation_percent.max, 1e-8);
 }
 
+TEST(TrajectoryMetricsTest, YawTranslationAlignmentRecoversAHeadingAndAShift) {
+  const Rigid3 known(Eigen::Quaterniond(Eigen::AngleAxisd(-2.1, Eigen::Vector3d::UnitZ())),
+                     Eigen::Vector3d(-4.0, 7.5, 1.2));
+  const std::vector<Rigid3> truth = CurvedTruth();
+  std::vector<Rigid3> estimate;
+  for (const Rigid3& p : truth) estimate.push_back(known.Inverse() * p);
+  const Rigid3 found = AlignYawTranslation(estimate, truth);
+  EXPECT_LT((found.translation() - known.translation()).norm(), 1e-9);
+  EXPECT_LT(RotationAngleDeg(found.rotation().conjugate() * known.rotation()), 1e-7);
+  // A rig standing still: one position, the heading from the orientation alone.
+  const std::vector<Rigid3> still(5, truth[3]);
+  std::vector<Rigid3> still_estimate(5, known.Inverse() * truth[3]);
+  const Rigid3 from_rotation = AlignYawTranslation(still_estimate, still);
+  EXPECT_LT(RotationAngleDeg(from_rotation.rotation().conjugate() * known.rotation()), 1e-7);
+  // A tilt is not aligned away: only the heading and the shift are free.
+  const Rigid3 tilt(Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX())),
+                    Eigen::Vector3d::Zero());
+  for (Rigid3& p : estimate) p = tilt * p;
+  EXPECT_LT(std::abs(AlignYawTranslation(estimate, truth).RotationMatrix()(2, 2) - 1.0), 1e-12);
+}
+
 TEST(TrajectoryMetricsTest, GaussianNoiseGivesItsRmse) {
   std::mt19937 rng(7);
   std::normal_distribution<double> noise(0.0, 0.02);

@@ -86,6 +86,13 @@ void ReadPassSummary(const fs::path& path, PassEval* pass) {
   if (!j["pose_frame"].is_string())
     throw InputError(file, 0, "'pose_frame' must be \"camera\" or \"body\"");
   pass->pose_frame = j["pose_frame"].get<std::string>();
+  if (j.contains("trust") && j["trust"].is_array()) {
+    for (const json& flag : j["trust"]) {
+      if (flag.is_string() && flag.get<std::string>() == "origin_by_convention") {
+        pass->frame_by_convention = true;
+      }
+    }
+  }
   if (pass->pose_frame != "camera" && pass->pose_frame != "body") {
     throw InputError(
         file, 0,
@@ -692,8 +699,13 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
                         estimate.size(), pass.truth_file, associated.dropped_out_of_span,
                         associated.dropped_gap, options.max_dt_s));
       }
-      pass.metrics =
-          ComputeTrajectoryMetrics(associated.estimate, associated.truth, options.metrics);
+      std::vector<geometry::Rigid3> estimate_poses = associated.estimate;
+      if (pass.frame_by_convention) {
+        const geometry::Rigid3 truth_from_local =
+            AlignYawTranslation(estimate_poses, associated.truth);
+        for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
+      }
+      pass.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options.metrics);
     } catch (const InputError& e) {
       pass.error = e.what();
     }
@@ -775,6 +787,7 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
     p["direction"] = pass.direction;
     p["sensors"] = pass.sensors;
     p["pose_frame"] = pass.pose_frame;
+    p["frame_by_convention"] = pass.frame_by_convention;
     p["poses_file"] = pass.poses_file;
     p["truth_file"] = pass.truth_file;
     p["error"] = pass.ok() ? json(nullptr) : json(pass.error);
@@ -1008,7 +1021,7 @@ std::string FormatPassTable(const WorkspaceEval& eval) {
   std::size_t w_session = 7, w_pass = 4, w_sensors = 7;
   for (const PassEval& p : eval.passes) {
     w_session = std::max(w_session, p.session.size());
-    w_pass = std::max(w_pass, p.pass.size());
+    w_pass = std::max(w_pass, p.pass.size() + (p.frame_by_convention ? 1 : 0));
     w_sensors = std::max(w_sensors, p.sensors.size());
   }
   std::string out;
@@ -1023,15 +1036,17 @@ std::string FormatPassTable(const WorkspaceEval& eval) {
   };
   line("session", "pass", "sensors",
        numbers("N", "ATE raw cm", "ATE aligned cm", "RPE %", "rot deg"));
+  bool any_by_convention = false;
   for (const PassEval& p : eval.passes) {
     if (!p.ok()) {
       line(p.session, p.pass, p.sensors, "error: " + p.error);
       continue;
     }
     const TrajectoryMetrics& m = p.metrics;
-    line(p.session, p.pass, p.sensors,
+    line(p.session, p.pass + (p.frame_by_convention ? "*" : ""), p.sensors,
          numbers(std::to_string(m.num_poses), Cm(m.ate_raw_m), Cm(m.ate_aligned_m),
                  Value(m.rpe_translation_percent, "{:.2f}"), Value(m.rotation_deg, "{:.3f}")));
+    any_by_convention = any_by_convention || p.frame_by_convention;
   }
   const OverallEval& o = eval.overall;
   line("all", fmt::format("{}/{}", o.num_evaluated, o.num_passes), "",
@@ -1042,6 +1057,12 @@ std::string FormatPassTable(const WorkspaceEval& eval) {
       "ATE, rot: RMSE over poses (aligned: SE(3) alignment per pass); RPE: RMSE over {}\n",
       d > 0.0 ? fmt::format("pose pairs {:g} m of true path apart", d)
               : std::string("passes, first pose to last"));
+  if (any_by_convention) {
+    out +=
+        "* no GPS: the pass's frame is set by convention; its raw ATE and rot are after the "
+        "rotation about the vertical and the shift that fit it to the truth (heading from the "
+        "orientations, shift from the centroids)\n";
+  }
   if (o.worst_pass >= 0) {
     const PassEval& w = eval.passes[o.worst_pass];
     out += fmt::format("worst pass (ATE raw): {} {} ({}), {:.2f} cm\n", w.session, w.pass,

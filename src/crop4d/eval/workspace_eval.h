@@ -89,6 +89,11 @@ struct PassEval {
   // Why the pass could not be evaluated (no truth, malformed file, no pose in the truth's
   // span); empty when `metrics` holds the result.
   std::string error;
+  // The pass's frame is set by convention (no GPS: summary.json trust flag
+  // origin_by_convention): its poses are first taken to the truth's frame by the rotation about
+  // the vertical and the translation that fit them best (AlignYawTranslation), so "raw" ATE and
+  // rotation measure what the pass estimated (tilt, shape, drift) rather than the convention.
+  bool frame_by_convention = false;
   int estimate_poses = 0;                                                     // poses in poses.tum
   int exact = 0, interpolated = 0, dropped_out_of_span = 0, dropped_gap = 0;  // association
   TrajectoryMetrics metrics;

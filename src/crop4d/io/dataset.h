@@ -123,6 +123,10 @@ struct GpsSample {
   double sigma_h = 0.0;  // 1-sigma horizontal, metres
   double sigma_v = 0.0;  // 1-sigma vertical, metres
   GpsFix fix = GpsFix::kNone;
+  // The receiver's velocity (east, north, up), m/s, and its 1-sigma per axis, when it gives one
+  // (RTKLIB's vn, ve, vu; docs/format.md).
+  std::optional<Eigen::Vector3d> velocity_enu;
+  double sigma_velocity = 0.0;
 };
 
 // ---- ground truth (written by the simulator, read by eval) ------------------------------

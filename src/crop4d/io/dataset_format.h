@@ -25,6 +25,11 @@ inline constexpr const char* kImuCsvHeader =
 inline constexpr const char* kMagCsvHeader = "#timestamp [ns],m_x [uT],m_y [uT],m_z [uT]";
 inline constexpr const char* kGpsCsvHeader =
     "#timestamp [ns],lat [deg],lon [deg],alt [m],sigma_h [m],sigma_v [m],fix";
+// gps0/data.csv with the receiver's velocity (optional columns: east, north, up and a per-axis
+// 1-sigma; empty on a line without one).
+inline constexpr const char* kGpsCsvHeaderWithVelocity =
+    "#timestamp [ns],lat [deg],lon [deg],alt [m],sigma_h [m],sigma_v [m],fix,ve [m/s],vn [m/s],"
+    "vu [m/s],sigma_vel [m/s]";
 
 // Columns of each data.csv.
 inline constexpr int kImageCsvColumns = 2;

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <iterator>
 
 #include "crop4d/core/error.h"
@@ -196,11 +197,22 @@ void WriteMagCsv(const std::string& path, const std::vector<MagSample>& samples)
 }
 
 void WriteGpsCsv(const std::string& path, const std::vector<GpsSample>& samples) {
-  WriteCsv(path, kGpsCsvHeader, samples, [](fmt::memory_buffer& b, const GpsSample& s) {
-    fmt::format_to(std::back_inserter(b), "{},{},{},{},{},{},{}\n", s.t, s.position.lat_deg,
-                   s.position.lon_deg, s.position.alt_m, s.sigma_h, s.sigma_v,
-                   static_cast<int>(s.fix));
-  });
+  // The velocity columns only when a sample has a velocity.
+  const bool velocity = std::any_of(samples.begin(), samples.end(),
+                                    [](const GpsSample& s) { return s.velocity_enu.has_value(); });
+  WriteCsv(path, velocity ? kGpsCsvHeaderWithVelocity : kGpsCsvHeader, samples,
+           [velocity](fmt::memory_buffer& b, const GpsSample& s) {
+             fmt::format_to(std::back_inserter(b), "{},{},{},{},{},{},{}", s.t, s.position.lat_deg,
+                            s.position.lon_deg, s.position.alt_m, s.sigma_h, s.sigma_v,
+                            static_cast<int>(s.fix));
+             if (velocity && s.velocity_enu) {
+               fmt::format_to(std::back_inserter(b), ",{},{},{},{}", s.velocity_enu->x(),
+                              s.velocity_enu->y(), s.velocity_enu->z(), s.sigma_velocity);
+             } else if (velocity) {
+               fmt::format_to(std::back_inserter(b), ",,,,");
+             }
+             b.push_back('\n');
+           });
 }
 
 }  // namespace crop4d::io

@@ -1,11 +1,13 @@
 #include "crop4d/io/euroc_import.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <regex>
 
 #include "crop4d/core/error.h"
@@ -18,14 +20,12 @@
 #include "crop4d/io/importer.h"
 #include "crop4d/io/sensor_csv.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/io/validator.h"
 
 namespace crop4d::io {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr Timestamp kNanosPerDay = 86400 * kNanosPerSecond;
 constexpr const char* kTruthFolder = "state_groundtruth_estimate0";
 
 // The folder with cam0/ and imu0/: PATH/mav0, or PATH itself.
@@ -54,6 +54,11 @@ struct SequenceSensor {
   std::int64_t samples = 0;
   Timestamp first_t = 0, last_t = 0;
   std::optional<geometry::Rigid3> body_from_camera;
+  // The sensor.yaml values, and whether they (and a camera's data.csv) are written anew
+  // instead of copied: a Kalibr calibration replaced them.
+  std::optional<CameraSensor> camera;
+  std::optional<ImuSensor> imu;
+  bool rewrite = false;
 };
 
 SequenceSensor ReadCameraFolder(const fs::path& folder) {
@@ -64,6 +69,7 @@ SequenceSensor ReadCameraFolder(const fs::path& folder) {
   const CameraSensor sensor = ReadCameraSensorYaml((folder / kSensorYaml).string(), &diag);
   ThrowOnErrors(diag);
   s.body_from_camera = sensor.body_from_sensor;
+  s.camera = sensor;
   const std::string csv = (folder / kDataCsv).string();
   ReadImageCsv(
       csv, [&](const ImageEntry& e, std::int64_t) { s.images.push_back(e); }, &diag);
@@ -87,7 +93,7 @@ SequenceSensor ReadImuFolder(const fs::path& folder) {
   s.name = folder.filename().string();
   s.folder = folder;
   Diagnostics diag;
-  ReadImuSensorYaml((folder / kSensorYaml).string(), &diag);
+  s.imu = ReadImuSensorYaml((folder / kSensorYaml).string(), &diag);
   ThrowOnErrors(diag);
   const std::string csv = (folder / kDataCsv).string();
   ReadImuCsv(
@@ -194,6 +200,36 @@ void WriteTruth(const fs::path& folder, const std::vector<TruthState>& truth,
   }
 }
 
+// Applies Kalibr results to the sequence's cameras and IMUs (kalibr.h: ApplyKalibr): the
+// calibrated sensors are written anew, and a calibrated camera's image times move onto the IMU
+// clock by its timeshift_cam_imu. Returns the lines for the summary.
+std::vector<std::string> ApplyKalibrToSequence(const KalibrCalibration& kalibr,
+                                               std::vector<SequenceSensor>* cameras,
+                                               std::vector<SequenceSensor>* imus) {
+  std::map<std::string, CameraSensor> camera_map;
+  std::map<std::string, ImuSensor> imu_map;
+  for (const SequenceSensor& s : *cameras) camera_map[s.name] = *s.camera;
+  for (const SequenceSensor& s : *imus) imu_map[s.name] = *s.imu;
+  std::vector<std::string> lines = ApplyKalibr(kalibr, &camera_map, &imu_map);
+  for (SequenceSensor& s : *cameras) {
+    const KalibrCamera* calibrated = kalibr.FindCamera(s.name);
+    if (calibrated == nullptr) continue;
+    s.camera = camera_map[s.name];
+    s.body_from_camera = s.camera->body_from_sensor;
+    s.rewrite = true;
+    for (ImageEntry& e : s.images) e.t = calibrated->ToImuClock(e.t);
+    s.first_t = s.images.front().t;
+    s.last_t = s.images.back().t;
+  }
+  for (SequenceSensor& s : *imus) {
+    if (kalibr.imu && s.name == "imu0") {
+      s.imu = imu_map[s.name];
+      s.rewrite = true;
+    }
+  }
+  return lines;
+}
+
 }  // namespace
 
 EurocImportSummary ImportEuroc(const EurocImportOptions& o) {
@@ -222,28 +258,21 @@ EurocImportSummary ImportEuroc(const EurocImportOptions& o) {
     }
   }
   if (imus.empty()) throw InputError(mav0.string(), 0, "no imu0/ folder: crop4d needs an IMU");
+  std::vector<std::string> kalibr_lines;
+  if (o.kalibr) kalibr_lines = ApplyKalibrToSequence(*o.kalibr, &cameras, &imus);
   std::vector<TruthState> truth;
   const fs::path truth_csv = mav0 / kTruthFolder / kDataCsv;
   std::error_code ec;
   if (fs::exists(truth_csv, ec)) truth = ReadTruth(truth_csv);
 
   EurocImportSummary summary;
+  summary.kalibr_lines = std::move(kalibr_lines);
   const Timestamp first_t = imus.front().first_t;
-  const Timestamp date = first_t - ((first_t % kNanosPerDay) + kNanosPerDay) % kNanosPerDay;
+  const Timestamp date = DayOf(first_t);
   const std::string id = o.session_id.empty() ? FormatDate(date) : o.session_id;
-  if (const std::string problem = NameProblem(id); !problem.empty()) {
-    throw InputError("--session", 0, "'" + id + "': " + problem);
-  }
   const fs::path field_folder(o.field_folder);
-  const fs::path session_folder = field_folder / kSessionsFolder / id;
+  const fs::path session_folder = NewSessionFolder(o.field_folder, id, o.overwrite);
   summary.session_folder = session_folder.string();
-  if (fs::exists(field_folder, ec) && !fs::is_directory(field_folder, ec)) {
-    throw InputError(o.field_folder, 0, "exists and is not a folder");
-  }
-  if (fs::exists(session_folder, ec) && !o.overwrite) {
-    throw InputError(summary.session_folder, 0,
-                     "the session already exists (--overwrite replaces it)");
-  }
   std::optional<FieldInfo> field;
   if (fs::exists(field_folder / kFieldYaml, ec)) {
     field = ReadFieldYaml((field_folder / kFieldYaml).string());
@@ -258,8 +287,16 @@ EurocImportSummary ImportEuroc(const EurocImportOptions& o) {
       for (const SequenceSensor& sensor : *group) {
         const fs::path to = staging / sensor.name;
         fs::create_directories(to);
-        fs::copy_file(sensor.folder / kSensorYaml, to / kSensorYaml);
-        fs::copy_file(sensor.folder / kDataCsv, to / kDataCsv);
+        if (!sensor.rewrite) {
+          fs::copy_file(sensor.folder / kSensorYaml, to / kSensorYaml);
+          fs::copy_file(sensor.folder / kDataCsv, to / kDataCsv);
+        } else if (sensor.camera) {
+          WriteCameraSensorYaml((to / kSensorYaml).string(), *sensor.camera);
+          WriteImageCsv((to / kDataCsv).string(), sensor.images);
+        } else {
+          WriteImuSensorYaml((to / kSensorYaml).string(), *sensor.imu);
+          fs::copy_file(sensor.folder / kDataCsv, to / kDataCsv);
+        }
         for (const ImageEntry& e : sensor.images) {
           const fs::path image = to / "data" / e.filename;
           fs::create_directories(image.parent_path());
@@ -272,12 +309,14 @@ EurocImportSummary ImportEuroc(const EurocImportOptions& o) {
     session.id = id;
     session.date = date;
     session.notes = fmt::format(
-        "Imported by crop4d import --euroc from {} (EuRoC / ASL layout, sensor files verbatim); "
+        "Imported by crop4d import --euroc from {} (EuRoC / ASL layout, sensor files verbatim{}); "
         "no GPS.",
-        fs::absolute(mav0).lexically_normal().string());
+        fs::absolute(mav0).lexically_normal().string(),
+        o.kalibr ? fmt::format(" except the Kalibr calibration: {}",
+                               fmt::join(summary.kalibr_lines, "; "))
+                 : std::string());
     WriteSessionYaml((staging / kSessionYaml).string(), session);
-    if (fs::exists(session_folder, ec)) fs::remove_all(session_folder);
-    fs::rename(staging, session_folder);
+    MoveIntoPlace(staging.string(), session_folder.string());
   } catch (...) {
     fs::remove_all(staging, ec);
     throw;
@@ -304,6 +343,7 @@ std::string FormatEurocImportSummary(const EurocImportSummary& s) {
   out += s.truth_states > 0
              ? fmt::format("  ground truth: {} states → ground_truth/<session>/\n", s.truth_states)
              : "  ground truth: none in the sequence\n";
+  for (const std::string& line : s.kalibr_lines) out += "  kalibr: " + line + "\n";
   if (s.field_created) out += "  field.yaml written (origin 0°, 0°, 0 m unless --origin)\n";
   return out;
 }

@@ -21,6 +21,7 @@
 
 #include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/enu.h"
+#include "crop4d/io/kalibr.h"
 
 namespace crop4d::io {
 
@@ -37,6 +38,10 @@ struct EurocImportOptions {
   std::optional<geometry::GeodeticPoint> origin;
   // Replace an existing session folder instead of refusing.
   bool overwrite = false;
+  // Kalibr results (--kalibr-camchain, --kalibr-imu) that replace the sequence's own camera and
+  // IMU sensor.yaml values (kalibr.h: ApplyKalibr); each calibrated camera's image times are
+  // moved onto the IMU clock by its timeshift_cam_imu (t_imu = t_cam + shift) in data.csv.
+  std::optional<KalibrCalibration> kalibr;
 };
 
 struct EurocImportSummary {
@@ -54,6 +59,8 @@ struct EurocImportSummary {
   std::int64_t truth_states = 0;
   // Images hard-linked (the rest were copied).
   std::int64_t images_linked = 0;
+  // What the Kalibr calibration changed, one line per sensor (empty without one).
+  std::vector<std::string> kalibr_lines;
 };
 
 // Throws InputError (file, line, what) on a missing or malformed part; nothing is written then.

@@ -12,6 +12,7 @@
 #include "crop4d/io/dataset_format.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/dataset_writer.h"
+#include "crop4d/io/validator.h"
 
 namespace crop4d::io {
 namespace {
@@ -158,7 +159,7 @@ SessionImporter::Summary SessionImporter::Run() const {
                      "a new field needs an origin: give --origin lat,lon,alt (or --pos)");
   }
   const Timestamp first_t = pos ? pos->samples.front().t : imu->samples.front().t;
-  summary.date = first_t - ((first_t % kNanosPerDay) + kNanosPerDay) % kNanosPerDay;
+  summary.date = DayOf(first_t);
 
   // ---- write: sensors, then session.yaml, then field.yaml ----
   std::string sources;
@@ -168,7 +169,10 @@ SessionImporter::Summary SessionImporter::Run() const {
     summary.gps_first_t = samples.front().t;
     summary.gps_last_t = samples.back().t;
     summary.gps_rate_hz = MeanRateHz(samples.size(), summary.gps_first_t, summary.gps_last_t);
-    for (const GpsSample& s : samples) ++summary.fix_counts[static_cast<int>(s.fix)];
+    for (const GpsSample& s : samples) {
+      ++summary.fix_counts[static_cast<int>(s.fix)];
+      if (s.velocity_enu) ++summary.gps_velocities;
+    }
     bool any_rtk = false;
     for (const GpsSample& s : samples) {
       any_rtk = any_rtk || s.fix == GpsFix::kRtkFixed || s.fix == GpsFix::kRtkFloat;
@@ -223,6 +227,30 @@ SessionImporter::Summary SessionImporter::Run() const {
   return summary;
 }
 
+Timestamp DayOf(Timestamp t) { return t - ((t % kNanosPerDay) + kNanosPerDay) % kNanosPerDay; }
+
+std::string NewSessionFolder(const std::string& field_folder, const std::string& id,
+                             bool overwrite) {
+  if (const std::string problem = NameProblem(id); !problem.empty()) {
+    throw InputError("--session", 0, "'" + id + "': " + problem);
+  }
+  std::error_code ec;
+  if (fs::exists(field_folder, ec) && !fs::is_directory(field_folder, ec)) {
+    throw InputError(field_folder, 0, "exists and is not a folder");
+  }
+  const fs::path folder = fs::path(field_folder) / kSessionsFolder / id;
+  if (fs::exists(folder, ec) && !overwrite) {
+    throw InputError(folder.string(), 0, "the session already exists (--overwrite replaces it)");
+  }
+  return folder.string();
+}
+
+void MoveIntoPlace(const std::string& staging, const std::string& session_folder) {
+  std::error_code ec;
+  if (fs::exists(session_folder, ec)) fs::remove_all(session_folder);
+  fs::rename(staging, session_folder);
+}
+
 void AddSessionToField(const std::string& field_folder, std::optional<FieldInfo> field,
                        const std::string& name, const geometry::GeodeticPoint& origin,
                        const std::string& session_id, bool* created, bool* sessions_updated) {
@@ -244,6 +272,17 @@ void AddSessionToField(const std::string& field_folder, std::optional<FieldInfo>
   }
 }
 
+// A timestamp in the session's time scale: ISO 8601 with `Z` for UTC, with " GPST" for GPS time
+// (which is not UTC: it runs ahead by the leap seconds).
+std::string FormatStamp(Timestamp t, const std::string& scale) {
+  std::string text = FormatTimestamp(t);
+  if (scale != "UTC" && !text.empty() && text.back() == 'Z') {
+    text.back() = ' ';
+    text += scale;
+  }
+  return text;
+}
+
 std::string FormatImportSummary(const SessionImporter::Summary& s) {
   std::string out = fmt::format("session {} ({}), timestamps in {}\n", s.session_folder,
                                 FormatDate(s.date), s.time_scale);
@@ -254,16 +293,23 @@ std::string FormatImportSummary(const SessionImporter::Summary& s) {
       fixes += fmt::format("{} {}", count, GpsFixName(code));
     }
     out += fmt::format("  gps0  {} epochs, {:.4g} Hz, {} .. {}, kind {}: {}\n", s.gps_samples,
-                       s.gps_rate_hz, FormatTimestamp(s.gps_first_t), FormatTimestamp(s.gps_last_t),
-                       GpsKindName(s.gps_kind), fixes);
+                       s.gps_rate_hz, FormatStamp(s.gps_first_t, s.time_scale),
+                       FormatStamp(s.gps_last_t, s.time_scale), GpsKindName(s.gps_kind), fixes);
+    if (s.gps_velocities > 0) {
+      out += fmt::format("        {} with the receiver's velocity (kept in gps0/data.csv)\n",
+                         s.gps_velocities);
+    }
   }
   if (s.imu_samples > 0) {
     out += fmt::format("  imu0  {} samples, {:.4g} Hz, {} .. {}\n", s.imu_samples, s.imu_rate_hz,
-                       FormatTimestamp(s.imu_first_t), FormatTimestamp(s.imu_last_t));
+                       FormatStamp(s.imu_first_t, s.time_scale),
+                       FormatStamp(s.imu_last_t, s.time_scale));
   }
   out += fmt::format("  field origin {:.9f}, {:.9f}, {:.3f} m{}\n", s.origin.lat_deg,
                      s.origin.lon_deg, s.origin.alt_m,
-                     s.field_created ? " (new field.yaml, no rows: processed as one pass)" : "");
+                     s.field_created ? " (new field.yaml without rows: row passes only where the "
+                                       "GPS track shows rows, else one trajectory)"
+                                     : "");
   return out;
 }
 

@@ -99,6 +99,7 @@ class SessionImporter {
     GpsKind gps_kind = GpsKind::kRtk;
     std::map<int, std::int64_t> pos_quality;  // epochs per RTKLIB Q
     std::map<int, std::int64_t> fix_counts;   // samples per NMEA fix code written
+    std::int64_t gps_velocities = 0;          // samples with the receiver's velocity
     PosTimeSystem pos_time_system = PosTimeSystem::kGpst;
     PosCoordinates pos_coordinates = PosCoordinates::kLlhDegrees;
     Timestamp gps_first_t = 0, gps_last_t = 0;
@@ -124,6 +125,18 @@ class SessionImporter {
 void AddSessionToField(const std::string& field_folder, std::optional<FieldInfo> field,
                        const std::string& name, const geometry::GeodeticPoint& origin,
                        const std::string& session_id, bool* created, bool* sessions_updated);
+
+// Midnight (UTC) of the day that holds t: a session's date.
+Timestamp DayOf(Timestamp t);
+
+// The folder of a new session `id` in `field_folder`, checked for an import that writes it
+// whole: the id is a name every output can hold (NameProblem), the field folder is a folder or
+// absent, and the session is absent unless `overwrite`. Throws InputError.
+std::string NewSessionFolder(const std::string& field_folder, const std::string& id,
+                             bool overwrite);
+
+// An import's session, written into the hidden `staging` folder, replaces `session_folder`.
+void MoveIntoPlace(const std::string& staging, const std::string& session_folder);
 
 // The body_from_sensor rotation of SessionImporter::Options::imu_rpy_deg.
 Eigen::Matrix3d RotationFromRollPitchYawDeg(const Eigen::Vector3d& rpy_deg);

@@ -55,6 +55,10 @@ TEST(ImporterTest, WalkBecomesAReadableValidSession) {
   EXPECT_EQ(summary.time_scale, "GPST");
   EXPECT_EQ(summary.date, FromDate(2025, 8, 28));
   EXPECT_NEAR(summary.gps_rate_hz, 4.0, 0.01);
+  // GPS time is not UTC: the summary says which scale its stamps are in, and no `Z`.
+  const std::string text = FormatImportSummary(summary);
+  EXPECT_NE(text.find("2025-08-28T17:30:39.749000000 GPST"), std::string::npos) << text;
+  EXPECT_EQ(text.find("0Z"), std::string::npos) << text;
 
   const Field field(field_folder);
   EXPECT_EQ(field.info().name, "walk");
@@ -81,6 +85,10 @@ TEST(ImporterTest, WalkBecomesAReadableValidSession) {
   EXPECT_EQ(fixed, 349);
   EXPECT_EQ(gps.front().t, 1756402239'749000000);
   EXPECT_NEAR(gps.front().sigma_h, 0.0098995, 1e-9);
+  // RTKLIB's velocities are kept (east, north, up).
+  EXPECT_EQ(summary.gps_velocities, 536);
+  ASSERT_TRUE(gps.front().velocity_enu.has_value());
+  EXPECT_DOUBLE_EQ(gps.front().velocity_enu->y(), 0.001);
   const std::vector<ImuSample> imu = session.ReadImu("imu0");
   ASSERT_EQ(imu.size(), 20455u);
   EXPECT_EQ(imu.front().t, 1756402240'961000000);
@@ -109,6 +117,8 @@ TEST(ImporterTest, SecondSessionKeepsTheOriginAndRefusesToOverwrite) {
   const SessionImporter::Summary second = SessionImporter(options).Run();
   EXPECT_FALSE(second.field_created);
   EXPECT_EQ(second.time_scale, "UTC");
+  EXPECT_NE(FormatImportSummary(second).find("17:30:21.749000000Z"), std::string::npos)
+      << FormatImportSummary(second);
   EXPECT_EQ(second.gps_first_t, 1756402239'749000000 - 18 * kNanosPerSecond);
   const Field field(dir / "walk");
   EXPECT_DOUBLE_EQ(field.info().origin.lat_deg, 40.0);

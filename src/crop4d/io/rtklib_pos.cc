@@ -50,6 +50,10 @@ struct Layout {
   int q = 5;
   int sd[3] = {7, 8, 9};           // sdn, sde, sdu or sdx, sdy, sdz
   int sd_cross[3] = {-1, -1, -1};  // sdxy, sdyz, sdzx (ECEF only)
+  // Velocity (RTKLIB's "output velocity" option): vn, ve, vu or vx, vy, vz (ECEF), and their
+  // standard deviations; -1 when absent.
+  int vel[3] = {-1, -1, -1};
+  int sd_vel[3] = {-1, -1, -1};
   std::int64_t header_line = 0;
 };
 
@@ -95,6 +99,18 @@ Layout LayoutFromHeader(const std::vector<std::string_view>& tokens, const std::
       layout.sd[1] = field;
     } else if (token == "sdu(m)" || token == "sdz(m)") {
       layout.sd[2] = field;
+    } else if (token == "vn(m/s)" || token == "vx-ecef(m/s)") {
+      layout.vel[0] = field;
+    } else if (token == "ve(m/s)" || token == "vy-ecef(m/s)") {
+      layout.vel[1] = field;
+    } else if (token == "vu(m/s)" || token == "vz-ecef(m/s)") {
+      layout.vel[2] = field;
+    } else if (token == "sdvn" || token == "sdvx") {
+      layout.sd_vel[0] = field;
+    } else if (token == "sdve" || token == "sdvy") {
+      layout.sd_vel[1] = field;
+    } else if (token == "sdvu" || token == "sdvz") {
+      layout.sd_vel[2] = field;
     } else if (token == "sdxy(m)") {
       layout.sd_cross[0] = field;
     } else if (token == "sdyz(m)") {
@@ -193,6 +209,19 @@ GpsSample ParseEpoch(const std::vector<std::string_view>& tokens, const Layout& 
     if (sd[k] < 0) throw InputError("", 0, "negative standard deviation");
   }
 
+  // Velocity (optional columns): as written, north/east/up or ECEF x/y/z.
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero(), sd_velocity = Eigen::Vector3d::Zero();
+  const bool has_velocity = layout.vel[0] >= 0 && layout.vel[1] >= 0 && layout.vel[2] >= 0;
+  if (has_velocity) {
+    for (int k = 0; k < 3; ++k) {
+      velocity[k] = Number(tokens, layout.vel[k], "velocity");
+      if (layout.sd_vel[k] >= 0) sd_velocity[k] = Number(tokens, layout.sd_vel[k], "sdv");
+    }
+    if ((sd_velocity.array() < 0).any()) {
+      throw InputError("", 0, "negative velocity standard deviation");
+    }
+  }
+
   if (layout.coordinates == PosCoordinates::kEcef) {
     const double x = Number(tokens, layout.pos[0], "x-ecef");
     const double y = Number(tokens, layout.pos[1], "y-ecef");
@@ -220,6 +249,10 @@ GpsSample ParseEpoch(const std::vector<std::string_view>& tokens, const Layout& 
     const Eigen::Matrix3d cov_enu = m.transpose() * cov_ecef * m;
     sample.sigma_h = std::sqrt(std::max(0.0, (cov_enu(0, 0) + cov_enu(1, 1)) / 2.0));
     sample.sigma_v = std::sqrt(std::max(0.0, cov_enu(2, 2)));
+    if (has_velocity) {
+      sample.velocity_enu = m.transpose() * velocity;
+      sample.sigma_velocity = std::sqrt(sd_velocity.squaredNorm() / 3.0);
+    }
   } else {
     const bool dms = layout.coordinates == PosCoordinates::kLlhDms;
     sample.position.lat_deg = Degrees(tokens, layout.pos[0], dms, "latitude");
@@ -230,6 +263,10 @@ GpsSample ParseEpoch(const std::vector<std::string_view>& tokens, const Layout& 
     }
     sample.sigma_h = std::sqrt((sd[0] * sd[0] + sd[1] * sd[1]) / 2.0);
     sample.sigma_v = sd[2];
+    if (has_velocity) {
+      sample.velocity_enu = Eigen::Vector3d(velocity[1], velocity[0], velocity[2]);
+      sample.sigma_velocity = std::sqrt(sd_velocity.squaredNorm() / 3.0);
+    }
   }
   return sample;
 }

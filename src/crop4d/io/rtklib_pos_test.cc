@@ -224,6 +224,14 @@ TEST(RtklibPosTest, RealWalkRecording) {
   EXPECT_DOUBLE_EQ(pos.samples.front().sigma_v, 0.01);
   // 2025/08/28 17:32:53.499, the last line.
   EXPECT_EQ(pos.samples.back().t, kWalkStart + (133 * 1000 + 750) * kNanosPerMillisecond);
+  // Its velocities (vn 0.001, ve −0.002, vu 0.027 m/s; sdvn = sdve = sdvu = 0.0494975) are kept,
+  // east first.
+  ASSERT_TRUE(pos.samples.front().velocity_enu.has_value());
+  EXPECT_DOUBLE_EQ(pos.samples.front().velocity_enu->x(), -0.002);
+  EXPECT_DOUBLE_EQ(pos.samples.front().velocity_enu->y(), 0.001);
+  EXPECT_DOUBLE_EQ(pos.samples.front().velocity_enu->z(), 0.027);
+  EXPECT_NEAR(pos.samples.front().sigma_velocity, 0.0494975, 1e-9);
+  for (const GpsSample& s : pos.samples) EXPECT_TRUE(s.velocity_enu.has_value());
 }
 
 }  // namespace

@@ -47,8 +47,16 @@ std::string Shorten(std::string_view text) {
 // the fields of the current line.
 class LineParser {
  public:
-  LineParser(CsvReader* reader, const char* header, Diagnostics* diag)
+  // `long_header`: the header of a longer layout of the same file (optional trailing columns:
+  // gps0's velocities); a file whose header or first record has its column count is read with
+  // it, every line of the file then having that count.
+  LineParser(CsvReader* reader, const char* header, Diagnostics* diag,
+             const char* long_header = nullptr)
       : reader_(reader), header_(header), names_(ColumnNames(header)) {
+    if (long_header != nullptr) {
+      long_names_ = ColumnNames(long_header);
+      long_header_text_ = long_header;
+    }
     if (diag == nullptr) {
       Diagnostics::Options options;
       options.log = true;
@@ -71,6 +79,18 @@ class LineParser {
     while (reader_->Next(&record_)) {
       if (first_record_) {
         first_record_ = false;
+        if (!long_names_.empty()) {
+          std::size_t count = record_.fields.size();
+          if (reader_->header()) {
+            std::vector<std::string_view> header_fields;
+            SplitCsvLine(*reader_->header(), ',', &header_fields);
+            count = header_fields.size();
+          }
+          if (count == long_names_.size()) {
+            names_ = long_names_;
+            header_ = long_header_text_;
+          }
+        }
         if (!reader_->header()) {
           std::int64_t t = 0;
           if (!record_.fields.empty() && !ParseInt64(record_.fields[0], &t) &&
@@ -164,6 +184,9 @@ class LineParser {
   void MarkBad() { bad_ = true; }
   void MarkInvalid() { invalid_ = true; }
 
+  // Number of columns of the file's layout.
+  int columns() const { return static_cast<int>(names_.size()); }
+
   // Whether the current line has a problem; counts it once, under its worst kind.
   bool Skip() {
     if (bad_) {
@@ -203,6 +226,8 @@ class LineParser {
   CsvReader* reader_;
   const char* header_;
   std::vector<std::string> names_;
+  std::vector<std::string> long_names_;
+  const char* long_header_text_ = nullptr;
   Diagnostics* diag_;
   std::unique_ptr<Diagnostics> own_diag_;
   CsvRecord record_;
@@ -297,8 +322,9 @@ DataFileStats ReadMag(CsvReader& reader, const SampleCallback<MagSample>& callba
 
 DataFileStats ReadGps(CsvReader& reader, const SampleCallback<GpsSample>& callback,
                       Diagnostics* diag, const DataCheckLimits& limits) {
-  LineParser p(&reader, kGpsCsvHeader, diag);
+  LineParser p(&reader, kGpsCsvHeader, diag, kGpsCsvHeaderWithVelocity);
   double v[5];
+  double velocity[4];
   while (p.Next()) {
     GpsSample s;
     p.Time(&s.t);
@@ -317,8 +343,15 @@ DataFileStats ReadGps(CsvReader& reader, const SampleCallback<GpsSample>& callba
       p.Error(p.line(),
               "column 7 (fix): '" + Shorten(p.Field(6)) + "' is not an NMEA fix code (0-8)");
     }
+    // Optional velocity columns (ve, vn, vu, sigma_vel): empty fields mean no velocity.
+    const bool has_velocity = p.columns() > 7 && !p.Field(7).empty();
+    if (has_velocity) p.Numbers(7, 4, velocity);
     if (p.Skip()) continue;
     bool valid = true;
+    if (has_velocity && velocity[3] < 0.0) {
+      p.Error(p.line(), "negative velocity sigma");
+      valid = false;
+    }
     if (std::abs(v[0]) > 90.0) {
       p.Error(p.line(), fmt::format("column 2 (lat): latitude {} is outside [-90, 90]", v[0]));
       valid = false;
@@ -346,6 +379,10 @@ DataFileStats ReadGps(CsvReader& reader, const SampleCallback<GpsSample>& callba
     s.position.alt_m = v[2];
     s.sigma_h = v[3];
     s.sigma_v = v[4];
+    if (has_velocity) {
+      s.velocity_enu = Eigen::Vector3d(velocity[0], velocity[1], velocity[2]);
+      s.sigma_velocity = velocity[3];
+    }
     if (IsGpsFixUsed(static_cast<int>(fix))) {
       s.fix = static_cast<GpsFix>(fix);
     } else {

@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <sstream>
 
 #include "crop4d/core/error.h"
+#include "crop4d/io/dataset_format.h"
+#include "crop4d/io/dataset_writer.h"
 #include "crop4d/io/test_helpers.h"
 
 namespace crop4d::io {
@@ -175,6 +178,46 @@ TEST(SensorCsvTest, GpsSigmasMayBeEmptyAndUnusedFixCodesBecomeNone) {
                 "error: gps0/data.csv:5: negative sigma",
                 "error: gps0/data.csv:6: column 7 (fix): 'fixed' is not an NMEA fix code (0-8)",
                 "error: gps0/data.csv:7: column 7 (fix): 9 is not an NMEA fix code (0-8)"}));
+}
+
+TEST(SensorCsvTest, GpsVelocityColumnsAreOptionalAndRoundTrip) {
+  std::istringstream in(
+      "#timestamp [ns],lat [deg],lon [deg],alt [m],sigma_h [m],sigma_v [m],fix,ve [m/s],"
+      "vn [m/s],vu [m/s],sigma_vel [m/s]\n"
+      "100,33.5,-84.25,290.5,0.01,0.02,4,1.25,-0.5,0.125,0.05\n"
+      "200,33.5,-84.25,290.5,0.01,0.02,4,,,,\n"
+      "300,33.5,-84.25,290.5,0.01,0.02,4,1,2,3,-1\n"
+      "400,33.5,-84.25,290.5,0.01,0.02,4\n");
+  std::vector<GpsSample> samples;
+  Diagnostics diag;
+  ReadGpsCsv(
+      in, "gps0/data.csv", [&](const GpsSample& s, std::int64_t) { samples.push_back(s); }, &diag);
+  ASSERT_EQ(samples.size(), 2u);
+  ASSERT_TRUE(samples[0].velocity_enu.has_value());
+  EXPECT_EQ(*samples[0].velocity_enu, Eigen::Vector3d(1.25, -0.5, 0.125));
+  EXPECT_EQ(samples[0].sigma_velocity, 0.05);
+  EXPECT_FALSE(samples[1].velocity_enu.has_value());
+  EXPECT_EQ(Messages(diag),
+            (std::vector<std::string>{"error: gps0/data.csv:4: negative velocity sigma",
+                                      "error: gps0/data.csv:5: expected 11 columns, found 7"}));
+
+  // Written and read back: the columns appear only when a sample has a velocity.
+  testing::TempDir dir;
+  const std::string path = dir / "data.csv";
+  WriteGpsCsv(path, samples);
+  std::vector<GpsSample> back;
+  ReadGpsCsv(
+      path, [&](const GpsSample& s, std::int64_t) { back.push_back(s); }, nullptr);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(*back[0].velocity_enu, *samples[0].velocity_enu);
+  EXPECT_EQ(back[0].sigma_velocity, 0.05);
+  EXPECT_FALSE(back[1].velocity_enu.has_value());
+  samples[0].velocity_enu.reset();
+  WriteGpsCsv(path, samples);
+  std::ifstream file(path);
+  std::string header;
+  std::getline(file, header);
+  EXPECT_EQ(header, kGpsCsvHeader);
 }
 
 TEST(SensorCsvTest, ImageNamesMustStayInsideTheFolderAndBeUnique) {

@@ -267,19 +267,24 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     input.camera = &streams.camera->sensor.camera;
     input.body_from_camera = streams.camera->sensor.body_from_sensor;
   }
-  if (!streams.imu || streams.imu->samples.empty()) {
-    throw InputError(where + ": the session has no IMU samples");
+  // Row SLAM without an IMU (cam+rtk, cam+gps): the GP prior carries the motion here too.
+  if (problem.value("use_imu", true)) {
+    if (!streams.imu || streams.imu->samples.empty()) {
+      throw InputError(where + ": the session has no IMU samples");
+    }
+    const slam::ImuStream& imu = *streams.imu;
+    input.imu_samples = &imu.samples;
+    // The noise row SLAM used: sensor.yaml's times the factor the data asked for.
+    const double noise_factor = problem.value("imu_noise_factor", 1.0);
+    if (!(noise_factor > 0)) {
+      throw InputError(where + ": an IMU noise factor that is not positive");
+    }
+    input.imu_noise.gyro_noise_density = noise_factor * imu.sensor.gyroscope_noise_density;
+    input.imu_noise.accel_noise_density = noise_factor * imu.sensor.accelerometer_noise_density;
+    input.imu_noise.gyro_random_walk = noise_factor * imu.sensor.gyroscope_random_walk;
+    input.imu_noise.accel_random_walk = noise_factor * imu.sensor.accelerometer_random_walk;
+    input.imu_rate_hz = imu.sensor.rate_hz;
   }
-  const slam::ImuStream& imu = *streams.imu;
-  input.imu_samples = &imu.samples;
-  // The noise row SLAM used: sensor.yaml's times the factor the data asked for.
-  const double noise_factor = problem.value("imu_noise_factor", 1.0);
-  if (!(noise_factor > 0)) throw InputError(where + ": an IMU noise factor that is not positive");
-  input.imu_noise.gyro_noise_density = noise_factor * imu.sensor.gyroscope_noise_density;
-  input.imu_noise.accel_noise_density = noise_factor * imu.sensor.accelerometer_noise_density;
-  input.imu_noise.gyro_random_walk = noise_factor * imu.sensor.gyroscope_random_walk;
-  input.imu_noise.accel_random_walk = noise_factor * imu.sensor.accelerometer_random_walk;
-  input.imu_rate_hz = imu.sensor.rate_hz;
   const std::string gps_name = problem.value("gps", "");
   if (!gps_name.empty()) {
     const slam::GpsStream* gps = nullptr;
@@ -291,6 +296,10 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     for (const json& o : problem.at("gps_outages")) outages.push_back({o.at(0), o.at(1)});
     input.gps_fixes = ApplyGpsOutages(gps->fixes, outages);
     input.p_body_antenna = gps->sensor.antenna_in_body;
+  }
+  if (problem.contains("level_up_body") && !problem.at("level_up_body").is_null()) {
+    const std::vector<double> a = problem.at("level_up_body");
+    input.level_up_body = Eigen::Vector3d(a.at(0), a.at(1), a.at(2));
   }
   if (!problem.at("forward_axis_body").is_null()) {
     const std::vector<double> a = problem.at("forward_axis_body");

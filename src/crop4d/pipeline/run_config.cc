@@ -179,6 +179,17 @@ const std::vector<Key>& Keys() {
                      "inflate the stated IMU noise when the session's IMU + GPS fit misses the "
                      "fixes by more than 1.5 sigmas (false: warn only)",
                      [](RunConfig& c) -> bool& { return c.slam.imu_noise_auto; }));
+    k.push_back(Choice(
+        "slam", "passes",
+        "auto (row passes where the drive has rows, declared or clearly found; else one "
+        "trajectory), rows (every straight pass along the rows' axis) or whole (one trajectory)",
+        {"auto", "rows", "whole"},
+        [](RunConfig& c) -> std::string { return ToString(c.slam.pass_mode); },
+        [](RunConfig& c, const std::string& w) { c.slam.pass_mode = *ParsePassMode(w); }));
+    k.push_back(Double(
+        "slam", "max_window_s",
+        "a session processed as one trajectory is cut into windows of at most this many seconds",
+        [](RunConfig& c) -> double& { return c.slam.max_window_s; }, 30, 1e6));
     k.push_back(Bool("slam", "standstills",
                      "detect standstills (zero velocity, one pose while the rig stands still)",
                      [](RunConfig& c) -> bool& { return c.slam.standstills; }));

@@ -32,7 +32,8 @@ struct StageRecord {
   std::string name;
   // "done" (work was done), "up to date" (nothing to redo), "partial" (some items failed or
   // were skipped), "failed" (the stage could not run), "not run" (an earlier stage stopped the
-  // run, or the run was interrupted before it), "disabled" (by the configuration).
+  // run, or the run was interrupted before it), "disabled" (by the configuration), "nothing to
+  // do" (its inputs hold no work: associate without a pair of row passes).
   std::string status = "not run";
   double seconds = 0.0;
   int done = 0;

@@ -251,6 +251,13 @@ void SeasonRun::Associate(StageRecord& stage) {
   o.force = options_.force;
   o.show_progress = options_.show_progress;
   o.num_threads = config_.threads;
+  if (ScheduleAssociations(field_, ws_, o).empty()) {
+    // One camera pass per session and a single session (an EuRoC sequence, a drive processed as
+    // one trajectory), or no camera: fuse registers the passes without cross-pass matches.
+    stage.status = "nothing to do";
+    spdlog::info("associate: no pair of row passes with a camera: nothing to associate");
+    return;
+  }
   for (const PassPairReport& r : RunAssociateStage(field_, ws_, o)) {
     Item(stage, "",
          fmt::format("{}/{}__{}/{} ({})", r.pair.a.session, r.pair.a.pass, r.pair.b.session,

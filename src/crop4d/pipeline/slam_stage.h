@@ -35,6 +35,15 @@ struct GpsOutage {
   double duration_s = 0;
 };
 
+// How a session is cut into passes (`crop4d slam --passes`).
+enum class PassMode {
+  kAuto,   // row passes where the drive has rows (declared, or clearly found), else kWhole
+  kRows,   // the straight passes found along the dominant axis, even without a row structure
+  kWhole,  // the whole session as one trajectory, in windows of at most max_window_s
+};
+const char* ToString(PassMode mode);
+std::optional<PassMode> ParsePassMode(const std::string& text);
+
 struct SlamStageOptions {
   // Only this session (empty: every session of the field).
   std::string session;
@@ -77,6 +86,12 @@ struct SlamStageOptions {
     return o;
   }();
   slam::RowPassSegmenter::Options passes;
+  PassMode pass_mode = PassMode::kAuto;
+  // A session processed as one trajectory is cut into windows of at most this many seconds that
+  // overlap by window_overlap_s (slam::WholeDriveWindows): bounds a pass's memory and solve time
+  // (a 300 s window holds 2250 images at 7.5 Hz).
+  double max_window_s = 300.0;
+  double window_overlap_s = 15.0;
   slam::StateInitialiser::Options initialisation;
   slam::RowOptimiser::Options optimiser;
   // The output cloud: every track of ≥ 2 images triangulated from the final poses with these

@@ -83,6 +83,7 @@ class WalkTest : public ::testing::Test {
     const slam::GpsStream* gps = streams.FindGps(io::GpsKind::kRtk);
     ASSERT_NE(gps, nullptr);
     first_fix_ = gps->fixes.front().t;
+    imu_span_ = {streams.imu->samples.front().timestamp, streams.imu->samples.back().timestamp};
     fixed_ = new std::vector<eval::GnssFix>;
     for (const slam::GpsFixWorld& g : gps->fixes) {
       if (g.fix == io::GpsFix::kRtkFixed) {
@@ -120,6 +121,10 @@ class WalkTest : public ::testing::Test {
                     << (reports.empty() ? std::string("no pass") : reports[0].message);
       return {};
     }
+    // A walk has no rows: one trajectory over every IMU sample, nothing dropped.
+    EXPECT_EQ(reports[0].pass.id, "all");
+    EXPECT_EQ(reports[0].pass.t_begin, imu_span_.first);
+    EXPECT_EQ(reports[0].pass.t_end, imu_span_.second);
     if (noise_factor != nullptr) {
       std::ifstream in(reports[0].folder + "/summary.json");
       *noise_factor = nlohmann::json::parse(in).at("problem").at("imu_noise_factor");
@@ -131,11 +136,13 @@ class WalkTest : public ::testing::Test {
   static fs::path* dir_;
   static std::vector<eval::GnssFix>* fixed_;
   static Timestamp first_fix_;
+  static std::pair<Timestamp, Timestamp> imu_span_;
 };
 
 fs::path* WalkTest::dir_ = nullptr;
 std::vector<eval::GnssFix>* WalkTest::fixed_ = nullptr;
 Timestamp WalkTest::first_fix_ = 0;
+std::pair<Timestamp, Timestamp> WalkTest::imu_span_;
 
 // The comparison itself (eval/gnss_check.h) on a synthetic track: a body turning at a constant
 // rate while moving at constant velocity, the antenna on a lever arm.

@@ -27,7 +27,7 @@ namespace {
 
 std::string StatusBadge(const std::string& status) {
   std::string cls = "muted";
-  if (status == "done" || status == "up to date") cls = "ok";
+  if (status == "done" || status == "up to date" || status == "nothing to do") cls = "ok";
   if (status == "partial") cls = "warn";
   if (status == "failed") cls = "bad";
   return "<span class=\"badge " + cls + "\">" + E(status.empty() ? "?" : status) + "</span>";
@@ -281,6 +281,49 @@ Section Builder::RunSection() {
 
 // ---- skipped ---------------------------------------------------------------------------------
 
+// One row per pass whose summary.json carries trust flags: session, pass, the flags, what they
+// mean for the estimate.
+std::vector<std::vector<std::string>> Builder::UntrustedPasses() {
+  static const std::pair<const char*, const char*> kMeaning[] = {
+      {"heading_by_convention", "no GPS: the heading is a convention, not a measurement"},
+      {"origin_by_convention", "no GPS: the origin is the first body position"},
+      {"drift_without_gps", "no GPS: the position drifts with the distance travelled"},
+      {"gps_gap", "a GPS outage of more than 2 s inside the pass"},
+      {"noise_misfit", "the solve misses the GPS fixes by more than 1.5 sigmas"},
+      {"scale_from_metre_gps",
+       "no IMU, no precise receiver, no camera height: scale and heading from metre-level fixes"},
+  };
+  std::vector<std::vector<std::string>> rows;
+  std::error_code ec;
+  const fs::path sessions = WsPath("sessions");
+  std::vector<fs::path> summaries;
+  for (fs::directory_iterator s(sessions, ec), end; !ec && s != end; s.increment(ec)) {
+    std::error_code ec2;
+    for (fs::directory_iterator p(s->path() / "rows", ec2); !ec2 && p != end; p.increment(ec2)) {
+      if (fs::exists(p->path() / "summary.json")) summaries.push_back(p->path() / "summary.json");
+    }
+  }
+  std::sort(summaries.begin(), summaries.end());
+  for (const fs::path& path : summaries) {
+    const auto summary = ReadJson(path);
+    if (!summary) continue;
+    const json* trust = At(*summary, {"trust"});
+    if (trust == nullptr || !trust->is_array() || trust->empty()) continue;
+    std::string flags, meaning;
+    for (const json& flag : *trust) {
+      if (!flag.is_string()) continue;
+      const std::string name = flag.get<std::string>();
+      flags += (flags.empty() ? "" : ", ") + name;
+      for (const auto& [key, text] : kMeaning) {
+        if (name == key) meaning += (meaning.empty() ? "" : "; ") + std::string(text);
+      }
+    }
+    rows.push_back(
+        {E(Str(*summary, {"session"})), E(Str(*summary, {"pass"})), E(flags), E(meaning)});
+  }
+  return rows;
+}
+
 Section Builder::SkippedSection() {
   Section s{{"skipped", "What was skipped or degraded", false}, ""};
   std::string& h = s.html;
@@ -331,6 +374,13 @@ Section Builder::SkippedSection() {
                          : "No session is trusted: all were fused and analysed together.") +
          "</p>\n";
   }
+  // What row SLAM could not observe in each pass (summary.json "trust", docs/slam.md).
+  const std::vector<std::vector<std::string>> untrusted = UntrustedPasses();
+  if (!untrusted.empty()) {
+    h += "<h3>What row SLAM could not observe (WS/sessions/&lt;session&gt;/rows/&lt;pass&gt;/"
+         "summary.json)</h3>\n";
+    h += Table({"session", "pass", "flags", "meaning"}, untrusted, "llll", "skips");
+  }
   if (!skipped_.empty()) {
     h += "<h3>By this report</h3>\n<ul class=\"skips\">\n";
     for (const std::string& line : skipped_) h += "<li>" + E(line) + "</li>\n";
@@ -338,7 +388,7 @@ Section Builder::SkippedSection() {
   } else {
     h += Empty("The report read every input it found.");
   }
-  s.info.has_data = !rows.empty() || !degraded.empty() || !skipped_.empty();
+  s.info.has_data = !rows.empty() || !degraded.empty() || !untrusted.empty() || !skipped_.empty();
   return s;
 }
 

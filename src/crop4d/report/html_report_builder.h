@@ -80,6 +80,8 @@ class Builder {
 
   Section RunSection();
   Section SkippedSection();
+  // Passes whose summary.json says what row SLAM could not observe (trust flags).
+  std::vector<std::vector<std::string>> UntrustedPasses();
   Section MapSection();
   Section SlamSection();
   Section AssociationSection();

@@ -78,14 +78,15 @@ void MakeWorkspace(const TempDir& dir) {
       const std::string pd = sd + "/rows/row0" + std::to_string(row);
       fs::create_directories(pd);
       WritePoses(pd + "/poses.tum", row, t0 + row * 10'000'000'000LL);
-      WriteText(pd + "/summary.json",
-                R"({"session": ")" + std::string(session) + R"(", "pass": "row0)" +
-                    std::to_string(row) + R"(", "row": )" + std::to_string(row) +
-                    R"(, "direction": 1, "sensors": "cam+imu+rtk", "images": 41,
+      WriteText(
+          pd + "/summary.json", R"({"session": ")" + std::string(session) + R"(", "pass": "row0)" +
+                                    std::to_string(row) + R"(", "row": )" + std::to_string(row) +
+                                    R"(, "direction": 1, "sensors": "cam+imu+rtk", "images": 41,
                     "back_end": {"converged": true, "landmarks": 500,
                     "reprojection_rms_px": 0.45, "rejected_observations": 3,
                     "gps_factors": 40}, "cloud": {"points": 900},
-                    "seconds": {"total": 12.5}})");
+                    "trust": )" + (s == 1 && row == 1 ? R"(["gps_gap", "noise_misfit"])" : "[]") +
+                                    R"(, "seconds": {"total": 12.5}})");
     }
     WriteCloud(ws + "/fused/" + session + "/sparse.ply", 0.1 + 0.2 * s);
     WritePoses(ws + "/fused/" + session + "/poses.tum", 0, t0);
@@ -226,6 +227,11 @@ TEST(HtmlReportTest, ReportOfAHandWrittenWorkspace) {
   EXPECT_NE(html.find("Degraded sessions (WS/fused/quality.json)"), std::string::npos);
   EXPECT_NE(html.find("positioned with a metre-level GPS (cam+imu+gps) while 1 of 2"),
             std::string::npos);
+  // The pass whose summary.json has trust flags, with what they mean; no other pass.
+  EXPECT_NE(html.find("What row SLAM could not observe"), std::string::npos);
+  EXPECT_NE(html.find("gps_gap, noise_misfit"), std::string::npos);
+  EXPECT_NE(html.find("misses the GPS fixes by more than 1.5 sigmas"), std::string::npos);
+  EXPECT_EQ(Count(html, "gps_gap"), 1);
   // The broken dense summary is named in the page and in the result.
   EXPECT_NE(html.find("WS/dense/2016-06-15.json: not valid JSON"), std::string::npos);
   bool named = false;

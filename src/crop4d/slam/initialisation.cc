@@ -72,7 +72,14 @@ bool StateInitialiser::Options::Check() const {
 StateInitialiser::StateInitialiser(Options options, const ImuStream& imu, const GpsStream* gps)
     : options_(options), imu_(imu), gps_(gps) {
   if (!options_.Check()) throw std::invalid_argument("StateInitialiser: invalid options");
-  if (imu_.samples.empty()) throw std::invalid_argument("StateInitialiser: no IMU samples");
+}
+
+Eigen::Vector3d StateInitialiser::Rate(Timestamp t) const {
+  return has_imu() ? InterpolateImu(imu_.samples, t).gyro_body : Eigen::Vector3d::Zero();
+}
+
+Eigen::Matrix3d StateInitialiser::Turn(Timestamp from, Timestamp to) const {
+  return has_imu() ? GyroRotation(imu_.samples, from, to) : Eigen::Matrix3d::Identity();
 }
 
 void StateInitialiser::set_forward_axis(const Eigen::Vector3d& forward_axis_body) {
@@ -80,6 +87,7 @@ void StateInitialiser::set_forward_axis(const Eigen::Vector3d& forward_axis_body
 }
 
 Eigen::Vector3d StateInitialiser::UpInBody(Timestamp t) const {
+  if (!has_imu()) return Eigen::Vector3d::UnitZ();
   const std::vector<ImuSample>& s = imu_.samples;
   const Timestamp half = SecondsToTimestamp(options_.gravity_half_window_s);
   auto lo = std::lower_bound(s.begin(), s.end(), t - half,
@@ -114,7 +122,7 @@ Eigen::Vector3d StateInitialiser::EstimateForwardAxis(const Eigen::Vector3d& p_b
   out.num_alignment_windows = 0;
   out.forward_axis_fallback = true;
   forward_axis_body_ = Eigen::Vector3d::UnitX();
-  if (gps_ == nullptr || gps_->fixes.size() < 4) {
+  if (gps_ == nullptr || gps_->fixes.size() < 4 || !has_imu()) {
     out.forward_axis_body = forward_axis_body_;
     return forward_axis_body_;
   }
@@ -217,7 +225,7 @@ std::vector<RowState> StateInitialiser::Initialise(const std::vector<Timestamp>&
     if (!has_course[k]) continue;
     const Eigen::Vector3d up = UpInBody(times[k]);
     const Eigen::Matrix3d R = AttitudeFromCourse(up, track[k].velocity_world);
-    const Eigen::Vector3d rate = InterpolateImu(imu_.samples, times[k]).gyro_body;
+    const Eigen::Vector3d rate = Rate(times[k]);
     const Eigen::Vector3d corrected = track[k].velocity_world - R * rate.cross(p_body_antenna);
     if (Horizontal(corrected).norm() < options_.min_speed_for_course) {
       has_course[k] = false;
@@ -241,16 +249,16 @@ std::vector<RowState> StateInitialiser::Initialise(const std::vector<Timestamp>&
           geometry::Rigid3(Eigen::Quaterniond(AttitudeFromCourse(up, track[k].velocity_world)),
                            Eigen::Vector3d::Zero());
     } else {
-      const Eigen::Matrix3d R = states[k - 1].nav.world_from_body.RotationMatrix() *
-                                GyroRotation(imu_.samples, times[k - 1], times[k]);
+      const Eigen::Matrix3d R =
+          states[k - 1].nav.world_from_body.RotationMatrix() * Turn(times[k - 1], times[k]);
       states[k].nav.world_from_body =
           geometry::Rigid3(Eigen::Quaterniond(R).normalized(), Eigen::Vector3d::Zero());
       ++from_gyro;
     }
   }
   for (std::size_t k = k0; k-- > 0;) {
-    const Eigen::Matrix3d R = states[k + 1].nav.world_from_body.RotationMatrix() *
-                              GyroRotation(imu_.samples, times[k + 1], times[k]);
+    const Eigen::Matrix3d R =
+        states[k + 1].nav.world_from_body.RotationMatrix() * Turn(times[k + 1], times[k]);
     states[k].nav.world_from_body =
         geometry::Rigid3(Eigen::Quaterniond(R).normalized(), Eigen::Vector3d::Zero());
     ++from_gyro;
@@ -286,7 +294,7 @@ std::vector<RowState> StateInitialiser::Initialise(const std::vector<Timestamp>&
         states[k + 1].nav.world_from_body.translation() + dt * states[k].nav.vel_world);
   }
   for (std::size_t k = 0; k < times.size(); ++k) {
-    states[k].nav.rate_body = InterpolateImu(imu_.samples, times[k]).gyro_body;
+    states[k].nav.rate_body = Rate(times[k]);
   }
   if (summary != nullptr) {
     summary->forward_axis_body = forward_axis_body_;
@@ -302,7 +310,7 @@ RowState StateInitialiser::LocalLevelState(Timestamp t) const {
   s.nav.world_from_body = geometry::Rigid3(
       Eigen::Quaterniond(AttitudeFromCourse(UpInBody(t), Eigen::Vector3d::UnitX())),
       Eigen::Vector3d::Zero());
-  s.nav.rate_body = InterpolateImu(imu_.samples, t).gyro_body;
+  s.nav.rate_body = Rate(t);
   return s;
 }
 
@@ -317,7 +325,7 @@ std::vector<RowState> StateInitialiser::InitialiseFromAnchor(
         geometry::Rigid3(Eigen::Quaterniond(R).normalized(),
                          anchor.nav.world_from_body.translation() + dt * anchor.nav.vel_world);
     s.nav.vel_world = anchor.nav.vel_world;
-    s.nav.rate_body = InterpolateImu(imu_.samples, times[k]).gyro_body;
+    s.nav.rate_body = Rate(times[k]);
     s.bias = anchor.bias;
   };
   // The gyro is integrated outward from the anchor, one interval at a time (each sample once).
@@ -326,14 +334,14 @@ std::vector<RowState> StateInitialiser::InitialiseFromAnchor(
   Eigen::Matrix3d R = anchor.nav.world_from_body.RotationMatrix();
   Timestamp t = anchor.t;
   for (std::size_t k = first_after; k < times.size(); ++k) {
-    R = R * GyroRotation(imu_.samples, t, times[k]);
+    R = R * Turn(t, times[k]);
     t = times[k];
     fill(k, R);
   }
   R = anchor.nav.world_from_body.RotationMatrix();
   t = anchor.t;
   for (std::size_t k = first_after; k-- > 0;) {
-    R = R * GyroRotation(imu_.samples, t, times[k]);
+    R = R * Turn(t, times[k]);
     t = times[k];
     fill(k, R);
   }

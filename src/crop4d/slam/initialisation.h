@@ -81,7 +81,11 @@ class StateInitialiser {
     int num_states_without_gps = 0;
   };
 
+  // `imu` may be empty (a rig without an IMU: cam+rtk, cam+gps): then the body's z axis is taken
+  // as up (a level rig), angular rates are zero, attitudes between courses are held, and the
+  // forward axis is the body x axis.
   StateInitialiser(Options options, const ImuStream& imu, const GpsStream* gps);
+  bool has_imu() const { return !imu_.samples.empty(); }
 
   // The forward axis in the body frame, estimated over the whole session's streams (call once
   // per session; Initialise uses it). The GPS antenna sits at p_body_antenna: its velocity
@@ -115,6 +119,9 @@ class StateInitialiser {
  private:
   Eigen::Matrix3d AttitudeFromCourse(const Eigen::Vector3d& up_body,
                                      const Eigen::Vector3d& course_world) const;
+  // The gyro's rate at t, and its rotation from `from` to `to` (zero and identity without IMU).
+  Eigen::Vector3d Rate(Timestamp t) const;
+  Eigen::Matrix3d Turn(Timestamp from, Timestamp to) const;
 
   Options options_;
   const ImuStream& imu_;

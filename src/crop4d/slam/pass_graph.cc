@@ -14,6 +14,7 @@
 #include "crop4d/slam/pose_prior_factor.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/standstill.h"
+#include "crop4d/slam/tilt_prior_factor.h"
 
 namespace crop4d::slam {
 namespace {
@@ -150,6 +151,13 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
                               blocks_[0].bias);
   } else {
     for (StateBlocks& b : blocks_) problem->SetParameterBlockConstant(b.bias);
+    if (input_.level_up_body) {
+      for (StateBlocks& b : blocks_) {
+        problem->AddResidualBlock(
+            TiltPriorFactor::Create(*input_.level_up_body, options_.level_prior_sigma_rad), nullptr,
+            b.pose);
+      }
+    }
   }
   AddStandstills(problem, summary);
   int gps_factors = 0;

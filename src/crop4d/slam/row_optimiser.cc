@@ -102,10 +102,11 @@ bool RowOptimiser::Options::Check() const {
   return reprojection_sigma_px > 0 && reprojection_loss_scale > 0 &&
          max_reprojection_error_px > 0 && min_observations >= 2 && max_outliers_per_track >= 0 &&
          triangulation.Check() && gps_loss_scale > 0 && gp.Check() && bias_prior_sigma_gyro > 0 &&
-         bias_prior_sigma_accel > 0 && anchor_sigma_position > 0 && anchor_sigma_rotation > 0 &&
-         anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 && max_imu_gap_s > 0 &&
-         max_iterations > 0 && max_linear_iterations > 0 && function_tolerance > 0 &&
-         function_tolerance < 1 && num_threads >= 0 && camera_height.Check() && standstill.Check();
+         bias_prior_sigma_accel > 0 && level_prior_sigma_rad > 0 && anchor_sigma_position > 0 &&
+         anchor_sigma_rotation > 0 && anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 &&
+         max_imu_gap_s > 0 && max_iterations > 0 && max_linear_iterations > 0 &&
+         function_tolerance > 0 && function_tolerance < 1 && num_threads >= 0 &&
+         camera_height.Check() && standstill.Check();
 }
 
 RowOptimiser::RowOptimiser(Options options) : options_(std::move(options)) {

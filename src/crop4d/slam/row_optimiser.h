@@ -13,7 +13,8 @@
 //   - a prior on the first bias (turn-on bias of a MEMS IMU), and, without GPS, a prior on the
 //     pose and velocity of one state (Input::anchor_state) that fixes the gauge;
 //   - over a standstill (Input::still_intervals, standstill.h): one pose for consecutive states,
-//     zero velocity and zero angular rate.
+//     zero velocity and zero angular rate;
+//   - without an IMU, a weak prior per state that the rig is level (tilt_prior_factor.h).
 // Solving runs in phases: (1) without the camera (IMU + GP + GPS) to refine the initial states;
 // (2) landmarks triangulated from those poses, then the full problem; (3) observations whose
 // reprojection error exceeds 10 px removed, the IMU re-preintegrated at the estimated biases,
@@ -88,6 +89,9 @@ class RowOptimiser {
     // constraint of a ground vehicle, motion_constraint_factor.h), m/s; used when
     // Input::forward_axis_body is set.
     double motion_constraint_sigma = 0.05;
+    // Without an IMU: the standard deviation of the prior that Input::level_up_body points up,
+    // per state, rad (tilt_prior_factor.h).
+    double level_prior_sigma_rad = 0.1;
     // An interval whose IMU samples are further apart than this has no IMU factor, s.
     double max_imu_gap_s = 0.1;
     // The constraints of a standstill (its sigma_* fields; detection is the caller's).
@@ -136,6 +140,10 @@ class RowOptimiser {
     // starts moving without GPS does not know its velocity).
     int anchor_state = 0;
     std::optional<double> anchor_sigma_velocity;
+    // Without an IMU: the body axis that points up when the rig is level. Every state gets a weak
+    // prior that it does (Options::level_prior_sigma_rad): nothing else fixes a straight pass's
+    // rotation about its line of travel. Ignored with IMU samples (gravity observes the tilt).
+    std::optional<Eigen::Vector3d> level_up_body;
     // Per interval between consecutive states (empty, or one entry per interval): true when the
     // rig stands still over it (standstill.h).
     std::vector<bool> still_intervals;

@@ -174,6 +174,28 @@ Eigen::Vector2d InterpolatePosition(const std::vector<Fix>& fixes, double t) {
   return a.p + f * (b.p - a.p);
 }
 
+// Whether passes found without declared rows are a field's rows: most consecutive passes lie
+// on neighbouring rows (at most max_row_step apart across the axis) and overlap along it by at
+// least half the shorter one, as in a boustrophedon drive over one block of rows. Straight roads
+// of a drive also run along one axis, but they follow each other far apart or end to end.
+bool LooksLikeRows(const std::vector<RowPass>& passes, const Eigen::Vector2d& axis,
+                   const RowPassSegmenter::Options& o) {
+  if (static_cast<int>(passes.size()) < o.min_row_passes) return false;
+  int neighbours = 0;
+  for (size_t k = 1; k < passes.size(); ++k) {
+    const RowPass& a = passes[k - 1];
+    const RowPass& b = passes[k];
+    const double a0 = axis.dot(a.start_world), a1 = axis.dot(a.end_world);
+    const double b0 = axis.dot(b.start_world), b1 = axis.dot(b.end_world);
+    const double overlap =
+        std::min(std::max(a0, a1), std::max(b0, b1)) - std::max(std::min(a0, a1), std::min(b0, b1));
+    const double shorter = std::min(std::abs(a1 - a0), std::abs(b1 - b0));
+    const bool near = std::abs(b.row - a.row) <= o.max_row_step;
+    if (near && overlap >= 0.5 * shorter) ++neighbours;
+  }
+  return passes.size() < 2 || 2 * neighbours >= static_cast<int>(passes.size()) - 1;
+}
+
 std::string RowId(int row, int occurrence) {
   char buffer[32];
   if (occurrence <= 1) {
@@ -193,7 +215,8 @@ bool RowPassSegmenter::Options::Check() const {
          max_join_gap_s >= 0.0 && refine_max_noise_m >= 0.0 && max_row_distance_m >= 0.0 &&
          relative_matching_noise_m >= 0.0 && antenna_in_body_xy.allFinite() &&
          !std::isinf(row_axis_rad) && !std::isinf(lateral_origin_m) &&
-         min_row_time_fraction >= 0.0 && min_row_time_fraction <= 1.0;
+         min_row_time_fraction >= 0.0 && min_row_time_fraction <= 1.0 && min_row_passes >= 1 &&
+         max_row_step >= 1;
 }
 
 RowPassSegmenter::RowPassSegmenter(Options options) : options_(options) {
@@ -409,6 +432,22 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
       s.t_end = std::max(middle, coarse_end - 0.5 * window);
     }
   }
+  // The refined boundaries can move a short stretch's ends past each other (a curved road: the
+  // change point of the lateral offset lies anywhere inside it): measure again on the fitted
+  // track and drop what is now shorter than the minimum.
+  std::erase_if(stretches, [&](const Stretch& s) {
+    const auto begin = std::lower_bound(fixes.begin(), fixes.end(), s.t_begin,
+                                        [](const Fix& f, double t) { return f.t < t; });
+    const auto end = std::upper_bound(fixes.begin(), fixes.end(), s.t_end,
+                                      [](double t, const Fix& f) { return t < f.t; });
+    const int first = static_cast<int>(begin - fixes.begin());
+    const int last = static_cast<int>(end - fixes.begin()) - 1;
+    const bool too_short =
+        last <= first || s.direction * u.dot(p_fit[last] - p_fit[first]) < o.min_length_m;
+    if (too_short) ++sum.num_dropped_short;
+    return too_short;
+  });
+  if (stretches.empty()) return whole_session();
   for (Stretch& s : stretches) {
     double l = 0.0;
     int count = 0;
@@ -569,14 +608,64 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
     passes.push_back(std::move(pass));
   }
   if (passes.empty()) return whole_session();
-  if (declared_rows.empty()) {
+  if (declared_rows.empty() && o.require_row_structure) {
     // A few straight stretches in a recording that is mostly something else (a walk with turns,
     // a survey) are not a row structure: the whole session is one pass.
     double in_passes = 0.0;
     for (const RowPass& p : passes) in_passes += DurationSeconds(p.t_begin, p.t_end);
-    if (in_passes < options_.min_row_time_fraction * fixes.back().t) return whole_session();
+    if (in_passes < o.min_row_time_fraction * fixes.back().t) return whole_session();
+    if (!LooksLikeRows(passes, u, o)) return whole_session();
   }
   return passes;
+}
+
+std::vector<RowPass> WholeDriveWindows(Timestamp t_begin, Timestamp t_end,
+                                       const std::vector<TrackPoint>& track, double max_window_s,
+                                       double overlap_s) {
+  if (!(max_window_s > overlap_s) || !(overlap_s >= 0.0) || t_end < t_begin) {
+    throw std::invalid_argument("WholeDriveWindows: needs max_window_s > overlap_s >= 0");
+  }
+  const double duration = DurationSeconds(t_begin, t_end);
+  const int count =
+      duration <= max_window_s
+          ? 1
+          : static_cast<int>(std::ceil((duration - overlap_s) / (max_window_s - overlap_s)));
+  const double length = (duration + (count - 1) * overlap_s) / count;
+  // Position at t from the track (held at its ends), and the path length over [a, b].
+  auto position = [&](Timestamp t) -> Eigen::Vector2d {
+    if (track.empty()) return Eigen::Vector2d::Zero();
+    const auto it = std::lower_bound(track.begin(), track.end(), t,
+                                     [](const TrackPoint& p, Timestamp v) { return p.t < v; });
+    if (it == track.begin()) return track.front().position_world.head<2>();
+    if (it == track.end()) return track.back().position_world.head<2>();
+    const TrackPoint& a = *(it - 1);
+    const double w = DurationSeconds(a.t, t) / DurationSeconds(a.t, it->t);
+    return ((1.0 - w) * a.position_world + w * it->position_world).head<2>();
+  };
+  auto path_length = [&](Timestamp a, Timestamp b) {
+    double sum = 0.0;
+    Eigen::Vector2d previous = position(a);
+    for (const TrackPoint& p : track) {
+      if (p.t <= a || p.t >= b) continue;
+      sum += (p.position_world.head<2>() - previous).norm();
+      previous = p.position_world.head<2>();
+    }
+    return sum + (position(b) - previous).norm();
+  };
+  std::vector<RowPass> windows;
+  for (int k = 0; k < count; ++k) {
+    RowPass pass;
+    char id[32];
+    std::snprintf(id, sizeof(id), "all%02d", k);
+    pass.id = count == 1 ? "all" : id;
+    pass.t_begin = t_begin + SecondsToTimestamp(k * (length - overlap_s));
+    pass.t_end = k + 1 == count ? t_end : pass.t_begin + SecondsToTimestamp(length);
+    pass.start_world = position(pass.t_begin);
+    pass.end_world = position(pass.t_end);
+    pass.length_m = path_length(pass.t_begin, pass.t_end);
+    windows.push_back(std::move(pass));
+  }
+  return windows;
 }
 
 int FindPass(const std::vector<RowPass>& passes, Timestamp t) {

@@ -57,7 +57,10 @@
 // session covers every declared row; the boundaries are within ~1 s of the truth, mostly on
 // the inside.
 // A track with no straight run of min_length_m along one axis (a person walking in tight turns)
-// is one pass "all" (row −1, direction 0) over the whole session, flagged in the summary.
+// is one pass "all" (row −1, direction 0) over the whole session, flagged in the summary; so is,
+// without declared rows, a track whose straight passes do not look like a field's rows
+// (Options::min_row_passes, max_row_step: a car drive on roads). No pass is shorter than
+// min_length_m along the axis, also after its boundaries are refined.
 // Fewer than 2 fixes: an empty result. Non-finite positions or times not strictly increasing:
 // InputError.
 
@@ -145,6 +148,15 @@ class RowPassSegmenter {
     // it a session without row structure (one pass "all"): a boustrophedon drive spends more
     // than half its time in rows, a walk with a few straight stretches much less.
     double min_row_time_fraction = 0.3;
+    // Without declared rows, the passes are a field's rows only when there are at least this
+    // many and most consecutive ones are neighbours: at most max_row_step rows apart and
+    // overlapping along the rows by half the shorter one (a road drive has straight stretches
+    // along one axis too, but far apart or end to end). Otherwise the session is one pass.
+    int min_row_passes = 2;
+    int max_row_step = 3;
+    // False: take the straight passes found even when they do not look like rows (the three
+    // tests above off; `crop4d slam --passes rows`).
+    bool require_row_structure = true;
 
     bool Check() const;
   };
@@ -188,6 +200,15 @@ class RowPassSegmenter {
  private:
   Options options_;
 };
+
+// A session processed as one trajectory, [t_begin, t_end], cut into windows of at most
+// max_window_s seconds that overlap by overlap_s (so the passes join), all of the same length:
+// one pass "all" when it fits, else "all00", "all01", ... (row −1, direction 0). Positions and
+// path lengths from `track` (antenna or body fixes) when it is not empty. Bounding a pass bounds
+// the back end's memory and solve time on long drives; nothing of the drive is dropped.
+std::vector<RowPass> WholeDriveWindows(Timestamp t_begin, Timestamp t_end,
+                                       const std::vector<TrackPoint>& track, double max_window_s,
+                                       double overlap_s);
 
 // Index of the pass that contains t (t_begin ≤ t ≤ t_end), or −1. Passes in time order.
 int FindPass(const std::vector<RowPass>& passes, Timestamp t);

@@ -304,6 +304,136 @@ TEST(RowPassSegmenterTest, GpsOutageInsideAPassDoesNotSplitIt) {
   }
 }
 
+// A car drive on roads (no rows): straight roads on a north-south / east-west grid, 20 to 400
+// m long, joined by turns of 8 to 30 m radius and by gentle curves, at 4 to 20 m/s with stops
+// at some junctions; RTK antenna fixes at 5 Hz (1 cm noise). Like the real drive of issue 25:
+// long straight stretches along one axis, hundreds of metres apart across it.
+std::vector<TrackPoint> MakeRoadDrive(std::uint64_t seed, double duration_s = 900.0) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<TrackPoint> track;
+  Eigen::Vector2d p = Eigen::Vector2d::Zero();
+  double heading = 0.5 * M_PI * std::floor(4.0 * uniform(random));
+  double t = 0.0, next_fix = 0.0;
+  constexpr double kDt = 0.01, kFixPeriod = 0.2;
+  // Advances the car over `duration` s at speed v (m/s) and yaw rate w (rad/s).
+  auto drive = [&](double duration, double v, double w) {
+    for (double s = 0.0; s < duration && t < duration_s; s += kDt, t += kDt) {
+      heading += w * kDt;
+      p += v * kDt * Eigen::Vector2d(std::cos(heading), std::sin(heading));
+      if (t >= next_fix) {
+        track.push_back(
+            {kStart + SecondsToTimestamp(t),
+             Eigen::Vector3d(p.x() + 0.01 * normal(random), p.y() + 0.01 * normal(random), 0.0)});
+        next_fix += kFixPeriod;
+      }
+    }
+  };
+  drive(5.0, 0.0, 0.0);  // standing at the start
+  while (t < duration_s) {
+    const double v = 4.0 + 16.0 * uniform(random);
+    const double length = 20.0 + 380.0 * uniform(random);
+    if (uniform(random) < 0.3) {  // a gentle curve: 10 to 30 degrees over the road
+      const double bend =
+          (uniform(random) < 0.5 ? -1 : 1) * (10.0 + 20.0 * uniform(random)) * M_PI / 180.0;
+      drive(length / v, v, bend / (length / v));
+      drive(length / v, v, -bend / (length / v));
+    } else {
+      drive(length / v, v, 0.0);
+    }
+    if (uniform(random) < 0.3) drive(2.0 + 20.0 * uniform(random), 0.0, 0.0);  // a junction
+    const double radius = 8.0 + 22.0 * uniform(random);
+    const double turn_v = std::min(v, 6.0);
+    const double turn = (uniform(random) < 0.5 ? -0.5 : 0.5) * M_PI;
+    drive(std::abs(turn) * radius / turn_v, turn_v, turn_v / radius * (turn > 0 ? 1 : -1));
+    heading = 0.5 * M_PI * std::round(heading / (0.5 * M_PI));  // back on the grid
+  }
+  return track;
+}
+
+TEST(RowPassSegmenterTest, RoadDriveIsOneTrajectoryAndNoPassIsShorterThanTheMinimum) {
+  for (std::uint64_t seed : {1, 2, 3, 4, 5, 6}) {
+    SCOPED_TRACE(seed);
+    const std::vector<TrackPoint> track = MakeRoadDrive(seed);
+    RowPassSegmenter::Summary summary;
+    const std::vector<RowPass> passes = RowPassSegmenter({}).Segment(track, {}, &summary);
+    ASSERT_EQ(passes.size(), 1u);
+    EXPECT_TRUE(summary.whole_session);
+    EXPECT_EQ(passes[0].t_begin, track.front().t);
+    EXPECT_EQ(passes[0].t_end, track.back().t);
+    // Taking the straight stretches anyway (--passes rows): none is shorter than the minimum,
+    // also after the boundaries are refined (the tiny passes of issue 25).
+    RowPassSegmenter::Options rows;
+    rows.require_row_structure = false;
+    const std::vector<RowPass> straight = RowPassSegmenter(rows).Segment(track, {}, &summary);
+    EXPECT_GT(straight.size(), 5u);
+    for (const RowPass& p : straight) {
+      SCOPED_TRACE(p.id);
+      EXPECT_GE(p.length_m, rows.min_length_m - 0.5);
+      EXPECT_GT(Seconds(p.t_end) - Seconds(p.t_begin), 0.2);
+    }
+  }
+}
+
+TEST(RowPassSegmenterTest, FieldRowsWithoutDeclarationsAreStillRows) {
+  // The boustrophedon drives of the other tests look like rows; a single straight pass does not.
+  const Drive drive = MakeDrive(6, 20.0, 3);
+  for (const auto& [gps, name] : {std::pair{Rtk(), "rtk"}, std::pair{LowAccuracy(), "standard"}}) {
+    SCOPED_TRACE(name);
+    RowPassSegmenter::Summary summary;
+    const std::vector<RowPass> passes =
+        RowPassSegmenter(OptionsFor(gps))
+            .Segment(MakeTrack(*drive.trajectory, gps, 3), {}, &summary);
+    EXPECT_EQ(passes.size(), drive.trajectory->passes().size());
+    EXPECT_FALSE(summary.whole_session);
+  }
+  std::vector<TrackPoint> line;
+  for (int k = 0; k < 200; ++k) {
+    line.push_back({kStart + k * 200 * kNanosPerMillisecond, Eigen::Vector3d(0, 0.2 * k, 0)});
+  }
+  RowPassSegmenter::Summary summary;
+  EXPECT_EQ(RowPassSegmenter({}).Segment(line, {}, &summary).front().id, "all");
+  EXPECT_TRUE(summary.whole_session);
+}
+
+TEST(WholeDriveWindowsTest, EqualOverlappingWindowsCoverTheDrive) {
+  const std::vector<TrackPoint> track = MakeRoadDrive(2, 700.0);
+  const Timestamp begin = track.front().t, end = track.back().t;
+  const std::vector<RowPass> one = WholeDriveWindows(begin, end, track, 1000.0, 15.0);
+  ASSERT_EQ(one.size(), 1u);
+  EXPECT_EQ(one[0].id, "all");
+  EXPECT_EQ(one[0].t_begin, begin);
+  EXPECT_EQ(one[0].t_end, end);
+  double path = 0.0;
+  for (size_t k = 1; k < track.size(); ++k) {
+    path += (track[k].position_world - track[k - 1].position_world).head<2>().norm();
+  }
+  EXPECT_NEAR(one[0].length_m, path, 1e-6 * path);
+
+  const std::vector<RowPass> windows = WholeDriveWindows(begin, end, track, 300.0, 15.0);
+  ASSERT_EQ(windows.size(), 3u);  // ~700 s: 3 windows of (700 + 2 · 15) / 3 s
+  const double expected = (TimestampToSeconds(end - begin) + 2 * 15.0) / 3;
+  EXPECT_EQ(windows[0].id, "all00");
+  EXPECT_EQ(windows[2].id, "all02");
+  EXPECT_EQ(windows.front().t_begin, begin);
+  EXPECT_EQ(windows.back().t_end, end);
+  double covered = 0.0;
+  for (size_t k = 0; k < windows.size(); ++k) {
+    const double length = TimestampToSeconds(windows[k].t_end - windows[k].t_begin);
+    EXPECT_LE(length, 300.0);
+    EXPECT_NEAR(length, expected, 1e-6);
+    EXPECT_EQ(windows[k].row, -1);
+    if (k > 0) {
+      EXPECT_NEAR(TimestampToSeconds(windows[k - 1].t_end - windows[k].t_begin), 15.0, 1e-6);
+    }
+    covered += windows[k].length_m;
+    EXPECT_LT((windows[k].start_world - Eigen::Vector2d::Zero()).norm(), 1e5);
+  }
+  EXPECT_GT(covered, path);  // the overlaps count twice
+  EXPECT_THROW(WholeDriveWindows(begin, end, track, 10.0, 10.0), std::invalid_argument);
+}
+
 TEST(RowPassSegmenterTest, FindPassReturnsTheContainingPass) {
   std::vector<RowPass> passes(2);
   passes[0].t_begin = 10;

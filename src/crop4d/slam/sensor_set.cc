@@ -4,7 +4,7 @@ namespace crop4d::slam {
 namespace {
 
 constexpr SensorSet kAll[] = {SensorSet::kCamImuRtk, SensorSet::kCamImuGps, SensorSet::kCamImu,
-                              SensorSet::kImuRtk};
+                              SensorSet::kImuRtk,    SensorSet::kCamRtk,    SensorSet::kCamGps};
 
 }  // namespace
 
@@ -28,6 +28,18 @@ SensorSetInfo Describe(SensorSet set) {
       info.gps = true;
       info.gps_kind = io::GpsKind::kRtk;
       break;
+    case SensorSet::kCamRtk:
+      info.camera = true;
+      info.imu = false;
+      info.gps = true;
+      info.gps_kind = io::GpsKind::kRtk;
+      break;
+    case SensorSet::kCamGps:
+      info.camera = true;
+      info.imu = false;
+      info.gps = true;
+      info.gps_kind = io::GpsKind::kStandard;
+      break;
   }
   return info;
 }
@@ -42,6 +54,10 @@ const char* ToString(SensorSet set) {
       return "cam+imu";
     case SensorSet::kImuRtk:
       return "imu+rtk";
+    case SensorSet::kCamRtk:
+      return "cam+rtk";
+    case SensorSet::kCamGps:
+      return "cam+gps";
   }
   return "?";
 }

@@ -1,7 +1,9 @@
 #pragma once
 
 // The sensor sets of row SLAM (`crop4d slam --sensors`), so that each sensor's contribution can
-// be measured: cam+imu+rtk, cam+imu+gps (the low-accuracy receiver), cam+imu, imu+rtk.
+// be measured: cam+imu+rtk, cam+imu+gps (the low-accuracy receiver), cam+imu, imu+rtk, and for
+// rigs without an IMU cam+rtk and cam+gps (the Gaussian-process prior alone carries the motion
+// between images, as in the paper's factor graph).
 
 #include <optional>
 #include <string>
@@ -11,7 +13,7 @@
 
 namespace crop4d::slam {
 
-enum class SensorSet { kCamImuRtk, kCamImuGps, kCamImu, kImuRtk };
+enum class SensorSet { kCamImuRtk, kCamImuGps, kCamImu, kImuRtk, kCamRtk, kCamGps };
 
 struct SensorSetInfo {
   bool camera = false;

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <utility>
 
 #include "crop4d/core/error.h"
@@ -19,6 +21,22 @@ namespace fs = std::filesystem;
 
 bool Selected(const std::vector<std::string>& sessions, const std::string& session) {
   return sessions.empty() || std::find(sessions.begin(), sessions.end(), session) != sessions.end();
+}
+
+// Whether a row pass of the session says its frame is set by convention (summary.json "trust"
+// holds origin_by_convention: a session without GPS).
+bool SessionFrameByConvention(const std::string& workspace, const std::string& session) {
+  std::error_code ec;
+  const fs::path rows = fs::path(workspace) / "sessions" / session / "rows";
+  for (fs::directory_iterator it(rows, ec), end; !ec && it != end; it.increment(ec)) {
+    std::ifstream in(it->path() / "summary.json");
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+    if (!j.is_object() || !j.contains("trust") || !j["trust"].is_array()) continue;
+    for (const nlohmann::json& flag : j["trust"]) {
+      if (flag.is_string() && flag.get<std::string>() == "origin_by_convention") return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace
@@ -64,9 +82,16 @@ FusedEval EvaluateFusedTrajectories(const std::string& workspace, const std::str
                          fmt::format("none of its {} poses can be compared with {}",
                                      estimate.size(), s.truth_file));
       }
-      s.metrics = ComputeTrajectoryMetrics(associated.estimate, associated.truth, options);
+      std::vector<geometry::Rigid3> estimate_poses = associated.estimate;
+      s.frame_by_convention = SessionFrameByConvention(workspace, session);
+      if (s.frame_by_convention) {
+        const geometry::Rigid3 truth_from_local =
+            AlignYawTranslation(estimate_poses, associated.truth);
+        for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
+      }
+      s.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options);
       for (int k = 0; k < associated.size(); ++k) {
-        all_estimate.push_back(associated.estimate[k].translation());
+        all_estimate.push_back(estimate_poses[k].translation());
         all_truth.push_back(associated.truth[k].translation());
       }
       ++eval.num_evaluated;

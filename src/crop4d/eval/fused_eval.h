@@ -31,6 +31,9 @@ struct FusedSessionEval {
   std::string error;       // non-empty: not evaluated
   int estimate_poses = 0;
   int exact = 0, interpolated = 0, dropped = 0;  // association by time (AssociateByTime)
+  // The session's frame is set by convention (its row passes say origin_by_convention: no GPS):
+  // its poses are first taken to the truth's frame by AlignYawTranslation, as for its passes.
+  bool frame_by_convention = false;
   TrajectoryMetrics metrics;
 
   bool ok() const { return error.empty(); }

@@ -289,6 +289,21 @@ TEST_F(StageEvalTest, EvaluatesAssociationsFusionAndClouds) {
   }
 }
 
+TEST_F(StageEvalTest, AFusedSessionWithoutGpsIsAlignedByHeadingAndShift) {
+  // Session 1's passes say its frame is a convention (no GPS): its fused poses, 1 cm off, are
+  // aligned by heading and shift first; session 2 keeps its 1 cm.
+  WriteFusedAndClouds();
+  testing::WriteFile(workspace() + "/sessions/" + kS1 + "/rows/row00/summary.json",
+                     R"({"pose_frame": "camera", "trust": ["origin_by_convention"]})");
+  const WorkspaceEval eval = EvaluateWorkspace(workspace(), field(), NoRendering());
+  ASSERT_TRUE(eval.fused.has_value());
+  ASSERT_EQ(eval.fused->sessions.size(), 2u);
+  EXPECT_TRUE(eval.fused->sessions[0].frame_by_convention);
+  EXPECT_LT(eval.fused->sessions[0].metrics.ate_raw_m.rmse, 1e-6);
+  EXPECT_FALSE(eval.fused->sessions[1].frame_by_convention);
+  EXPECT_NEAR(eval.fused->sessions[1].metrics.ate_raw_m.rmse, 0.01, 1e-5);
+}
+
 TEST_F(StageEvalTest, SectionsAppearOnlyWithTheirInputs) {
   // Only fused outputs: no row pass needed, no association section.
   WriteFusedAndClouds();

@@ -237,6 +237,7 @@ json FusedJson(const FusedEval& fused) {
     item["session"] = s.session;
     item["poses_file"] = s.poses_file;
     item["truth_file"] = s.truth_file;
+    item["frame_by_convention"] = s.frame_by_convention;
     item["error"] = s.ok() ? json(nullptr) : json(s.error);
     item["association"] = {{"estimate_poses", s.estimate_poses},
                            {"exact", s.exact},
@@ -946,7 +947,7 @@ std::string FormatFusedTable(const WorkspaceEval& eval) {
   if (eval.fused) {
     const FusedEval& f = *eval.fused;
     std::size_t w = 7;
-    for (const FusedSessionEval& s : f.sessions) w = std::max(w, s.session.size());
+    for (const FusedSessionEval& s : f.sessions) w = std::max(w, s.session.size() + 1);
     out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n", "fused", w, "N", "ATE raw cm",
                        "ATE aligned cm", "rot deg");
     for (const FusedSessionEval& s : f.sessions) {
@@ -954,8 +955,9 @@ std::string FormatFusedTable(const WorkspaceEval& eval) {
         out += fmt::format("{:<{}}  error: {}\n", s.session, w, s.error);
         continue;
       }
-      out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n", s.session, w,
-                         s.metrics.num_poses, Cm(s.metrics.ate_raw_m), Cm(s.metrics.ate_aligned_m),
+      out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n",
+                         s.session + (s.frame_by_convention ? "*" : ""), w, s.metrics.num_poses,
+                         Cm(s.metrics.ate_raw_m), Cm(s.metrics.ate_aligned_m),
                          Value(s.metrics.rotation_deg, "{:.3f}"));
     }
     out += fmt::format("{:<{}}  {:>6}  {:>10}  {:>14}  {:>7}\n",

@@ -102,6 +102,26 @@ TEST_F(WorkspaceEvalTest, EvaluatesEveryPassAgainstItsTruth) {
   EXPECT_EQ(eval.passes[o.worst_pass].pass, "0");
 }
 
+TEST_F(WorkspaceEvalTest, APassInAFrameSetByConventionIsAlignedByHeadingAndShift) {
+  // The camera pass (3 cm east of the truth) as a pass without GPS would say it: its frame is a
+  // convention, so the offset is aligned away before the "raw" errors; the table marks it.
+  const std::string summary_path = PassDir("2016-05-25", "0") + "summary.json";
+  nlohmann::json summary = nlohmann::json::parse(ReadAll(summary_path));
+  summary["trust"] = {"heading_by_convention", "origin_by_convention"};
+  WriteFile(summary_path, summary.dump());
+  const WorkspaceEval eval = EvaluateWorkspace(workspace(), field());
+  const PassEval& camera = Find(eval, "2016-05-25", "0");
+  ASSERT_TRUE(camera.ok()) << camera.error;
+  EXPECT_TRUE(camera.frame_by_convention);
+  EXPECT_LT(camera.metrics.ate_raw_m.rmse, 1e-5);
+  EXPECT_LT(camera.metrics.rotation_deg.max, 1e-5);
+  // The other pass keeps its 1 cm.
+  EXPECT_NEAR(Find(eval, "2016-05-25", "1").metrics.ate_raw_m.rmse, 0.01, 1e-4);
+  const std::string table = FormatWorkspaceEvalTable(eval);
+  EXPECT_NE(table.find("0*"), std::string::npos) << table;
+  EXPECT_NE(table.find("* no GPS"), std::string::npos) << table;
+}
+
 TEST_F(WorkspaceEvalTest, WritesMetricsJson) {
   const WorkspaceEval eval = EvaluateWorkspace(workspace(), field());
   const std::string path = WriteWorkspaceEval(eval);

@@ -33,7 +33,8 @@ struct StageRecord {
   // "done" (work was done), "up to date" (nothing to redo), "partial" (some items failed or
   // were skipped), "failed" (the stage could not run), "not run" (an earlier stage stopped the
   // run, or the run was interrupted before it), "disabled" (by the configuration), "nothing to
-  // do" (its inputs hold no work: associate without a pair of row passes).
+  // do" (its inputs hold no work: associate without a pair of row passes, analyze on a field
+  // without measurement sites).
   std::string status = "not run";
   double seconds = 0.0;
   int done = 0;

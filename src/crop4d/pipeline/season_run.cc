@@ -316,6 +316,15 @@ void SeasonRun::Analyze(StageRecord& stage) {
   AnalyzeStageOptions o = config_.analyze;
   o.force = options_.force;
   if (!config_.densify) o.cloud = "sparse";
+  if (o.sites_file.empty() && io::Field(field_).info().sites.empty()) {
+    // A recording that is not a crop trial (a walk, an EuRoC sequence, a survey) has no sites:
+    // nothing to measure, and the rest of the run stands.
+    stage.status = "nothing to do";
+    spdlog::info(
+        "analyze: the field declares no measurement sites (field.yaml `sites`, or "
+        "analyze.sites_file): no crop analysis");
+    return;
+  }
   const AnalyzeReport report = RunAnalyzeStage(field_, ws_, o);
   Item(stage, "",
        fmt::format("{} sessions, {} site estimates", report.sessions.size(), report.sites.size()),

@@ -657,7 +657,7 @@ TEST_F(SeasonRunTest, ASessionNamedWithASpaceRunsThroughEveryStage) {
   fs::create_directories(field / "sessions");
   fs::create_directories(field / "ground_truth");
   std::string yaml = Slurp(ThreeSessionField() / "field.yaml");
-  for (const std::string& other : {"2016-06-24", "2016-07-08"}) {
+  for (const std::string other : {"2016-06-24", "2016-07-08"}) {
     const std::string line = "  - \"" + other + "\"\n";
     yaml.erase(yaml.find(line), line.size());
   }

@@ -197,11 +197,10 @@ std::vector<io::StampedPose> RunStage(const Args& a, const std::string& field,
   // Overlapping windows of a long trajectory: each time once, in order.
   std::sort(poses.begin(), poses.end(),
             [](const io::StampedPose& x, const io::StampedPose& y) { return x.t < y.t; });
-  poses.erase(std::unique(poses.begin(), poses.end(),
-                          [](const io::StampedPose& x, const io::StampedPose& y) {
-                            return x.t == y.t;
-                          }),
-              poses.end());
+  poses.erase(
+      std::unique(poses.begin(), poses.end(),
+                  [](const io::StampedPose& x, const io::StampedPose& y) { return x.t == y.t; }),
+      poses.end());
   return poses;
 }
 
@@ -225,14 +224,13 @@ int main(int argc, char** argv) {
     Timestamp t0 = 0;
     Eigen::Vector3d antenna;
     const std::vector<eval::GnssFix> fixes = FixedEpochs(field, session, &t0, &antenna);
-    std::printf(
-        "%s/%s: %zu RTK-fixed epochs; antenna (%.3f, %.3f, %.3f) m, states %.0f Hz%s\n\n",
-        field.c_str(), session.c_str(), fixes.size(), antenna.x(), antenna.y(), antenna.z(),
-        a.state_rate_hz,
-        a.field.empty()
-            ? fmt::format("; IMU noise x{:.3g}, bias walk x{:.3g}", a.noise_factor, a.walk_factor)
-                  .c_str()
-            : "");
+    std::printf("%s/%s: %zu RTK-fixed epochs; antenna (%.3f, %.3f, %.3f) m, states %.0f Hz%s\n\n",
+                field.c_str(), session.c_str(), fixes.size(), antenna.x(), antenna.y(), antenna.z(),
+                a.state_rate_hz,
+                a.field.empty() ? fmt::format("; IMU noise x{:.3g}, bias walk x{:.3g}",
+                                              a.noise_factor, a.walk_factor)
+                                      .c_str()
+                                : "");
 
     double seconds = 0;
     {
@@ -259,9 +257,9 @@ int main(int argc, char** argv) {
     std::printf("|---|---|---|---|---|---|---|---|\n");
     for (std::size_t w = 0; w < a.windows.size(); ++w) {
       const pipeline::GpsOutage& g = a.windows[w];
-      const std::vector<io::StampedPose> poses = RunStage(
-          a, field, session, (fs::path(a.work) / ("ws_" + std::to_string(w))).string(), {g},
-          &seconds);
+      const std::vector<io::StampedPose> poses =
+          RunStage(a, field, session, (fs::path(a.work) / ("ws_" + std::to_string(w))).string(),
+                   {g}, &seconds);
       const std::vector<eval::GnssResidual> residuals =
           eval::CompareWithFixes(poses, fixes, antenna);
       const eval::GnssResidualStats s =

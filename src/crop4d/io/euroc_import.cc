@@ -273,10 +273,7 @@ EurocImportSummary ImportEuroc(const EurocImportOptions& o) {
   const fs::path field_folder(o.field_folder);
   const fs::path session_folder = NewSessionFolder(o.field_folder, id, o.overwrite);
   summary.session_folder = session_folder.string();
-  std::optional<FieldInfo> field;
-  if (fs::exists(field_folder / kFieldYaml, ec)) {
-    field = ReadFieldYaml((field_folder / kFieldYaml).string());
-  }
+  std::optional<FieldInfo> field = ExistingField(o.field_folder);
 
   // ---- write the session into a hidden folder, then move it into place ----
   const fs::path staging =

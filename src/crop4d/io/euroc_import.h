@@ -9,7 +9,7 @@
 // field's ground truth for `crop4d eval`: `ground_truth/<session>/body_poses.tum`,
 // `cam<N>_poses.tum` at the image times, `imu_biases.csv`.
 //
-// EuRoC has no GPS: a new field gets the placeholder origin 0°, 0°, 0 m unless one is given (the
+// EuRoC has no GPS: a new field gets the conventional origin 0°, 0°, 0 m unless one is given (the
 // positions of a session without GPS are in its own local level frame; docs/slam.md).
 //
 // Everything is read and checked before anything is written; the session is written into a
@@ -34,7 +34,7 @@ struct EurocImportOptions {
   std::string session_id;
   // Name for a new field.yaml (default: the folder's name).
   std::string field_name;
-  // Origin of a new field (default 0°, 0°, 0 m: a placeholder, the sequence has no GPS).
+  // Origin of a new field (default 0°, 0°, 0 m by convention: the sequence has no GPS).
   std::optional<geometry::GeodeticPoint> origin;
   // Replace an existing session folder instead of refusing.
   bool overwrite = false;

@@ -570,9 +570,8 @@ ExifImportSummary ImportExifFolder(const ExifImportOptions& o) {
   const fs::path field_folder(o.field_folder);
   const fs::path session_folder = NewSessionFolder(o.field_folder, id, o.overwrite);
   summary.session_folder = session_folder.string();
-  std::optional<FieldInfo> field;
-  if (fs::exists(field_folder / kFieldYaml, ec)) {
-    field = ReadFieldYaml((field_folder / kFieldYaml).string());
+  std::optional<FieldInfo> field = ExistingField(o.field_folder);
+  if (field) {
     summary.origin = field->origin;
   } else if (o.origin) {
     summary.origin = *o.origin;

@@ -245,6 +245,13 @@ std::string NewSessionFolder(const std::string& field_folder, const std::string&
   return folder.string();
 }
 
+std::optional<FieldInfo> ExistingField(const std::string& field_folder) {
+  std::error_code ec;
+  const fs::path yaml = fs::path(field_folder) / kFieldYaml;
+  if (!fs::exists(yaml, ec)) return std::nullopt;
+  return ReadFieldYaml(yaml.string());
+}
+
 void MoveIntoPlace(const std::string& staging, const std::string& session_folder) {
   std::error_code ec;
   if (fs::exists(session_folder, ec)) fs::remove_all(session_folder);

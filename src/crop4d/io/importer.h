@@ -135,6 +135,9 @@ Timestamp DayOf(Timestamp t);
 std::string NewSessionFolder(const std::string& field_folder, const std::string& id,
                              bool overwrite);
 
+// The field.yaml of `field_folder` when it has one (throws InputError on a broken file).
+std::optional<FieldInfo> ExistingField(const std::string& field_folder);
+
 // An import's session, written into the hidden `staging` folder, replaces `session_folder`.
 void MoveIntoPlace(const std::string& staging, const std::string& session_folder);
 

@@ -27,14 +27,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::string& TinyField() {
-  static const std::string path = [] {
-    sim::SimConfig config = sim::PresetConfig("tiny");
-    config.sessions.resize(1);
-    return sim::testing::CachedSimulatedField("tiny_one_session", config);
-  }();
-  return path;
-}
+const std::string& TinyField() { return sim::testing::TinyOneSessionField(); }
 
 class ImageFolderTest : public ::testing::Test {
  protected:

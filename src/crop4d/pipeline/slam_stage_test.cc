@@ -25,15 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The tiny preset's first session, simulated once per build tree.
-const std::string& TinyField() {
-  static const std::string path = [] {
-    sim::SimConfig config = sim::PresetConfig("tiny");
-    config.sessions.resize(1);
-    return sim::testing::CachedSimulatedField("tiny_one_session", config);
-  }();
-  return path;
-}
+const std::string& TinyField() { return sim::testing::TinyOneSessionField(); }
 
 class SlamStageTest : public ::testing::Test {
  protected:

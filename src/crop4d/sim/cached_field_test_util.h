@@ -43,4 +43,15 @@ inline std::string CachedSimulatedField(const std::string& name, const SimConfig
   return folder.string();
 }
 
+// The tiny preset's first session (two row passes of ~50 images at 320×240), simulated once per
+// build tree: the field of the row-SLAM stage tests.
+inline const std::string& TinyOneSessionField() {
+  static const std::string path = [] {
+    SimConfig config = PresetConfig("tiny");
+    config.sessions.resize(1);
+    return CachedSimulatedField("tiny_one_session", config);
+  }();
+  return path;
+}
+
 }  // namespace crop4d::sim::testing

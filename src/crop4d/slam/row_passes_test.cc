@@ -428,9 +428,20 @@ TEST(WholeDriveWindowsTest, EqualOverlappingWindowsCoverTheDrive) {
       EXPECT_NEAR(TimestampToSeconds(windows[k - 1].t_end - windows[k].t_begin), 15.0, 1e-6);
     }
     covered += windows[k].length_m;
-    EXPECT_LT((windows[k].start_world - Eigen::Vector2d::Zero()).norm(), 1e5);
+    // Its ends lie on the track: within one fix interval (0.2 s at ≤ 20 m/s) of the fix nearest
+    // in time.
+    for (const auto& [t, p] : {std::pair{windows[k].t_begin, windows[k].start_world},
+                               std::pair{windows[k].t_end, windows[k].end_world}}) {
+      const auto near = std::min_element(track.begin(), track.end(),
+                                         [t = t](const TrackPoint& a, const TrackPoint& b) {
+                                           return std::abs(a.t - t) < std::abs(b.t - t);
+                                         });
+      EXPECT_LT((p - near->position_world.head<2>()).norm(), 4.0 + 0.05);
+    }
   }
   EXPECT_GT(covered, path);  // the overlaps count twice
+  EXPECT_EQ(windows.front().start_world, track.front().position_world.head<2>());
+  EXPECT_EQ(windows.back().end_world, track.back().position_world.head<2>());
   EXPECT_THROW(WholeDriveWindows(begin, end, track, 10.0, 10.0), std::invalid_argument);
 }
 

@@ -762,10 +762,7 @@ BagImportSummary ImportBag(const BagImportOptions& o) {
   }
   // Checked before the bag is read when the id is given; else once the first stamp names it.
   if (!o.session_id.empty()) NewSessionFolder(o.field_folder, o.session_id, o.overwrite);
-  std::optional<FieldInfo> field;
-  if (fs::exists(field_folder / kFieldYaml, ec)) {
-    field = ReadFieldYaml((field_folder / kFieldYaml).string());
-  }
+  std::optional<FieldInfo> field = ExistingField(o.field_folder);
 
   // ---- what to read: topics and cameras' calibration ----
   const BagReader bag(o.bag_path);
@@ -846,7 +843,7 @@ BagImportSummary ImportBag(const BagImportOptions& o) {
       }
       if (!found) {
         summary.origin = geometry::GeodeticPoint{0, 0, 0};
-        summary.origin_placeholder = true;
+        summary.origin_by_convention = true;
       }
     }
     MoveIntoPlace(staging.string(), session_folder.string());
@@ -885,7 +882,7 @@ std::string FormatBagImportSummary(const BagImportSummary& s) {
   }
   out += fmt::format("  field origin {:.9f}, {:.9f}, {:.3f} m{}{}\n", s.origin.lat_deg,
                      s.origin.lon_deg, s.origin.alt_m,
-                     s.origin_placeholder ? " (placeholder: no GPS and no --origin)" : "",
+                     s.origin_by_convention ? " (by convention: no GPS and no --origin)" : "",
                      s.field_created ? " (new field.yaml, no rows)" : "");
   return out;
 }

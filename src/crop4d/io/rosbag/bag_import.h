@@ -52,8 +52,8 @@ struct BagImportOptions {
   std::string session_id;
   // Name for a new field.yaml (default: the folder's name).
   std::string field_name;
-  // Origin of a new field (default: the first GPS sample with a fix; 0°, 0°, 0 m, a placeholder,
-  // when the bag has no GPS).
+  // Origin of a new field (default: the first GPS sample with a fix; without GPS the
+  // conventional origin 0°, 0°, 0 m, docs/import.md).
   std::optional<geometry::GeodeticPoint> origin;
   // Replace an existing session folder instead of refusing.
   bool overwrite = false;
@@ -99,9 +99,9 @@ struct BagImportSummary {
   std::string bag_path;
   bool field_created = false;
   bool field_sessions_updated = false;
-  geometry::GeodeticPoint origin;   // the field's origin
-  bool origin_placeholder = false;  // 0°, 0°, 0 m written because nothing gave one
-  Timestamp date = 0;               // the session's date (midnight UTC)
+  geometry::GeodeticPoint origin;     // the field's origin
+  bool origin_by_convention = false;  // 0°, 0°, 0 m written: no GPS and no --origin
+  Timestamp date = 0;                 // the session's date (midnight UTC)
   BagStamp stamp = BagStamp::kHeader;
   struct Sensor {
     std::string name;         // "cam0"

@@ -491,8 +491,8 @@ TEST_F(BagImportTest, ImuWithoutCalibrationGetsTheDefaults) {
   EXPECT_EQ(imu.gyroscope_noise_density, 3e-4);
   EXPECT_EQ(imu.accelerometer_noise_density, BagImportOptions().accelerometer_noise_density);
   EXPECT_TRUE(imu.body_from_sensor.rotation().isApprox(Eigen::Quaterniond::Identity()));
-  // No GPS: the placeholder origin, as for EuRoC.
-  EXPECT_TRUE(summary.origin_placeholder);
+  // No GPS: the conventional origin 0°, 0°, 0 m, as for EuRoC.
+  EXPECT_TRUE(summary.origin_by_convention);
   EXPECT_EQ(ReadFieldYaml(dir_ / "imported/field.yaml").origin.lat_deg, 0.0);
 }
 

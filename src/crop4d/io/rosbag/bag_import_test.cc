@@ -1,5 +1,6 @@
 // ROS 1 bag import: the tests write their own bags (BagWriter, the same library) from the sample
-// session (sample_field.h) and from hand-made messages, import them and compare.
+// session (sample_field.h, through session_bag_writer.h) and from hand-made messages, import
+// them and compare.
 
 #include "crop4d/io/rosbag/bag_import.h"
 
@@ -19,6 +20,7 @@
 #include "crop4d/io/dataset_format.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/rosbag/ros_bag.h"
+#include "crop4d/io/rosbag/session_bag_writer.h"
 #include "crop4d/io/sample_field.h"
 #include "crop4d/io/test_helpers.h"
 
@@ -26,116 +28,22 @@ namespace crop4d::io {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::ImageMessage;
+using testing::ImageMode;
 using testing::ReadLines;
 using testing::ReadText;
+using testing::SessionBagOptions;
 using testing::TempDir;
+using testing::UseSessionCalibration;
+using testing::WriteSessionBag;
 using testing::WriteText;
 
 constexpr const char* kSessionId = "2016-05-25";
 constexpr Timestamp kT0 = 1464184800000000000;  // 2016-05-25 14:00 UTC
 
-enum class ImageMode { kRaw, kCompressed };
-
-struct SessionBagOptions {
-  BagCompression compression = BagCompression::kNone;
-  ImageMode images = ImageMode::kRaw;
-  BagTime receive_delay_ns = 2000000;  // record time = header stamp + this
-};
-
 std::vector<std::uint8_t> ReadBytes(const std::string& path) {
   const std::string text = ReadText(path);
   return std::vector<std::uint8_t>(text.begin(), text.end());
-}
-
-RosImage ImageMessage(const cv::Mat& image, Timestamp t, const std::string& encoding,
-                      std::uint32_t padding = 0) {
-  RosImage m;
-  m.stamp = t;
-  m.frame_id = "cam0";
-  m.width = static_cast<std::uint32_t>(image.cols);
-  m.height = static_cast<std::uint32_t>(image.rows);
-  m.encoding = encoding;
-  const std::uint32_t row = static_cast<std::uint32_t>(image.cols * image.elemSize());
-  m.step = row + padding;
-  m.data.assign(static_cast<std::size_t>(m.step) * m.height, 0xAB);
-  for (int r = 0; r < image.rows; ++r) {
-    std::memcpy(m.data.data() + static_cast<std::size_t>(r) * m.step, image.ptr(r), row);
-  }
-  return m;
-}
-
-// Writes every sensor of a session folder (written by WriteSampleField) into a bag: cam0 ->
-// /cam0/image_raw (or .../compressed), imu0 -> /imu0/data, gps0 -> /gps0/fix, mag0 -> /mag0/mag.
-void WriteSessionBag(const std::string& session_folder, const std::string& bag_path,
-                     const SessionBagOptions& options) {
-  const Session session(session_folder);
-  BagWriter bag(bag_path, options.compression);
-  const BagTime delay = options.receive_delay_ns;
-  for (const ImageEntry& e : session.ReadImageList("cam0")) {
-    const std::string path = session.ImagePath("cam0", e.filename);
-    if (options.images == ImageMode::kRaw) {
-      const cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-      bag.Write("/cam0/image_raw", e.t + delay, ImageMessage(image, e.t, "bgr8"));
-    } else {
-      RosCompressedImage m;
-      m.stamp = e.t;
-      m.format = fs::path(path).extension() == ".png" ? "png" : "jpeg";
-      m.data = ReadBytes(path);
-      bag.Write("/cam0/image_raw/compressed", e.t + delay, m);
-    }
-  }
-  for (const ImuSample& s : session.ReadImu("imu0")) {
-    RosImu m;
-    m.stamp = s.t;
-    m.angular_velocity = {s.gyro.x(), s.gyro.y(), s.gyro.z()};
-    m.linear_acceleration = {s.accel.x(), s.accel.y(), s.accel.z()};
-    bag.Write("/imu0/data", s.t + delay, m);
-  }
-  for (const GpsSample& s : session.ReadGps("gps0")) {
-    RosNavSatFix m;
-    m.stamp = s.t;
-    m.latitude = s.position.lat_deg;
-    m.longitude = s.position.lon_deg;
-    m.altitude = s.position.alt_m;
-    switch (s.fix) {
-      case GpsFix::kNone:
-        m.status = RosNavSatFix::kStatusNoFix;
-        break;
-      case GpsFix::kSingle:
-        m.status = RosNavSatFix::kStatusFix;
-        break;
-      case GpsFix::kDgps:
-        m.status = RosNavSatFix::kStatusSbasFix;
-        break;
-      case GpsFix::kRtkFixed:
-      case GpsFix::kRtkFloat:  // ROS drivers report RTK float as GBAS_FIX too
-        m.status = RosNavSatFix::kStatusGbasFix;
-        break;
-    }
-    m.position_covariance = {s.sigma_h * s.sigma_h, 0, 0, 0, s.sigma_h * s.sigma_h, 0, 0, 0,
-                             s.sigma_v * s.sigma_v};
-    m.position_covariance_type = RosNavSatFix::kCovarianceDiagonalKnown;
-    bag.Write("/gps0/fix", s.t + delay, m);
-  }
-  for (const MagSample& s : session.ReadMag("mag0")) {
-    RosMagneticField m;
-    m.stamp = s.t;
-    m.magnetic_field = {s.field_ut.x() * 1e-6, s.field_ut.y() * 1e-6, s.field_ut.z() * 1e-6};
-    bag.Write("/mag0/mag", s.t + delay, m);
-  }
-  bag.Close();
-}
-
-// The calibration of the sample session's sensors, as --sensor-yaml would give it.
-void UseSessionCalibration(const std::string& session_folder, BagImportOptions* o) {
-  const fs::path s(session_folder);
-  o->cameras["cam0"] = ReadCameraSensorYaml((s / "cam0" / kSensorYaml).string());
-  o->imus["imu0"] = ReadImuSensorYaml((s / "imu0" / kSensorYaml).string());
-  o->gps["gps0"] = ReadGpsSensorYaml((s / "gps0" / kSensorYaml).string());
-  o->mags["mag0"] = ReadMagSensorYaml((s / "mag0" / kSensorYaml).string());
-  for (const char* sensor : {"cam0", "imu0", "gps0", "mag0"}) {
-    o->sensor_yaml_files[sensor] = (s / sensor / kSensorYaml).string();
-  }
 }
 
 CameraSensor Camera(int width, int height) {
@@ -196,9 +104,16 @@ TEST_P(BagRoundTripTest, SessionComesBackByteForByte) {
   const std::string bag = dir_ / "session.bag";
   SessionBagOptions bag_options;
   bag_options.compression = GetParam();
-  WriteSessionBag(original_session(), bag, bag_options);
+  const std::map<std::string, std::string> topics =
+      WriteSessionBag(original_session(), bag, bag_options);
+  EXPECT_EQ(topics, (std::map<std::string, std::string>{{"cam0", "/cam0/image_raw"},
+                                                        {"gps0", "/gps0/fix"},
+                                                        {"imu0", "/imu0/data"},
+                                                        {"mag0", "/mag0/mag"}}));
+  // The topics are not named: the importer picks the bag's only topic of each kind.
   BagImportOptions o = Options(bag);
   UseSessionCalibration(original_session(), &o);
+  EXPECT_EQ(o.sensor_yaml_files.size(), 4u);
   // The original field's origin (--origin): the same ENU frame, so `crop4d run` sees the same
   // input (the default, the first GPS fix, is tested below).
   const FieldInfo original_field_info = ReadFieldYaml(original_field() + "/field.yaml");

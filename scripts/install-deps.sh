@@ -21,6 +21,8 @@ PACKAGES=(
   librosbag-storage-dev libsensor-msgs-dev libexiv2-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev chromium
+  # gdalinfo, gdal_translate and GDAL's COG validator (python3-gdal) for the raster tests
+  gdal-bin
   # headless OpenGL 3.3 through EGL (Mesa llvmpipe, surfaceless platform)
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libgbm1
 )

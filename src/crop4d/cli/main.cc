@@ -7,10 +7,10 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/allocator.h"
+#include "crop4d/core/build_info.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
-#include "crop4d/core/version.h"
 
 namespace {
 
@@ -57,7 +57,8 @@ int main(int argc, char** argv) {
       "crop4d — 4D crop monitoring: registered 3D models of a field over a season, and "
       "the crop measurements that follow.",
       "crop4d"};
-  app.set_version_flag("--version", std::string("crop4d ") + crop4d::kVersion);
+  // "crop4d 0.1.0 (commit 83319cf, Release)": version, git commit, build type.
+  app.set_version_flag("--version", crop4d::VersionLine());
   app.require_subcommand(1);
   int verbose = 0;
   bool quiet = false;

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <regex>
 #include <string>
 
 #include "crop4d/io/sample_field.h"
@@ -195,6 +196,27 @@ TEST(MainTest, VersionHelpAndUsageErrors) {
   RunResult version = RunCrop4d(dir, "--version");
   EXPECT_EQ(version.exit_code, 0);
   EXPECT_EQ(version.out.rfind("crop4d ", 0), 0u) << version.out;
+  // The version, the commit the binary was built from and the build type (core/build_info.h):
+  // "crop4d 0.1.0 (commit 83319cf, Release)", "-dirty" after the hash when the checkout had
+  // changes, "unknown" outside a git checkout.
+  const std::string build_type =
+      std::string(CROP4D_BUILD_TYPE).empty() ? "unspecified" : CROP4D_BUILD_TYPE;
+  const std::regex line(R"(crop4d \d+\.\d+\.\d+ \(commit ([0-9a-f]{7,}(-dirty)?|unknown), )" +
+                        build_type + R"(\)\n)");
+  std::smatch match;
+  ASSERT_TRUE(std::regex_match(version.out, match, line)) << version.out;
+  // Built from a git checkout (with git at hand): the commit is one of the checkout's.
+  const std::string source = CROP4D_SOURCE_DIR;
+  if (fs::exists(fs::path(source) / ".git") && std::system("git --version >/dev/null 2>&1") == 0) {
+    const std::string commit = match[1].str();
+    ASSERT_NE(commit, "unknown") << version.out;
+    const std::string hash = commit.substr(0, commit.find('-'));
+    EXPECT_EQ(
+        std::system(
+            ("git -C " + Quote(source) + " cat-file -e " + hash + "^{commit} 2>/dev/null").c_str()),
+        0)
+        << hash << " is not a commit of " << source;
+  }
 
   RunResult help = RunCrop4d(dir, "--help");
   EXPECT_EQ(help.exit_code, 0);

@@ -81,8 +81,9 @@ struct DatasetCloser {
 };
 using DatasetPtr = std::unique_ptr<GDALDataset, DatasetCloser>;
 
-// The WKT of a WGS 84 / UTM EPSG code; PROJ finds it in proj.db.
-std::string WktOfEpsg(int epsg, const std::string& path, const GdalErrors& errors) {
+// The spatial reference of a WGS 84 / UTM EPSG code; PROJ finds it in proj.db. It keeps its
+// EPSG authority, which the GeoTIFF writer stores as ProjectedCSTypeGeoKey.
+OGRSpatialReference SrsOfEpsg(int epsg, const std::string& path, const GdalErrors& errors) {
   OGRSpatialReference srs;
   if (srs.importFromEPSG(epsg) != OGRERR_NONE) {
     throw InputError(path, 0,
@@ -90,14 +91,16 @@ std::string WktOfEpsg(int epsg, const std::string& path, const GdalErrors& error
                          " in PROJ's database (" + errors.Message("no message") +
                          "); is proj.db installed (Debian package proj-data)?");
   }
-  char* wkt = nullptr;
-  const OGRErr error = srs.exportToWkt(&wkt);
-  std::string text = wkt != nullptr ? wkt : "";
-  CPLFree(wkt);
-  if (error != OGRERR_NONE || text.empty()) {
-    throw InputError(path, 0, "cannot export the CRS EPSG:" + std::to_string(epsg) + " as WKT");
+  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  return srs;
+}
+
+// Removes the temporary files of a failed write (the copy and the COG driver's overview file).
+void RemoveTemporaries(const std::string& tmp_path) {
+  std::error_code ignored;
+  for (const char* suffix : {"", ".ovr.tmp", ".msk.ovr.tmp", ".aux.xml"}) {
+    fs::remove(tmp_path + suffix, ignored);
   }
-  return text;
 }
 
 }  // namespace
@@ -217,6 +220,17 @@ std::vector<Eigen::Vector2d> FieldUtm::EnuCellCentres(const UtmGrid& grid) const
 
 // ---- writing --------------------------------------------------------------------------------
 
+int GeoTiffOverviewCount(int width, int height) {
+  int side = std::max(width, height);
+  if (side <= 1) return 0;
+  int count = 0;
+  while (side > kGeoTiffTileSize) {
+    side = (side + 1) / 2;
+    ++count;
+  }
+  return std::max(count, 1);
+}
+
 void WriteGeoTiff(const std::string& path, const UtmGrid& grid, const std::vector<float>& values,
                   const GeoTiffWriteOptions& options) {
   CROP4D_CHECK(grid.Check());
@@ -236,57 +250,88 @@ void WriteGeoTiff(const std::string& path, const UtmGrid& grid, const std::vecto
     }
   }
   if (fs::is_directory(path, ec)) throw InputError(path, 0, "cannot write: it is a folder");
-  const std::string wkt = WktOfEpsg(grid.epsg, path, errors);
+  const OGRSpatialReference srs = SrsOfEpsg(grid.epsg, path, errors);
 
-  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
-  if (driver == nullptr) throw InputError(path, 0, "GDAL has no GTiff driver");
-  CPLStringList create_options;
-  if (options.compress) {
-    create_options.SetNameValue("COMPRESS", "DEFLATE");
-    create_options.SetNameValue("PREDICTOR", "3");  // floating-point predictor
-    create_options.SetNameValue("TILED", "YES");
-    create_options.SetNameValue("BLOCKXSIZE", "256");
-    create_options.SetNameValue("BLOCKYSIZE", "256");
+  GDALDriver* mem_driver = GetGDALDriverManager()->GetDriverByName("MEM");
+  GDALDriver* cog_driver = GetGDALDriverManager()->GetDriverByName("COG");
+  if (mem_driver == nullptr || cog_driver == nullptr) {
+    throw InputError(path, 0, "GDAL has no MEM or COG driver (GDAL 3.1 or later is needed)");
   }
-  create_options.SetNameValue("BIGTIFF", "IF_SAFER");
-
   const std::string tmp_path = TemporaryPath(path);
   auto fail = [&](const std::string& what) {
-    std::error_code ignored;
-    fs::remove(tmp_path, ignored);
+    RemoveTemporaries(tmp_path);
     return InputError(path, 0, what + ": " + errors.Message("unknown GDAL error"));
   };
+
+  // The source: an in-memory dataset over `values` (no copy; only read by the COG driver, which
+  // builds the overviews in a temporary file of its own).
+  DatasetPtr source(mem_driver->Create("", grid.width, grid.height, 0, GDT_Float32, nullptr));
+  if (!source) throw fail("cannot create the in-memory raster");
   {
-    DatasetPtr dataset(driver->Create(tmp_path.c_str(), grid.width, grid.height, 1, GDT_Float32,
-                                      create_options.List()));
-    if (!dataset) throw fail("cannot create the GeoTIFF");
-    double transform[6] = {grid.min_easting,  grid.cell_m, 0.0,
-                           grid.max_northing, 0.0,         -grid.cell_m};
-    GDALRasterBand* band = dataset->GetRasterBand(1);
-    bool ok = dataset->SetGeoTransform(transform) == CE_None &&
-              dataset->SetProjection(wkt.c_str()) == CE_None &&
-              dataset->SetMetadataItem("AREA_OR_POINT", "Area") == CE_None &&
-              band->SetNoDataValue(double(options.nodata)) == CE_None;
-    for (const auto& [key, value] : options.metadata) {
-      ok = ok && dataset->SetMetadataItem(key.c_str(), value.c_str()) == CE_None;
+    char pointer[64] = {};
+    CPLPrintPointer(pointer, const_cast<float*>(values.data()), sizeof(pointer) - 1);
+    CPLStringList band_options;
+    band_options.SetNameValue("DATAPOINTER", pointer);
+    band_options.SetNameValue("PIXELOFFSET", std::to_string(sizeof(float)).c_str());
+    band_options.SetNameValue("LINEOFFSET",
+                              std::to_string(sizeof(float) * std::size_t(grid.width)).c_str());
+    if (source->AddBand(GDT_Float32, band_options.List()) != CE_None) {
+      throw fail("cannot create the in-memory raster");
     }
-    if (ok && !options.description.empty()) band->SetDescription(options.description.c_str());
-    ok = ok &&
-         band->RasterIO(GF_Write, 0, 0, grid.width, grid.height, const_cast<float*>(values.data()),
-                        grid.width, grid.height, GDT_Float32, 0, 0, nullptr) == CE_None;
-    if (!ok) {
-      dataset.reset();
-      throw fail("cannot write the GeoTIFF");
-    }
-    // Closing flushes the blocks to disk; a failure (disk full) is reported through `errors`.
   }
-  if (errors.failed()) throw fail("cannot write the GeoTIFF");
+  double transform[6] = {grid.min_easting, grid.cell_m, 0.0, grid.max_northing, 0.0, -grid.cell_m};
+  GDALRasterBand* band = source->GetRasterBand(1);
+  bool ok = source->SetGeoTransform(transform) == CE_None &&
+            source->SetSpatialRef(&srs) == CE_None &&
+            source->SetMetadataItem("AREA_OR_POINT", "Area") == CE_None &&
+            band->SetNoDataValue(double(options.nodata)) == CE_None;
+  for (const auto& [key, value] : options.metadata) {
+    ok = ok && source->SetMetadataItem(key.c_str(), value.c_str()) == CE_None;
+  }
+  if (ok && !options.description.empty()) band->SetDescription(options.description.c_str());
+  if (!ok) throw fail("cannot set up the in-memory raster");
+
+  CPLStringList create_options;
+  const char* compress = options.compress ? "DEFLATE" : "NONE";
+  create_options.SetNameValue("COMPRESS", compress);
+  create_options.SetNameValue("OVERVIEW_COMPRESS", compress);
+  if (options.compress) {
+    create_options.SetNameValue("PREDICTOR", "FLOATING_POINT");  // TIFF predictor 3
+    create_options.SetNameValue("OVERVIEW_PREDICTOR", "FLOATING_POINT");
+  }
+  create_options.SetNameValue("BLOCKSIZE", std::to_string(kGeoTiffTileSize).c_str());
+  const int overviews = GeoTiffOverviewCount(grid.width, grid.height);
+  if (overviews > 0) {
+    create_options.SetNameValue("OVERVIEWS", "IGNORE_EXISTING");
+    create_options.SetNameValue("OVERVIEW_COUNT", std::to_string(overviews).c_str());
+    create_options.SetNameValue("OVERVIEW_RESAMPLING", "AVERAGE");
+  } else {
+    create_options.SetNameValue("OVERVIEWS", "NONE");
+  }
+  create_options.SetNameValue("BIGTIFF", "IF_SAFER");
+  {
+    DatasetPtr written(cog_driver->CreateCopy(tmp_path.c_str(), source.get(), /*bStrict=*/FALSE,
+                                              create_options.List(), nullptr, nullptr));
+    if (!written) throw fail("cannot write the Cloud-Optimized GeoTIFF");
+    // Closing flushes the file; a failure (disk full) is reported through `errors`.
+  }
+  if (errors.failed()) throw fail("cannot write the Cloud-Optimized GeoTIFF");
   fs::rename(tmp_path, path, ec);
   if (ec) {
-    std::error_code ignored;
-    fs::remove(tmp_path, ignored);
+    RemoveTemporaries(tmp_path);
     throw InputError(path, 0, "cannot rename the temporary file into place: " + ec.message());
   }
+}
+
+std::vector<float> RasterDifference(const std::vector<float>& later,
+                                    const std::vector<float>& earlier, float nodata) {
+  CROP4D_CHECK(later.size() == earlier.size());
+  const auto missing = [nodata](float v) { return std::isnan(v) || v == nodata; };
+  std::vector<float> difference(later.size());
+  for (std::size_t i = 0; i < later.size(); ++i) {
+    difference[i] = missing(later[i]) || missing(earlier[i]) ? nodata : later[i] - earlier[i];
+  }
+  return difference;
 }
 
 // ---- reading --------------------------------------------------------------------------------
@@ -355,6 +400,11 @@ GeoTiffRaster ReadGeoTiff(const std::string& path) {
   const double nodata = band->GetNoDataValue(&has_nodata);
   if (has_nodata) raster.nodata = float(nodata);
   raster.description = band->GetDescription();
+  raster.overviews = band->GetOverviewCount();
+  const char* layout = dataset->GetMetadataItem("LAYOUT", "IMAGE_STRUCTURE");
+  const char* compression = dataset->GetMetadataItem("COMPRESSION", "IMAGE_STRUCTURE");
+  raster.layout = layout != nullptr ? layout : "";
+  raster.compression = compression != nullptr ? compression : "";
   for (char** item = dataset->GetMetadata(); item != nullptr && *item != nullptr; ++item) {
     char* key = nullptr;
     const char* value = CPLParseNameValue(*item, &key);

@@ -1,7 +1,9 @@
 #pragma once
 
 // GeoTIFF rasters in the UTM zone of the field (DESIGN.md §5: "GeoTIFF rasters in a projected
-// CRS (QGIS)"), written and read with GDAL.
+// CRS (QGIS)"), written and read with GDAL. Every raster is written as a Cloud-Optimized GeoTIFF
+// (GDAL's COG driver: 256×256 tiles, overviews, DEFLATE with the floating-point predictor, the
+// nodata value, the CRS as its EPSG code), which QGIS, GDAL and web map servers open directly.
 //
 // crop4d works in the field's local East-North-Up frame; a north-up UTM grid is not aligned with
 // it (grid convergence: the UTM grid north turns away from true north by up to a few degrees,
@@ -99,17 +101,40 @@ struct GeoTiffWriteOptions {
   // Dataset metadata items (gdalinfo "Metadata:"), e.g. {"session", "2016-05-25"}. Keys are
   // non-empty, without '=' or white space, and not AREA_OR_POINT (CHECK).
   std::map<std::string, std::string> metadata;
-  // DEFLATE compression with the floating-point predictor, in 256×256 tiles.
+  // DEFLATE compression with the floating-point predictor (TIFF predictor 3), of the image and
+  // of its overviews; false: uncompressed.
   bool compress = true;
 };
 
-// Writes a one-band Float32 GeoTIFF of `values` (row-major, row 0 north, grid.num_cells();
-// CHECK) georeferenced by `grid`: the geotransform of UtmGrid and the EPSG CRS (pixel is
-// area). Atomic (io/atomic_file.h): GDAL writes "<path>.tmp.<pid>.<n>" in the same folder,
-// which is then renamed over `path`; missing parent folders are created. Throws InputError
-// naming `path` when it cannot be written (the temporary file is removed).
+// The side of the square tiles of the written COGs, cells.
+inline constexpr int kGeoTiffTileSize = 256;
+
+// The number of overviews WriteGeoTiff gives a width × height raster: halvings of the larger
+// side until it fits one tile (GDAL's rule), and at least one for any raster of more than one
+// cell, so that every raster has a reduced-resolution level (QGIS never offers to build
+// "pyramids"). 0 for a single cell.
+int GeoTiffOverviewCount(int width, int height);
+
+// Writes a one-band Float32 Cloud-Optimized GeoTIFF of `values` (row-major, row 0 north,
+// grid.num_cells(); CHECK) georeferenced by `grid`: the geotransform of UtmGrid, the CRS as its
+// EPSG code (ProjectedCSTypeGeoKey, so that QGIS recognises it without asking) and pixel is area.
+// The values go into an in-memory (MEM) dataset with the nodata value, description and metadata,
+// which GDAL's COG driver copies into the file: kGeoTiffTileSize tiles, GeoTiffOverviewCount
+// overviews averaged from the cells with data (AVERAGE resampling skips nodata), the
+// compression of `options`, and the ghost header that marks the layout (gdalinfo shows
+// IMAGE_STRUCTURE LAYOUT=COG). Atomic (io/atomic_file.h): GDAL writes "<path>.tmp.<pid>.<n>"
+// (and, while it builds the overviews, "<that>.ovr.tmp") in the same folder, which is then
+// renamed over `path`; missing parent folders are created. Throws InputError naming `path` when
+// it cannot be written (the temporary files are removed).
 void WriteGeoTiff(const std::string& path, const UtmGrid& grid, const std::vector<float>& values,
                   const GeoTiffWriteOptions& options = {});
+
+// `later` − `earlier`, cell by cell (the same grid: equal sizes, CHECK), e.g. the change of the
+// canopy height between two sessions. A cell that is NaN or `nodata` in either raster is
+// `nodata` in the result.
+std::vector<float> RasterDifference(const std::vector<float>& later,
+                                    const std::vector<float>& earlier,
+                                    float nodata = std::numeric_limits<float>::quiet_NaN());
 
 struct GeoTiffRaster {
   UtmGrid grid;
@@ -118,6 +143,12 @@ struct GeoTiffRaster {
   std::string description;  // of the band
   // Dataset metadata items of the default domain, without GDAL's AREA_OR_POINT.
   std::map<std::string, std::string> metadata;
+  // How the file is laid out: GDAL's IMAGE_STRUCTURE items LAYOUT ("COG" for a Cloud-Optimized
+  // GeoTIFF, "" otherwise) and COMPRESSION ("DEFLATE", "" when uncompressed), and the number of
+  // overviews of the band.
+  std::string layout;
+  std::string compression;
+  int overviews = 0;
 };
 
 // Reads a GeoTIFF written by WriteGeoTiff (or any one-band, north-up, square-celled GeoTIFF in

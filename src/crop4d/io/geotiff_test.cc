@@ -1,13 +1,19 @@
 #include "crop4d/io/geotiff.h"
 
+#include <gdal.h>
 #include <gdal_priv.h>
 #include <gtest/gtest.h>
 #include <ogr_spatialref.h>
+#include <ogr_srs_api.h>
+#include <sys/wait.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <memory>
+#include <string>
+#include <utility>
 
 #include "crop4d/core/error.h"
 #include "crop4d/geometry/enu.h"
@@ -363,6 +369,200 @@ TEST(GeoTiffTest, ReadRejectsFilesThatAreNotUtmGeoTiffs) {
   EXPECT_THROW(ReadGeoTiff(make("two_bands.tif", 2, north_up, 32617)), InputError);
   EXPECT_THROW(ReadGeoTiff(make("rotated.tif", 1, rotated, 32617)), InputError);
   EXPECT_THROW(ReadGeoTiff(make("geographic.tif", 1, degrees, 4326)), InputError);
+}
+
+// ---- Cloud-Optimized GeoTIFF ------------------------------------------------------------------
+
+// A grid larger than one tile (600 × 300 cells: two overviews, 300 × 150 and 150 × 75), with a
+// block of nodata cells and a gradient elsewhere.
+UtmGrid LargeGrid() {
+  UtmGrid grid = SmallGrid();
+  grid.width = 600;
+  grid.height = 300;
+  return grid;
+}
+
+std::vector<float> Gradient(const UtmGrid& grid) {
+  std::vector<float> values(grid.num_cells());
+  for (int row = 0; row < grid.height; ++row) {
+    for (int col = 0; col < grid.width; ++col) {
+      const bool hole = col >= 100 && col < 220 && row >= 40 && row < 90;
+      values[std::size_t(row) * grid.width + col] =
+          hole ? kNaN : 0.001f * float(col) + 0.002f * float(row);
+    }
+  }
+  return values;
+}
+
+// Whether a command-line tool is on the PATH.
+bool HaveTool(const std::string& name) {
+  return std::system(("command -v " + name + " >/dev/null 2>&1").c_str()) == 0;
+}
+
+// The output of a shell command (stdout and stderr) and its exit status.
+std::pair<int, std::string> RunCommand(const std::string& command, const TempDir& dir) {
+  const std::string out = dir / "command_output.txt";
+  const int status = std::system((command + " >'" + out + "' 2>&1").c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, testing::ReadText(out)};
+}
+
+TEST(GeoTiffTest, OverviewCountHalvesToOneTileWithAtLeastOne) {
+  EXPECT_EQ(GeoTiffOverviewCount(1, 1), 0);
+  EXPECT_EQ(GeoTiffOverviewCount(2, 1), 1);
+  EXPECT_EQ(GeoTiffOverviewCount(37, 23), 1);
+  EXPECT_EQ(GeoTiffOverviewCount(256, 256), 1);
+  EXPECT_EQ(GeoTiffOverviewCount(257, 10), 1);   // 129
+  EXPECT_EQ(GeoTiffOverviewCount(600, 300), 2);  // 300, 150
+  EXPECT_EQ(GeoTiffOverviewCount(10, 5000), 5);  // 2500, 1250, 625, 313, 157
+}
+
+TEST(GeoTiffTest, WritesACloudOptimizedGeoTiffWithOverviewsNodataAndEpsg) {
+  const TempDir dir;
+  const std::string path = dir / "chm_2016-05-25.tif";
+  const UtmGrid grid = LargeGrid();
+  const std::vector<float> values = Gradient(grid);
+  GeoTiffWriteOptions options;
+  options.description = "canopy height above the terrain [m]";
+  options.metadata = {{"product", "chm"}, {"date", "2016-05-25"}};
+  WriteGeoTiff(path, grid, values, options);
+
+  // With GDAL's C API alone.
+  GDALAllRegister();
+  GDALDatasetH dataset =
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr);
+  ASSERT_NE(dataset, nullptr);
+  EXPECT_STREQ(GDALGetDriverShortName(GDALGetDatasetDriver(dataset)), "GTiff");
+  const char* layout = GDALGetMetadataItem(dataset, "LAYOUT", "IMAGE_STRUCTURE");
+  ASSERT_NE(layout, nullptr);
+  EXPECT_STREQ(layout, "COG");
+  const char* compression = GDALGetMetadataItem(dataset, "COMPRESSION", "IMAGE_STRUCTURE");
+  ASSERT_NE(compression, nullptr);
+  EXPECT_STREQ(compression, "DEFLATE");
+  const char* predictor = GDALGetMetadataItem(dataset, "PREDICTOR", "IMAGE_STRUCTURE");
+  if (predictor != nullptr) {
+    EXPECT_STREQ(predictor, "3");
+  }
+  GDALRasterBandH band = GDALGetRasterBand(dataset, 1);
+  int block_x = 0, block_y = 0;
+  GDALGetBlockSize(band, &block_x, &block_y);
+  EXPECT_EQ(block_x, kGeoTiffTileSize);
+  EXPECT_EQ(block_y, kGeoTiffTileSize);
+  int has_nodata = 0;
+  EXPECT_TRUE(std::isnan(GDALGetRasterNoDataValue(band, &has_nodata)));
+  EXPECT_TRUE(has_nodata);
+  EXPECT_STREQ(GDALGetDescription(band), options.description.c_str());
+  EXPECT_STREQ(GDALGetMetadataItem(dataset, "date", nullptr), "2016-05-25");
+  // The CRS is the EPSG code itself, not a WKT to be identified.
+  OGRSpatialReferenceH srs = GDALGetSpatialRef(dataset);
+  ASSERT_NE(srs, nullptr);
+  EXPECT_STREQ(OSRGetAuthorityName(srs, nullptr), "EPSG");
+  EXPECT_STREQ(OSRGetAuthorityCode(srs, nullptr), "32617");
+  // Overviews: two, averaged from the cells with data (the hole stays nodata, the rest finite).
+  ASSERT_EQ(GDALGetOverviewCount(band), 2);
+  GDALRasterBandH overview = GDALGetOverview(band, 0);
+  ASSERT_EQ(GDALGetRasterBandXSize(overview), 300);
+  ASSERT_EQ(GDALGetRasterBandYSize(overview), 150);
+  EXPECT_EQ(GDALGetRasterBandXSize(GDALGetOverview(band, 1)), 150);
+  std::vector<float> reduced(300 * 150);
+  ASSERT_EQ(
+      GDALRasterIO(overview, GF_Read, 0, 0, 300, 150, reduced.data(), 300, 150, GDT_Float32, 0, 0),
+      CE_None);
+  EXPECT_TRUE(std::isnan(reduced[std::size_t(30) * 300 + 80]));  // inside the hole
+  const float corner = reduced[std::size_t(10) * 300 + 10];      // cells 20..21 × 20..21
+  EXPECT_NEAR(corner, 0.001f * 20.5f + 0.002f * 20.5f, 1e-5);
+  GDALClose(dataset);
+
+  // ReadGeoTiff reports the layout too.
+  const GeoTiffRaster raster = ReadGeoTiff(path);
+  EXPECT_EQ(raster.layout, "COG");
+  EXPECT_EQ(raster.compression, "DEFLATE");
+  EXPECT_EQ(raster.overviews, 2);
+  EXPECT_TRUE(SameFloats(raster.values, values));
+  EXPECT_EQ(raster.metadata, options.metadata);
+
+  // A one-cell raster has no overview, and is still a COG.
+  UtmGrid one = SmallGrid();
+  one.width = one.height = 1;
+  WriteGeoTiff(dir / "one.tif", one, {2.5f});
+  const GeoTiffRaster single = ReadGeoTiff(dir / "one.tif");
+  EXPECT_EQ(single.overviews, 0);
+  EXPECT_EQ(single.layout, "COG");
+  EXPECT_EQ(single.values, std::vector<float>{2.5f});
+}
+
+// gdalinfo and gdal_translate (Debian's gdal-bin, scripts/install-deps.sh) read the file, and
+// GDAL's COG validator (osgeo_utils, Debian's python3-gdal, a dependency of gdal-bin) passes it.
+TEST(GeoTiffTest, GdalToolsReadAndTranslateTheCog) {
+  if (!HaveTool("gdal_translate") || !HaveTool("gdalinfo")) {
+    GTEST_SKIP() << "gdal_translate or gdalinfo missing (Debian package gdal-bin)";
+  }
+  const TempDir dir;
+  const std::string path = dir / "dtm.tif";
+  const UtmGrid grid = LargeGrid();
+  const std::vector<float> values = Gradient(grid);
+  GeoTiffWriteOptions options;
+  options.description = "terrain, WGS84 ellipsoidal height [m]";
+  WriteGeoTiff(path, grid, values, options);
+
+  const auto [info_status, info] = RunCommand("gdalinfo '" + path + "'", dir);
+  ASSERT_EQ(info_status, 0) << info;
+  EXPECT_NE(info.find("LAYOUT=COG"), std::string::npos) << info;
+  EXPECT_NE(info.find("ID[\"EPSG\",32617]"), std::string::npos) << info;
+  EXPECT_NE(info.find("NoData Value=nan"), std::string::npos) << info;
+  EXPECT_NE(info.find("Overviews: 300x150, 150x75"), std::string::npos) << info;
+
+  // A round trip through gdal_translate (to a plain GeoTIFF) keeps every value, the grid, the
+  // nodata value and the CRS.
+  const std::string copy = dir / "copy.tif";
+  const auto [translate_status, translate] =
+      RunCommand("gdal_translate -q -of GTiff '" + path + "' '" + copy + "'", dir);
+  ASSERT_EQ(translate_status, 0) << translate;
+  const GeoTiffRaster back = ReadGeoTiff(copy);
+  EXPECT_TRUE(SameFloats(back.values, values));
+  EXPECT_EQ(back.grid.epsg, grid.epsg);
+  EXPECT_DOUBLE_EQ(back.grid.min_easting, grid.min_easting);
+  EXPECT_DOUBLE_EQ(back.grid.max_northing, grid.max_northing);
+  EXPECT_DOUBLE_EQ(back.grid.cell_m, grid.cell_m);
+  ASSERT_TRUE(back.nodata.has_value());
+  EXPECT_TRUE(std::isnan(*back.nodata));
+  EXPECT_EQ(back.description, options.description);
+  // ... and back to a COG with gdal_translate's COG driver: the same values again.
+  const std::string cog = dir / "cog.tif";
+  const auto [cog_status, cog_output] =
+      RunCommand("gdal_translate -q -of COG '" + copy + "' '" + cog + "'", dir);
+  ASSERT_EQ(cog_status, 0) << cog_output;
+  EXPECT_TRUE(SameFloats(ReadGeoTiff(cog).values, values));
+
+  // GDAL's validator of the COG layout (tiles, overviews and their order, the ghost header).
+  const std::string python = "/usr/bin/python3";
+  if (fs::exists(python) &&
+      RunCommand(python + " -c 'import osgeo_utils.samples.validate_cloud_optimized_geotiff'", dir)
+              .first == 0) {
+    const auto [valid_status, valid] = RunCommand(
+        python + " -m osgeo_utils.samples.validate_cloud_optimized_geotiff --full-check=yes '" +
+            path + "'",
+        dir);
+    EXPECT_EQ(valid_status, 0) << valid;
+    EXPECT_NE(valid.find("is a valid cloud optimized GeoTIFF"), std::string::npos) << valid;
+  }
+}
+
+TEST(GeoTiffTest, RasterDifferencePropagatesNodata) {
+  const std::vector<float> earlier = {0.1f, 0.2f, kNaN, 0.4f, -9999.0f, 0.0f};
+  const std::vector<float> later = {0.3f, kNaN, 0.5f, 0.4f, 0.7f, -9999.0f};
+  const std::vector<float> nan_nodata = RasterDifference(later, earlier);
+  ASSERT_EQ(nan_nodata.size(), 6u);
+  EXPECT_FLOAT_EQ(nan_nodata[0], 0.3f - 0.1f);
+  EXPECT_TRUE(std::isnan(nan_nodata[1]));
+  EXPECT_TRUE(std::isnan(nan_nodata[2]));
+  EXPECT_EQ(nan_nodata[3], 0.0f);
+  EXPECT_FLOAT_EQ(nan_nodata[4], 0.7f + 9999.0f);  // -9999 is a value when nodata is NaN
+  const std::vector<float> numeric = RasterDifference(later, earlier, -9999.0f);
+  EXPECT_EQ(numeric[1], -9999.0f);  // NaN is always nodata
+  EXPECT_EQ(numeric[2], -9999.0f);
+  EXPECT_EQ(numeric[4], -9999.0f);
+  EXPECT_EQ(numeric[5], -9999.0f);
+  EXPECT_FLOAT_EQ(numeric[0], 0.3f - 0.1f);
 }
 
 }  // namespace

@@ -125,7 +125,71 @@ std::int32_t Quantise(double value, double offset, double scale, const std::stri
   return static_cast<std::int32_t>(q);
 }
 
+// UTC instants (s since the Unix epoch) from which GPS time is one more second ahead of UTC:
+// the leap seconds since the GPS epoch (IERS Bulletin C; none announced after 2017-01-01).
+constexpr std::int64_t kLeapSecondsUnix[] = {
+    362793600,   // 1981-07-01
+    394329600,   // 1982-07-01
+    425865600,   // 1983-07-01
+    489024000,   // 1985-07-01
+    567993600,   // 1988-01-01
+    631152000,   // 1990-01-01
+    662688000,   // 1991-01-01
+    709948800,   // 1992-07-01
+    741484800,   // 1993-07-01
+    773020800,   // 1994-07-01
+    820454400,   // 1996-01-01
+    867715200,   // 1997-07-01
+    915148800,   // 1999-01-01
+    1136073600,  // 2006-01-01
+    1230768000,  // 2009-01-01
+    1341100800,  // 2012-07-01
+    1435708800,  // 2015-07-01
+    1483228800,  // 2017-01-01
+};
+// The GPS epoch, 1980-01-06 00:00:00 UTC, in Unix seconds; the LAS offset of adjusted standard
+// GPS time.
+constexpr std::int64_t kGpsEpochUnix = 315964800;
+constexpr double kAdjustedGpsOffset = 1e9;
+
 }  // namespace
+
+std::uint8_t AsprsVegetationClass(double height_above_ground_m) {
+  if (height_above_ground_m < 0.5) return kAsprsLowVegetation;
+  if (height_above_ground_m < 2.0) return kAsprsMediumVegetation;
+  return kAsprsHighVegetation;
+}
+
+int GpsMinusUtcSeconds(Timestamp utc) {
+  // Floor division: instants before 1970 are before every leap second.
+  const std::int64_t seconds =
+      utc >= 0 ? utc / kNanosPerSecond : -((-utc + kNanosPerSecond - 1) / kNanosPerSecond);
+  int leaps = 0;
+  for (const std::int64_t leap : kLeapSecondsUnix) leaps += seconds >= leap ? 1 : 0;
+  return leaps;
+}
+
+double AdjustedStandardGpsTime(Timestamp utc) {
+  // Whole seconds and the fraction apart, so that the large part is exact.
+  const Timestamp whole = (utc / kNanosPerSecond) * kNanosPerSecond;
+  const std::int64_t gps_seconds =
+      whole / kNanosPerSecond - kGpsEpochUnix + GpsMinusUtcSeconds(utc);
+  return double(gps_seconds - std::int64_t(kAdjustedGpsOffset)) +
+         double(utc - whole) / double(kNanosPerSecond);
+}
+
+Timestamp UtcFromAdjustedStandardGpsTime(double gps_time) {
+  // GPS time as nanoseconds on the Unix scale, then the leap seconds at that instant (looked up
+  // twice: near a leap second the first guess may be one second off).
+  const double whole = std::floor(gps_time);
+  const Timestamp gps_unix_ns =
+      (static_cast<Timestamp>(whole) + static_cast<Timestamp>(kAdjustedGpsOffset) + kGpsEpochUnix) *
+          kNanosPerSecond +
+      static_cast<Timestamp>(std::llround((gps_time - whole) * 1e9));
+  Timestamp utc = gps_unix_ns - Timestamp{GpsMinusUtcSeconds(gps_unix_ns)} * kNanosPerSecond;
+  utc = gps_unix_ns - Timestamp{GpsMinusUtcSeconds(utc)} * kNanosPerSecond;
+  return utc;
+}
 
 std::string EpsgWkt(int epsg) {
   OGRSpatialReference srs;
@@ -207,9 +271,11 @@ void WriteLas(const std::string& path, const std::vector<LasPoint>& points,
   ByteWriter w(&head);
   // Public header block (LAS 1.4 R15 Table 3).
   w.PutText("LASF", 4);
-  w.Put<std::uint16_t>(0);       // file source id
-  w.Put<std::uint16_t>(1 << 4);  // global encoding: WKT CRS (bit 4)
-  w.Put<std::uint32_t>(0);       // project id (GUID), 16 bytes
+  w.Put<std::uint16_t>(0);  // file source id
+  // Global encoding: WKT CRS (bit 4), adjusted standard GPS time (bit 0).
+  w.Put<std::uint16_t>(kLasCrsIsWkt |
+                       (options.adjusted_standard_gps_time ? kLasGpsTimeAdjustedStandard : 0));
+  w.Put<std::uint32_t>(0);  // project id (GUID), 16 bytes
   w.Put<std::uint16_t>(0);
   w.Put<std::uint16_t>(0);
   w.PutText("", 8);
@@ -420,7 +486,7 @@ LasFile ReadLas(const std::string& path) {
 
 std::vector<LasPoint> LasPointsFromEnu(const PlyPointCloud& cloud,
                                        const geometry::GeodeticPoint& origin, int epsg,
-                                       std::uint16_t point_source_id) {
+                                       std::uint16_t point_source_id, double gps_time) {
   CROP4D_CHECK(geometry::IsUtmEpsgCode(epsg));
   CROP4D_CHECK(cloud.colors.empty() || cloud.colors.size() == cloud.points.size());
   const geometry::LocalEnu enu(origin);
@@ -433,6 +499,7 @@ std::vector<LasPoint> LasPointsFromEnu(const PlyPointCloud& cloud,
                         LasPoint& p = points[i];
                         p.xyz = Eigen::Vector3d(en.x(), en.y(), origin.alt_m + cloud.points[i].z());
                         p.point_source_id = point_source_id;
+                        p.gps_time = gps_time;
                         if (!cloud.colors.empty()) {
                           for (int c = 0; c < 3; ++c) {
                             p.rgb[c] = static_cast<std::uint16_t>(cloud.colors[i][c] * 257);

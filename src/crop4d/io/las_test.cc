@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/enu.h"
 #include "crop4d/io/geotiff.h"
 #include "crop4d/io/ply.h"
@@ -90,9 +91,9 @@ TEST(LasTest, HeaderFieldsFollowTheSpecification) {
 
   // Public header block, LAS 1.4 R15 Table 3 (offsets in bytes).
   EXPECT_EQ(bytes.substr(0, 4), "LASF");
-  EXPECT_EQ(At<std::uint16_t>(bytes, 6) & (1 << 4), 1 << 4);  // WKT bit of the global encoding
-  EXPECT_EQ(At<std::uint8_t>(bytes, 24), 1);                  // version major
-  EXPECT_EQ(At<std::uint8_t>(bytes, 25), 4);                  // version minor
+  EXPECT_EQ(At<std::uint16_t>(bytes, 6), (1 << 4) | 1);  // global encoding: WKT, adjusted GPS time
+  EXPECT_EQ(At<std::uint8_t>(bytes, 24), 1);             // version major
+  EXPECT_EQ(At<std::uint8_t>(bytes, 25), 4);             // version minor
   EXPECT_EQ(At<std::uint16_t>(bytes, 90), 177);
   EXPECT_EQ(At<std::uint16_t>(bytes, 92), 2016);
   EXPECT_EQ(At<std::uint16_t>(bytes, 94), 375);  // header size
@@ -299,6 +300,78 @@ TEST(LasTest, ReadsAnEvlrWithTheCrs) {
   ASSERT_EQ(las.evlrs.size(), 1u);
   EXPECT_EQ(las.Wkt(), wkt);
   EXPECT_EQ(las.points.size(), 4u);
+}
+
+TEST(LasTest, AdjustedStandardGpsTimeOfKnownInstants) {
+  // The LAS 1.4 convention: GPS seconds since 1980-01-06 00:00:00 UTC minus 10^9.
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(1980, 1, 6)), 0);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(1981, 7, 1) - 1), 0);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(1981, 7, 1)), 1);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(2006, 1, 1)), 14);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(2015, 7, 1)), 17);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(2016, 12, 31)), 17);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(2017, 1, 1)), 18);
+  EXPECT_EQ(GpsMinusUtcSeconds(FromDate(2026, 5, 1)), 18);
+  // The GPS epoch is -10^9; 2017-01-01 00:00:00 UTC is GPS second 1167264018.
+  EXPECT_EQ(AdjustedStandardGpsTime(FromDate(1980, 1, 6)), -1e9);
+  EXPECT_EQ(AdjustedStandardGpsTime(FromDate(2017, 1, 1)), 167264018.0);
+  // 2016-06-10: Unix 1465516800 s, 17 leap seconds.
+  EXPECT_EQ(AdjustedStandardGpsTime(FromDate(2016, 6, 10)), 1465516800.0 - 315964800.0 + 17 - 1e9);
+  const Timestamp noon = FromDate(2016, 6, 10) + 12 * 3600 * kNanosPerSecond + 250'000'000;
+  EXPECT_NEAR(AdjustedStandardGpsTime(noon) - AdjustedStandardGpsTime(FromDate(2016, 6, 10)),
+              12 * 3600 + 0.25, 1e-7);
+  // And back, within a microsecond (a double near 1.5e8 s keeps ~30 ns).
+  for (const Timestamp t : {FromDate(2016, 6, 10), noon, FromDate(2017, 1, 1),
+                            FromDate(2017, 1, 1) - 1 * kNanosPerSecond, FromDate(2025, 3, 4)}) {
+    EXPECT_LE(std::llabs(UtcFromAdjustedStandardGpsTime(AdjustedStandardGpsTime(t)) - t), 1000)
+        << FormatTimestamp(t);
+  }
+}
+
+TEST(LasTest, VegetationClassesByHeight) {
+  EXPECT_EQ(AsprsVegetationClass(0.02), kAsprsLowVegetation);
+  EXPECT_EQ(AsprsVegetationClass(0.49), kAsprsLowVegetation);
+  EXPECT_EQ(AsprsVegetationClass(0.5), kAsprsMediumVegetation);
+  EXPECT_EQ(AsprsVegetationClass(1.99), kAsprsMediumVegetation);
+  EXPECT_EQ(AsprsVegetationClass(2.0), kAsprsHighVegetation);
+  EXPECT_EQ(kAsprsGround, 2);
+  EXPECT_EQ(kAsprsUnclassified, 1);
+}
+
+// The per-point GPS time (the session's date) and class come back from the reader, with the
+// header's GPS time type bit.
+TEST(LasTest, GpsTimeAndClassificationRoundTrip) {
+  const TempDir dir;
+  const geometry::GeodeticPoint origin{31.47, -83.53, 100.0};
+  PlyPointCloud cloud;
+  cloud.points = {{0, 0, 0}, {1.5, 8.25, 0.3}, {-1.0, 3.0, 0.8}, {2.0, 2.0, 2.5}, {0, 1, -0.4}};
+  const double session = AdjustedStandardGpsTime(FromDate(2016, 6, 10));
+  std::vector<LasPoint> points = LasPointsFromEnu(cloud, origin, 32617, 3, session);
+  const std::uint8_t classes[] = {kAsprsGround, kAsprsLowVegetation, kAsprsMediumVegetation,
+                                  kAsprsHighVegetation, kAsprsUnclassified};
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    EXPECT_EQ(points[i].gps_time, session);
+    EXPECT_EQ(points[i].classification, kAsprsCreatedNeverClassified);
+    points[i].classification = classes[i];
+  }
+  LasWriteOptions options;
+  options.epsg = 32617;
+  WriteLas(dir / "classes.las", points, options);
+  const LasFile las = ReadLas(dir / "classes.las");
+  EXPECT_EQ(las.header.global_encoding & kLasGpsTimeAdjustedStandard, kLasGpsTimeAdjustedStandard);
+  EXPECT_EQ(las.header.global_encoding & kLasCrsIsWkt, kLasCrsIsWkt);
+  EXPECT_NE(las.Wkt().find("UTM zone 17N"), std::string::npos);
+  ASSERT_EQ(las.points.size(), points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    EXPECT_EQ(las.points[i].classification, classes[i]) << i;
+    EXPECT_EQ(las.points[i].gps_time, session) << i;
+    EXPECT_EQ(UtcFromAdjustedStandardGpsTime(las.points[i].gps_time), FromDate(2016, 6, 10));
+    EXPECT_EQ(las.points[i].point_source_id, 3);
+  }
+  // GPS week time on request: the bit is clear.
+  options.adjusted_standard_gps_time = false;
+  WriteLas(dir / "week.las", points, options);
+  EXPECT_EQ(ReadLas(dir / "week.las").header.global_encoding, kLasCrsIsWkt);
 }
 
 }  // namespace

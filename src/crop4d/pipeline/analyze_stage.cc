@@ -35,8 +35,8 @@ using json = nlohmann::json;
 
 // Bump when the stage's outputs change for the same inputs and options.
 // 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out;
-// 5: ground filter.
-constexpr int kAnalyzeStageRevision = 5;
+// 5: ground filter; 6: Cloud-Optimized GeoTIFFs and the height-change rasters.
+constexpr int kAnalyzeStageRevision = 6;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 json OptionsJson(const AnalyzeStageOptions& o) {
@@ -583,9 +583,13 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
       if (col < 0 || row < 0 || col >= grid.width || row >= grid.height) return -1;
       return static_cast<std::ptrdiff_t>(row) * grid.width + static_cast<std::ptrdiff_t>(col);
     };
+    // The CHM of every session, and the change of the canopy height from each session to the
+    // next (dates in order) on the same grid: chm(later) − chm(earlier), nodata where either has
+    // none. Only the previous CHM is kept in memory.
+    std::vector<float> previous;
     for (std::size_t k = 0; k < clouds.size(); ++k) {
-      const std::vector<float> chm = analysis::CanopyHeightModel(
-          clouds[k], dtm_ground, grid.num_cells(), cell_of, options.canopy);
+      std::vector<float> chm = analysis::CanopyHeightModel(clouds[k], dtm_ground, grid.num_cells(),
+                                                           cell_of, options.canopy);
       io::GeoTiffWriteOptions chm_options;
       chm_options.description = "canopy height above the terrain [m]";
       chm_options.metadata = {{"field", field.info().name},
@@ -595,6 +599,34 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
       const std::string name = "chm_" + inputs[k].id + ".tif";
       io::WriteGeoTiff((out / name).string(), grid, chm, chm_options);
       report.outputs.push_back("analysis/" + name);
+      if (k > 0) {
+        const SessionInput& earlier = inputs[k - 1];
+        const SessionInput& later = inputs[k];
+        io::GeoTiffWriteOptions change_options;
+        change_options.description =
+            fmt::format("canopy height change [m] from {} to {} (chm {} - chm {})",
+                        FormatDate(earlier.date), FormatDate(later.date), later.id, earlier.id);
+        change_options.metadata = {
+            {"field", field.info().name},
+            {"product", "chm_change"},
+            {"earlier_session", earlier.id},
+            {"earlier_date", FormatDate(earlier.date)},
+            {"later_session", later.id},
+            {"later_date", FormatDate(later.date)},
+            {"days", fmt::format("{:g}", DurationSeconds(earlier.date, later.date) / 86400.0)}};
+        for (const std::size_t j : {k - 1, k}) {
+          if (!protects[j]) {
+            change_options.metadata["note"] +=
+                (change_options.metadata["note"].empty() ? "" : "; ") + inputs[j].id +
+                " is degraded (season quality)";
+          }
+        }
+        const std::string change = "chm_change_" + earlier.id + "_" + later.id + ".tif";
+        io::WriteGeoTiff((out / change).string(), grid, io::RasterDifference(chm, previous),
+                         change_options);
+        report.outputs.push_back("analysis/" + change);
+      }
+      previous = std::move(chm);
     }
   }
   if (options.write_plots) {

@@ -28,6 +28,10 @@
 //                                  growth_<from>_<to>_m_per_day per session interval
 //   dtm.tif                        the terrain, ellipsoidal height [m], UTM zone of the field
 //   chm_<session>.tif              canopy height above the terrain [m], 0 on bare ground
+//   chm_change_<earlier>_<later>.tif   the canopy height change between consecutive sessions
+//                                  (dates in order): chm(later) − chm(earlier) [m], nodata where
+//                                  either has none; metadata: both sessions and dates
+//                                  (all rasters Cloud-Optimized GeoTIFFs, io/geotiff.h)
 //   plots/heights.png              canopy height versus date, one panel per site, with the
 //                                  measured heights when present
 //   plots/height_<site>.png        the same, one site per figure

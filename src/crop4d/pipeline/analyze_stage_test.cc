@@ -410,12 +410,84 @@ TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   EXPECT_NEAR(chm_top, world.StateAt(plant, last).height_m, 0.02);
   EXPECT_EQ(value_at(chm, -0.8, 3.0), 0.0f);
 
+  // Every raster is a Cloud-Optimized GeoTIFF on the one grid, with overviews, a nodata value and
+  // the field's UTM zone.
+  std::vector<std::string> rasters = {"dtm.tif"};
+  for (const std::string& id : kSessions) rasters.push_back("chm_" + id + ".tif");
+  for (std::size_t k = 1; k < kSessions.size(); ++k) {
+    rasters.push_back("chm_change_" + kSessions[k - 1] + "_" + kSessions[k] + ".tif");
+  }
+  for (const std::string& name : rasters) {
+    const io::GeoTiffRaster r = io::ReadGeoTiff((out / name).string());
+    EXPECT_EQ(r.layout, "COG") << name;
+    EXPECT_GE(r.overviews, 1) << name;
+    EXPECT_TRUE(r.nodata.has_value()) << name;
+    EXPECT_EQ(r.grid.epsg, 32617) << name;
+    EXPECT_EQ(r.grid.width, dtm.grid.width) << name;
+    EXPECT_EQ(r.grid.height, dtm.grid.height) << name;
+    EXPECT_EQ(r.grid.min_easting, dtm.grid.min_easting) << name;
+  }
+  // The change rasters: one per pair of consecutive sessions, chm(later) − chm(earlier), nodata
+  // where either CHM has none; both dates in the metadata.
+  for (std::size_t k = 1; k < kSessions.size(); ++k) {
+    const std::string name = "chm_change_" + kSessions[k - 1] + "_" + kSessions[k] + ".tif";
+    const io::GeoTiffRaster change = io::ReadGeoTiff((out / name).string());
+    const io::GeoTiffRaster earlier =
+        io::ReadGeoTiff((out / ("chm_" + kSessions[k - 1] + ".tif")).string());
+    const io::GeoTiffRaster later =
+        io::ReadGeoTiff((out / ("chm_" + kSessions[k] + ".tif")).string());
+    ASSERT_EQ(change.values.size(), later.values.size());
+    std::size_t finite = 0, grown = 0;
+    for (std::size_t c = 0; c < change.values.size(); ++c) {
+      const float a = earlier.values[c], b = later.values[c], d = change.values[c];
+      if (std::isnan(a) || std::isnan(b)) {
+        EXPECT_TRUE(std::isnan(d)) << name << " cell " << c;
+      } else {
+        EXPECT_EQ(d, b - a) << name << " cell " << c;
+        ++finite;
+        grown += d > 0.01f;
+      }
+    }
+    EXPECT_GT(finite, 10000u) << name;  // the cells the clouds cover (the area reaches "far")
+    EXPECT_GT(grown, 0u) << name;       // the plants grow
+    EXPECT_EQ(change.metadata.at("product"), "chm_change");
+    EXPECT_EQ(change.metadata.at("earlier_date"), kSessions[k - 1]);
+    EXPECT_EQ(change.metadata.at("later_date"), kSessions[k]);
+    EXPECT_EQ(change.metadata.at("days"), "14");
+    EXPECT_NE(change.description.find(kSessions[k - 1]), std::string::npos);
+    EXPECT_NE(change.description.find(kSessions[k]), std::string::npos);
+  }
+  EXPECT_FALSE(fs::exists(out / ("chm_change_" + kSessions[0] + "_" + kSessions[2] + ".tif")));
+
   // Unchanged inputs: skipped, with the table read back. A changed cloud: analysed again.
   const AnalyzeReport again = RunAnalyzeStage(field_, workspace_, options);
   EXPECT_TRUE(again.skipped);
   ASSERT_EQ(again.sites.size(), report.sites.size());
   EXPECT_NEAR(again.sites[0].ours.height_m, report.sites[0].ours.height_m, 1e-4);
   EXPECT_NE(FormatAnalyzeReport(again).find("up to date"), std::string::npos);
+  // An edited CHM: analysed again, and the change rasters on both sides of it written again.
+  const fs::path edited = out / ("chm_" + kSessions[1] + ".tif");
+  const fs::path before_change = out / ("chm_change_" + kSessions[0] + "_" + kSessions[1] + ".tif");
+  const fs::path after_change = out / ("chm_change_" + kSessions[1] + "_" + kSessions[2] + ".tif");
+  const auto before_time = fs::last_write_time(before_change);
+  const auto after_time = fs::last_write_time(after_change);
+  {
+    io::GeoTiffRaster r = io::ReadGeoTiff(edited.string());
+    for (float& v : r.values) v = std::isnan(v) ? v : v + 1.0f;
+    io::WriteGeoTiff(edited.string(), r.grid, r.values);
+  }
+  EXPECT_FALSE(RunAnalyzeStage(field_, workspace_, options).skipped);
+  EXPECT_NE(fs::last_write_time(before_change), before_time);
+  EXPECT_NE(fs::last_write_time(after_change), after_time);
+  {
+    const io::GeoTiffRaster a = io::ReadGeoTiff(edited.string());
+    const io::GeoTiffRaster b = io::ReadGeoTiff((out / ("chm_" + kSessions[2] + ".tif")).string());
+    const io::GeoTiffRaster d = io::ReadGeoTiff(after_change.string());
+    for (std::size_t c = 0; c < d.values.size(); ++c) {
+      if (!std::isnan(d.values[c])) ASSERT_EQ(d.values[c], b.values[c] - a.values[c]) << c;
+    }
+  }
+  EXPECT_TRUE(RunAnalyzeStage(field_, workspace_, options).skipped);
   // A removed output: analysed again, and written again.
   fs::remove(out / "site_plants.csv");
   EXPECT_FALSE(RunAnalyzeStage(field_, workspace_, options).skipped);

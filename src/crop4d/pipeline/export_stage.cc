@@ -10,9 +10,13 @@
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
+#include "crop4d/analysis/canopy.h"
+#include "crop4d/analysis/lone_points.h"
+#include "crop4d/analysis/vegetation.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/geometry/enu.h"
@@ -147,6 +151,102 @@ io::PlyPointCloud MergePassClouds(const std::vector<io::PlyPointCloud>& clouds) 
   return merged;
 }
 
+// The analysis' separation of the ground from the vegetation (docs/analysis.md), read back from
+// WS/analysis to classify the points of the LAS files.
+struct AnalysisClasses {
+  io::GeoTiffRaster dtm;  // the terrain model, ellipsoidal heights (the LAS z convention)
+  analysis::GreennessIndex index = analysis::GreennessIndex::kExG;
+  analysis::CanopyOptions canopy;  // min_height_m, min_height_any_colour_m
+  double lone_point_radius_m = 0.0;
+  std::map<std::string, double> thresholds;  // the vegetation threshold of each session analysed
+};
+
+// WS/analysis/dtm.tif and the options and thresholds of WS/analysis/summary.json; nullopt, with
+// `why`, when either is missing or cannot be read.
+std::optional<AnalysisClasses> ReadAnalysisClasses(const fs::path& analysis, std::string* why) {
+  std::error_code ec;
+  if (!fs::is_regular_file(analysis / "dtm.tif", ec) ||
+      !fs::is_regular_file(analysis / "summary.json", ec)) {
+    *why = "no terrain model WS/analysis/dtm.tif with its summary.json (run `crop4d analyze`)";
+    return std::nullopt;
+  }
+  try {
+    AnalysisClasses classes;
+    classes.dtm = io::ReadGeoTiff((analysis / "dtm.tif").string());
+    std::ifstream in(analysis / "summary.json");
+    const json summary = json::parse(in);
+    const json& options = summary.at("options");
+    const std::string index = options.at("vegetation").at("index").get<std::string>();
+    if (index == analysis::GreennessIndexName(analysis::GreennessIndex::kExGR)) {
+      classes.index = analysis::GreennessIndex::kExGR;
+    } else if (index != analysis::GreennessIndexName(analysis::GreennessIndex::kExG)) {
+      throw std::runtime_error("unknown vegetation index '" + index + "'");
+    }
+    classes.canopy.min_height_m = options.at("canopy").at("min_height_m").get<double>();
+    classes.canopy.min_height_any_colour_m =
+        options.at("canopy").at("min_height_any_colour_m").get<double>();
+    classes.lone_point_radius_m = options.value("lone_point_radius_m", 0.0);
+    for (const json& session : summary.at("sessions")) {
+      classes.thresholds[session.at("session").get<std::string>()] =
+          session.at("vegetation_threshold").get<double>();
+    }
+    return classes;
+  } catch (const std::exception& e) {
+    *why = std::string("cannot read the analysis in WS/analysis: ") + e.what();
+    return std::nullopt;
+  }
+}
+
+// A point of the terrain model this far below it is not ground (a false match below the soil).
+constexpr double kBelowTerrainM = 0.10;
+
+// Sets the ASPRS class of `points` (the LAS points of `cloud`, in its order) as the analysis
+// separates them: above the terrain model by the canopy rule of the analysis
+// (CanopyOptions::IsCanopy: vegetation by colour at min_height_m, any colour at
+// min_height_any_colour_m) → vegetation, 3/4/5 by height (io::AsprsVegetationClass); otherwise →
+// ground (2). Unclassified (1): points outside the terrain model or where it has no height, more
+// than kBelowTerrainM below it, and the lone points the analysis leaves out of a dense cloud.
+// `threshold`: the session's vegetation threshold; `dense`: the cloud is a dense cloud.
+void ClassifyLasPoints(const AnalysisClasses& a, double threshold, bool dense,
+                       const io::PlyPointCloud& cloud, io::LasPoint* points) {
+  const io::UtmGrid& grid = a.dtm.grid;
+  std::vector<std::uint8_t> lone;
+  bool finite = true;
+  for (const Eigen::Vector3d& p : cloud.points) finite = finite && p.allFinite();
+  if (dense && a.lone_point_radius_m > 0 && finite) {
+    lone = analysis::FindLonePoints(cloud.points, a.lone_point_radius_m);
+  }
+  const bool colours = cloud.colors.size() == cloud.points.size();
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    io::LasPoint& p = points[i];
+    p.classification = io::kAsprsUnclassified;
+    if (!lone.empty() && lone[i]) continue;
+    const double col = std::floor((p.xyz.x() - grid.min_easting) / grid.cell_m);
+    const double row = std::floor((grid.max_northing - p.xyz.y()) / grid.cell_m);
+    if (!(col >= 0 && row >= 0 && col < grid.width && row < grid.height)) continue;
+    const float ground = a.dtm.values[std::size_t(row) * grid.width + std::size_t(col)];
+    if (!std::isfinite(ground) || (a.dtm.nodata && ground == *a.dtm.nodata)) continue;
+    const double h = p.xyz.z() - ground;
+    const bool vegetation =
+        colours && analysis::Greenness(a.index, cloud.colors[i][0], cloud.colors[i][1],
+                                       cloud.colors[i][2]) > threshold;
+    if (a.canopy.IsCanopy(vegetation, h)) {
+      p.classification = io::AsprsVegetationClass(h);
+    } else if (h >= -kBelowTerrainM) {
+      p.classification = io::kAsprsGround;
+    }
+  }
+}
+
+// The date of a session (midnight UTC): its session.yaml, else the date its id starts with.
+std::optional<Timestamp> SessionDate(const io::Field& field, const std::string& id) {
+  try {
+    return field.OpenSession(id).info().date;
+  } catch (const std::exception&) {
+    return io::DateFromSessionId(id);
+  }
+}
+
 std::uint64_t FileBytes(const fs::path& p) {
   std::error_code ec;
   const std::uintmax_t size = fs::file_size(p, ec);
@@ -257,6 +357,25 @@ ExportReport RunExport(const std::string& field_folder, const std::string& works
 
   // ---- point clouds: ply and las ----
   const bool want_ply = Wants(options, "ply"), want_las = Wants(options, "las");
+  // LAS points carry their session's date as GPS time and the analysis' class.
+  std::optional<AnalysisClasses> classes;
+  std::string classes_why;
+  std::map<std::string, double> gps_times;  // adjusted standard GPS time of each session's date
+  if (want_las) {
+    classes = ReadAnalysisClasses(ws / "analysis", &classes_why);
+    if (!classes) spdlog::warn("export las: points unclassified (1): {}", classes_why);
+    for (const SessionInputs& s : sessions) {
+      const std::optional<Timestamp> date = SessionDate(field, s.id);
+      if (date) {
+        gps_times[s.id] = io::AdjustedStandardGpsTime(*date);
+      } else {
+        spdlog::warn("export las: session {} has no date (session.yaml): GPS time 0", s.id);
+      }
+    }
+  }
+  // Shared by the jobs (which run before this function returns).
+  const AnalysisClasses* const analysis_classes = classes ? &*classes : nullptr;
+  const std::map<std::string, double>* const session_times = &gps_times;
   if (want_ply || want_las) {
     const std::string formats = want_ply && want_las ? "ply, las" : (want_ply ? "ply" : "las");
     std::vector<std::string> kinds;
@@ -312,15 +431,37 @@ ExportReport RunExport(const std::string& field_folder, const std::string& works
                                    cloud.size(), "points"});
                }
                if (want_las) {
+                 const auto time = session_times->find(id);
+                 const double gps_time = time != session_times->end() ? time->second : 0.0;
+                 // The session's vegetation threshold, when the analysis has the session.
+                 std::optional<double> threshold;
+                 if (analysis_classes != nullptr) {
+                   const auto found = analysis_classes->thresholds.find(id);
+                   if (found != analysis_classes->thresholds.end()) {
+                     threshold = found->second;
+                   }
+                 }
                  std::vector<io::LasPoint> points;
+                 auto add = [&](const io::PlyPointCloud& part, std::uint16_t source_id) {
+                   const std::size_t begin = points.size();
+                   const std::vector<io::LasPoint> part_points =
+                       io::LasPointsFromEnu(part, origin, epsg, source_id, gps_time);
+                   points.insert(points.end(), part_points.begin(), part_points.end());
+                   if (threshold) {
+                     ClassifyLasPoints(*analysis_classes, *threshold, kind == "dense", part,
+                                       points.data() + begin);
+                   } else {
+                     for (std::size_t i = begin; i < points.size(); ++i) {
+                       points[i].classification = io::kAsprsUnclassified;
+                     }
+                   }
+                 };
                  if (merged) {
                    for (std::size_t k = 0; k < clouds.size(); ++k) {
-                     const std::vector<io::LasPoint> pass_points = io::LasPointsFromEnu(
-                         clouds[k], origin, epsg, static_cast<std::uint16_t>(k + 1));
-                     points.insert(points.end(), pass_points.begin(), pass_points.end());
+                     add(clouds[k], static_cast<std::uint16_t>(k + 1));
                    }
                  } else {
-                   points = io::LasPointsFromEnu(cloud, origin, epsg);
+                   add(cloud, 0);
                  }
                  io::LasWriteOptions las_options;
                  las_options.epsg = epsg;
@@ -487,6 +628,18 @@ ExportReport RunExport(const std::string& field_folder, const std::string& works
            " easting, northing (m); z: WGS 84 ellipsoidal height = origin alt_m + ENU up (m)"},
       {"geotiff", "EPSG:" + std::to_string(epsg)},
       {"utm_epsg", epsg}};
+  if (Wants(options, "las")) {
+    manifest["las_points"] = {
+        {"gps_time",
+         "adjusted standard GPS time (GPS seconds - 1e9, global encoding bit 0) of the "
+         "session's date, 00:00 UTC: the same for every point of a session"},
+        {"classification",
+         classes ? "ASPRS classes from WS/analysis: 2 ground, 3/4/5 low/medium/high vegetation "
+                   "(below 0.5 m, 0.5-2 m, 2 m and above the terrain), 1 unclassified (outside "
+                   "the terrain model, more than 0.1 m below it, lone points, sessions not "
+                   "analysed)"
+                 : "1 (unclassified) for every point: " + classes_why}};
+  }
   json files = json::array();
   for (const ExportedFile& f : report.files) {
     files.push_back({{"path", f.path},

@@ -12,11 +12,16 @@
 //   OUT/las/<session>_{sparse,dense}.las   the same clouds as LAS 1.4 (io/las.h): UTM easting,
 //                                  northing of the field's zone and WGS 84 ellipsoidal height,
 //                                  with the CRS as OGC WKT; a merged cloud's pass in the point
-//                                  source id
+//                                  source id; the session's date (00:00 UTC) as adjusted standard
+//                                  GPS time in every point; the ASPRS class of the analysis
+//                                  (WS/analysis/dtm.tif and summary.json: 2 ground, 3/4/5
+//                                  vegetation by height above the terrain, 1 where the analysis
+//                                  cannot tell; docs/export.md)
 //   OUT/colmap/{cameras,images,points3D}.txt   the fused COLMAP text model (checked, copied)
 //   OUT/tum/<session>.tum          fused camera trajectory (WS/fused/<s>/poses.tum), or
 //   OUT/tum/<session>_<pass>.tum   the row-SLAM trajectory of each pass when not fused
-//   OUT/geotiff/<name>.tif         the rasters of WS/analysis (terrain model, canopy heights)
+//   OUT/geotiff/<name>.tif         the rasters of WS/analysis (terrain model, canopy heights,
+//                                  their changes), Cloud-Optimized GeoTIFFs copied as they are
 //   OUT/csv/<name>.csv             the tables of WS/analysis (site heights, growth)
 //   OUT/export.json                every file written: relative path, bytes, format, source
 //

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/timestamp.h"
 #include "crop4d/io/colmap_text.h"
 #include "crop4d/io/geotiff.h"
 #include "crop4d/io/las.h"
@@ -258,6 +260,100 @@ TEST(ExportTest, WritesEveryFormatWithTheWorkspaceContent) {
   const std::string table = FormatExportReport(report);
   EXPECT_NE(table.find("las/" + kRows + "_sparse.las"), std::string::npos);
   EXPECT_NE(table.find("skipped ply, las"), std::string::npos);
+}
+
+// The LAS points carry their session's date as GPS time and the class the analysis gives them.
+TEST(ExportTest, LasPointsCarryTheSessionDateAndTheAnalysisClasses) {
+  const TestWorkspace t;
+  // The analysis: a flat terrain at the origin's height (ENU z = 0) over x, y in [-1, 3] ×
+  // [-1, 9], the analysis' options and the vegetation threshold of the fused session only.
+  const io::FieldUtm utm(kOrigin);
+  const io::UtmGrid grid =
+      utm.GridCovering(Eigen::AlignedBox2d(Eigen::Vector2d(-1, -1), Eigen::Vector2d(3, 9)), 0.02);
+  io::WriteGeoTiff(t.ws + "/analysis/dtm.tif", grid, std::vector<float>(grid.num_cells(), 100.0f));
+  const nlohmann::json summary = {
+      {"options",
+       {{"vegetation", {{"index", "ExG"}}},
+        {"canopy", {{"min_height_m", 0.02}, {"min_height_any_colour_m", 0.04}}},
+        {"lone_point_radius_m", 0.05}}},
+      {"sessions", {{{"session", kFused}, {"vegetation_threshold", 0.1}}}}};
+  WriteText(t.ws + "/analysis/summary.json", summary.dump(2));
+  // A dense cloud with two points 1 cm apart for each case, and one lone point.
+  const std::array<std::uint8_t, 3> soil = {149, 126, 103}, leaf = {62, 85, 44};  // ExG 0, 0.33
+  struct Case {
+    Eigen::Vector3d p;
+    std::array<std::uint8_t, 3> colour;
+    std::uint8_t expected;
+  };
+  const std::vector<Case> cases = {
+      {{0.5, 1.0, 0.0}, soil, io::kAsprsGround},
+      {{0.5, 1.5, 0.001}, leaf, io::kAsprsGround},  // green, but below min_height_m
+      {{0.5, 2.0, 0.1}, leaf, io::kAsprsLowVegetation},
+      {{0.5, 2.5, 0.03}, soil, io::kAsprsGround},           // soil-coloured below 4 cm
+      {{0.5, 3.0, 0.06}, soil, io::kAsprsLowVegetation},    // any colour from 4 cm
+      {{0.5, 3.5, 1.0}, leaf, io::kAsprsMediumVegetation},  // 0.5 to 2 m
+      {{0.5, 4.0, 2.5}, leaf, io::kAsprsHighVegetation},    // 2 m and above
+      {{0.5, 4.5, -0.3}, soil, io::kAsprsUnclassified},     // well below the terrain
+      {{0.5, 20.0, 0.0}, soil, io::kAsprsUnclassified},     // outside the terrain model
+  };
+  io::PlyPointCloud dense;
+  for (const Case& c : cases) {
+    for (const double dx : {0.0, 0.01}) {
+      dense.points.push_back(c.p + Eigen::Vector3d(dx, 0, 0));
+      dense.colors.push_back(c.colour);
+    }
+  }
+  dense.points.emplace_back(2.0, 6.0, 0.1);  // a lone point: left out by the analysis
+  dense.colors.push_back(leaf);
+  io::WritePly(t.ws + "/dense/" + kFused + ".ply", dense);
+
+  ExportOptions options;
+  options.show_progress = false;
+  options.formats = {"las"};
+  RunExport(t.field, t.ws, t.out, options);
+  const double fused_time = io::AdjustedStandardGpsTime(FromDate(2016, 6, 10));
+  const io::LasFile las = io::ReadLas(t.out + "/las/" + kFused + "_dense.las");
+  EXPECT_EQ(las.header.global_encoding & io::kLasGpsTimeAdjustedStandard,
+            io::kLasGpsTimeAdjustedStandard);
+  EXPECT_NE(las.Wkt().find("UTM zone 17N"), std::string::npos);
+  ASSERT_EQ(las.points.size(), dense.size());
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    for (std::size_t k = 2 * i; k < 2 * i + 2; ++k) {
+      EXPECT_EQ(las.points[k].classification, cases[i].expected) << "case " << i;
+    }
+  }
+  EXPECT_EQ(las.points.back().classification, io::kAsprsUnclassified);
+  for (const io::LasPoint& p : las.points) {
+    EXPECT_EQ(p.gps_time, fused_time);
+    EXPECT_EQ(io::UtcFromAdjustedStandardGpsTime(p.gps_time), FromDate(2016, 6, 10));
+  }
+  // The fused sparse cloud of the session: classified too (points 0 to 6 cm up, some green).
+  const io::LasFile sparse = io::ReadLas(t.out + "/las/" + kFused + "_sparse.las");
+  for (const io::LasPoint& p : sparse.points) {
+    EXPECT_EQ(p.gps_time, fused_time);
+    EXPECT_NE(p.classification, io::kAsprsCreatedNeverClassified);
+  }
+  // The session the analysis does not have: its own date, unclassified.
+  const io::LasFile rows = io::ReadLas(t.out + "/las/" + kRows + "_sparse.las");
+  ASSERT_FALSE(rows.points.empty());
+  for (const io::LasPoint& p : rows.points) {
+    EXPECT_EQ(p.gps_time, io::AdjustedStandardGpsTime(FromDate(2016, 6, 24)));
+    EXPECT_EQ(p.classification, io::kAsprsUnclassified);
+  }
+  nlohmann::json manifest = nlohmann::json::parse(ReadText(t.out + "/export.json"));
+  EXPECT_NE(manifest["las_points"]["classification"].get<std::string>().find("ASPRS"),
+            std::string::npos);
+
+  // Without the analysis: every point unclassified, and export.json says why.
+  fs::remove_all(t.ws + "/analysis");
+  RunExport(t.field, t.ws, t.out, options);
+  for (const io::LasPoint& p : io::ReadLas(t.out + "/las/" + kFused + "_dense.las").points) {
+    EXPECT_EQ(p.classification, io::kAsprsUnclassified);
+    EXPECT_EQ(p.gps_time, fused_time);
+  }
+  manifest = nlohmann::json::parse(ReadText(t.out + "/export.json"));
+  EXPECT_NE(manifest["las_points"]["classification"].get<std::string>().find("dtm.tif"),
+            std::string::npos);
 }
 
 TEST(ExportTest, DefaultsLeaveOutLasAndCloudsOptionSelects) {

@@ -126,9 +126,9 @@ TEST_F(ImageFolderTest, JpegsWithPhoneGradePositionsRunCamGpsWithoutLosingTheSha
     EXPECT_GT(overlap, 0.5 * TimestampToSeconds(truth[k].second - truth[k].first));
   }
   // Inside the rows the camera and the GP prior keep the shape. The part of a pass that reaches
-  // into a U-turn is left out: there the GP prior alone, without an IMU, follows the turn badly
-  // (measured: RPE 1.14 / 1.27 % and ATE aligned 0.8 / 1.9 cm inside the rows, 10.5 % with the
-  // turn's 1.7 s; bench/RESULTS.md, "Rigs without an IMU").
+  // into a U-turn is left out: there the GP prior alone, without an IMU, follows the turn less
+  // well (measured inside the rows: RPE 0.75 / 1.15 % and ATE aligned 0.5 / 2.7 cm; over the
+  // whole passes 0.97 % pooled; bench/RESULTS.md, "Rigs without an IMU").
   for (const slam::RowPass& pass : passes) {
     const std::string file = PassFolder((dir_ / "ws").string(), id, pass.id) + "/poses.tum";
     std::vector<io::StampedPose> inside;
@@ -143,8 +143,8 @@ TEST_F(ImageFolderTest, JpegsWithPhoneGradePositionsRunCamGpsWithoutLosingTheSha
   ASSERT_EQ(e.overall.num_evaluated, 2);
   for (const eval::PassEval& p : e.passes) {
     SCOPED_TRACE(p.pass);
-    EXPECT_LT(p.metrics.rpe_translation_percent.rmse, 2.0);
-    EXPECT_LT(p.metrics.ate_aligned_m.rmse, 0.05);
+    EXPECT_LT(p.metrics.rpe_translation_percent.rmse, 1.5);
+    EXPECT_LT(p.metrics.ate_aligned_m.rmse, 0.04);
   }
 }
 

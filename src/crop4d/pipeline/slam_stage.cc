@@ -89,6 +89,13 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
         {"sigmas",
          {op.standstill.sigma_velocity, op.standstill.sigma_rate, op.standstill.sigma_translation,
           op.standstill.sigma_rotation}}}},
+      {"visual_initialisation",
+       {{"min_correspondences", o.visual_initialisation.min_correspondences},
+        {"ransac_threshold_px", o.visual_initialisation.ransac_threshold_px},
+        {"ransac_confidence", o.visual_initialisation.ransac_confidence},
+        {"min_inlier_fraction", o.visual_initialisation.min_inlier_fraction},
+        {"min_step_m", o.visual_initialisation.min_step_m},
+        {"min_usable_fraction", o.visual_initialisation.min_usable_fraction}}},
       {"cloud",
        {{"min_parallax_deg", o.cloud.min_parallax_deg},
         {"max_reprojection_error_px", o.cloud.max_reprojection_error_px}}},
@@ -97,7 +104,7 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 9;
+constexpr int kSlamStageRevision = 10;
 
 // Noise that fits the data (docs/slam.md, "IMU noise that fits the data"): a fit whose GPS
 // residuals are more than kNoiseMisfit times the fixes' sigmas (RMS over the axes) says that
@@ -126,6 +133,12 @@ constexpr double kUnknownVelocitySigma = 2.0;
 constexpr double kGpsGapFlagSeconds = 2.0;
 // The largest scale change the camera height may make on a pass solved without an IMU.
 constexpr double kMaxScaleChangeWithoutImu = 0.5;
+// A camera pass with fewer landmarks than this in its final solve is flagged camera_unused (a
+// cam+gps pass of the demo field keeps 190-1140).
+constexpr int kMinLandmarksForCamera = 20;
+// Without an IMU: the body axis that points up when the rig is level (the initialisation's
+// convention, slam/initialisation.h).
+const Eigen::Vector3d kLevelUpBody = Eigen::Vector3d::UnitZ();
 
 std::string Fingerprint(const json& options, const slam::RowPass& pass, std::size_t num_states,
                         const std::string& data_stamp) {
@@ -488,6 +501,16 @@ json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
         "and heading (errors of several percent; the camera height did not apply)",
         where);
   }
+  // A camera pass whose final solve kept almost no landmark: its poses are the motion model's
+  // and the GPS's, not the camera's (without an IMU: the GP prior's and the fixes' alone).
+  const int landmarks = summary.at("back_end").value("landmarks", 0);
+  if (info.camera && landmarks < kMinLandmarksForCamera) {
+    flags.push_back("camera_unused");
+    spdlog::warn(
+        "{}: only {} landmarks in the solve: the camera hardly constrains this pass's poses "
+        "(docs/slam.md, trust flags)",
+        where, landmarks);
+  }
   const double misfit = summary.at("back_end").value("gps_normalised_rms", 0.0);
   if (misfit > kNoiseMisfit) {
     flags.push_back("noise_misfit");
@@ -558,6 +581,19 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                             {"seconds", front_end_seconds}};
   }
 
+  // Every track of two or more images: the output cloud, and the soil's depth for the camera
+  // height.
+  std::vector<features::Track> all_tracks;
+  if (camera != nullptr) {
+    features::TrackBuilder::Options tb;
+    tb.min_track_length = 2;
+    std::vector<int> num_features;
+    for (const features::FeatureSet& f : front.features) {
+      num_features.push_back(static_cast<int>(f.size()));
+    }
+    all_tracks = features::TrackBuilder(tb).Build(num_features, front.pairs);
+  }
+
   // Initial states.
   auto start = Clock::now();
   slam::StateInitialiser::Summary init_summary;
@@ -587,6 +623,24 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
         {times[anchor_state]}, ctx.best_gps.sensor.antenna_in_body, &init_summary);
     initial = anchor_initialiser.InitialiseFromAnchor(anchor.front(), times);
   }
+  slam::VisualInitialisationSummary visual_init;
+  if (info.gps && ctx.streams.imu->samples.empty() && camera != nullptr) {
+    // Without an IMU the GPS track alone gave the guess: the images give its rotations and shape
+    // (slam/visual_initialisation.h), from every track of two or more images.
+    std::vector<slam::LandmarkTrack> pair_tracks;
+    for (const features::Track& track : all_tracks) {
+      pair_tracks.push_back(ToLandmarkTrack(track, front.features));
+    }
+    initial = slam::VisualInitialGuess(initial, camera->sensor.camera,
+                                       camera->sensor.body_from_sensor, pair_tracks, kLevelUpBody,
+                                       options.visual_initialisation, &visual_init);
+    if (!visual_init.applied) {
+      spdlog::warn(
+          "{}/{}: only {} of {} image pairs give their relative motion: the initial guess is "
+          "the GPS track's alone",
+          ctx.session->id(), pass.id, visual_init.visual_steps, visual_init.steps);
+    }
+  }
   const double init_seconds = SecondsSince(start);
   {
     // The initial guess, for diagnosis (same frame as poses.tum).
@@ -598,19 +652,6 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     }
     io::WriteTum((fs::path(folder) / "initial_poses.tum").string(), initial_poses,
                  "initial guess of " + ctx.session->id() + "/" + pass.id + " from GPS and IMU");
-  }
-
-  // Every track of two or more images: the output cloud, and the soil's depth for the camera
-  // height.
-  std::vector<features::Track> all_tracks;
-  if (camera != nullptr) {
-    features::TrackBuilder::Options tb;
-    tb.min_track_length = 2;
-    std::vector<int> num_features;
-    for (const features::FeatureSet& f : front.features) {
-      num_features.push_back(static_cast<int>(f.size()));
-    }
-    all_tracks = features::TrackBuilder(tb).Build(num_features, front.pairs);
   }
 
   // Standstills: from the IMU, the image motion and a precise GPS track.
@@ -668,8 +709,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     input.imu_noise = ImuNoise(imu.sensor, ctx.imu_noise_factor);
     input.imu_rate_hz = imu.sensor.rate_hz;
   } else {
-    // The level rig of the initialisation without IMU (slam/initialisation.h): body z up.
-    input.level_up_body = Eigen::Vector3d::UnitZ();
+    input.level_up_body = kLevelUpBody;
   }
   if (!ctx.session_states.empty()) {
     input.bias_prior_mean = initial.front().bias;
@@ -873,7 +913,10 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
        {init_summary.forward_axis_body.x(), init_summary.forward_axis_body.y(),
         init_summary.forward_axis_body.z()}},
       {"states_heading_from_gyro", init_summary.num_states_heading_from_gyro},
-      {"states_without_gps", init_summary.num_states_without_gps}};
+      {"states_without_gps", init_summary.num_states_without_gps},
+      {"from_images", visual_init.applied},
+      {"image_pairs_used", visual_init.visual_steps},
+      {"heading_change_deg", visual_init.heading_change_deg}};
   summary["back_end"] = {{"imu_factors", s.num_imu_factors},
                          {"imu_gaps", s.num_imu_gaps},
                          {"gps_factors", s.num_gps_factors},
@@ -934,9 +977,9 @@ bool SlamStageOptions::Check() const {
   }
   return state_rate_hz > 0 && session_state_rate_hz >= 0 && session_solve_max_sigma_m >= 0 &&
          session_bias_sigma_gyro > 0 && session_bias_sigma_accel > 0 && front_end.Check() &&
-         passes.Check() && initialisation.Check() && optimiser.Check() && cloud.Check() &&
-         camera_height_m >= 0 && std::isfinite(camera_height_m) && window_overlap_s >= 0 &&
-         max_window_s > window_overlap_s;
+         passes.Check() && initialisation.Check() && visual_initialisation.Check() &&
+         optimiser.Check() && cloud.Check() && camera_height_m >= 0 &&
+         std::isfinite(camera_height_m) && window_overlap_s >= 0 && max_window_s > window_overlap_s;
 }
 
 const char* ToString(PassMode mode) {

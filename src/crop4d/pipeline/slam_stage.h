@@ -26,6 +26,7 @@
 #include "crop4d/slam/row_passes.h"
 #include "crop4d/slam/sensor_set.h"
 #include "crop4d/slam/triangulation.h"
+#include "crop4d/slam/visual_initialisation.h"
 
 namespace crop4d::pipeline {
 
@@ -93,6 +94,9 @@ struct SlamStageOptions {
   double max_window_s = 300.0;
   double window_overlap_s = 15.0;
   slam::StateInitialiser::Options initialisation;
+  // Without an IMU: the initial guess's rotations and shape from the relative motion of
+  // consecutive images (slam/visual_initialisation.h).
+  slam::VisualInitialisationOptions visual_initialisation;
   slam::RowOptimiser::Options optimiser;
   // The output cloud: every track of ≥ 2 images triangulated from the final poses with these
   // checks.

@@ -292,6 +292,8 @@ std::vector<std::vector<std::string>> Builder::UntrustedPasses() {
       {"noise_misfit", "the solve misses the GPS fixes by more than 1.5 sigmas"},
       {"scale_from_metre_gps",
        "no IMU, no precise receiver, no camera height: scale and heading from metre-level fixes"},
+      {"camera_unused",
+       "fewer than 20 landmarks in the solve: the poses are the motion model's and the GPS's"},
   };
   std::vector<std::vector<std::string>> rows;
   std::error_code ec;

@@ -137,9 +137,12 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
         summary.num_imu_gaps, n - 1);
   }
 
-  // Phase 1: IMU + GP + GPS, no camera.
+  // Phase 1: IMU + GP + GPS, no camera. Skipped without an IMU when there is a camera: the GP
+  // prior and the fixes alone observe no rotation and would only undo the initial guess's, which
+  // then comes from the images (visual_initialisation.h).
   auto start = Clock::now();
-  if (builder.has_gps() || input.camera == nullptr || input.tracks.empty()) {
+  const bool use_camera = input.camera != nullptr && !input.tracks.empty();
+  if (!use_camera || (builder.has_gps() && builder.has_imu())) {
     ceres::Problem problem(ProblemOptions());
     builder.AddMotion(&problem, &summary);
     const ceres::Solver::Summary s = RunSolver(options_, &problem, nullptr);
@@ -160,7 +163,6 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
   }
   summary.inertial_seconds = SecondsSince(start);
 
-  const bool use_camera = input.camera != nullptr && !input.tracks.empty();
   if (use_camera) {
     // Phase 2: landmarks from the current poses, then the full problem.
     start = Clock::now();

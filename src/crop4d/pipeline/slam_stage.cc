@@ -593,6 +593,11 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     }
     all_tracks = features::TrackBuilder(tb).Build(num_features, front.pairs);
   }
+  // The same tracks in image indices: the visual initial guess and the soil's depth use them.
+  std::vector<slam::LandmarkTrack> pair_tracks;
+  for (const features::Track& track : all_tracks) {
+    pair_tracks.push_back(ToLandmarkTrack(track, front.features));
+  }
 
   // Initial states.
   auto start = Clock::now();
@@ -627,10 +632,6 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   if (info.gps && ctx.streams.imu->samples.empty() && camera != nullptr) {
     // Without an IMU the GPS track alone gave the guess: the images give its rotations and shape
     // (slam/visual_initialisation.h), from every track of two or more images.
-    std::vector<slam::LandmarkTrack> pair_tracks;
-    for (const features::Track& track : all_tracks) {
-      pair_tracks.push_back(ToLandmarkTrack(track, front.features));
-    }
     initial = slam::VisualInitialGuess(initial, camera->sensor.camera,
                                        camera->sensor.body_from_sensor, pair_tracks, kLevelUpBody,
                                        options.visual_initialisation, &visual_init);
@@ -727,9 +728,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   const double camera_height = CameraHeight(options, ctx.streams);
   if (camera_height > 0 && camera != nullptr && !precise_scale) {
     input.camera_height_m = camera_height;
-    for (const features::Track& track : all_tracks) {
-      input.depth_tracks.push_back(ToLandmarkTrack(track, front.features));
-    }
+    input.depth_tracks = std::move(pair_tracks);
   }
   if (options.motion_constraint && pass.row >= 0 && ctx.forward_axis_estimated) {
     // A row pass is driven by a vehicle: the non-holonomic constraint holds.

@@ -1,58 +1,11 @@
 #include "crop4d/features/tracks.h"
 
 #include <algorithm>
-#include <numeric>
 
 #include "crop4d/core/error.h"
+#include "crop4d/features/union_find.h"
 
 namespace crop4d::features {
-namespace {
-
-// Union-find with path halving and union by size.
-class UnionFind {
- public:
-  explicit UnionFind(std::size_t n) : parent_(n), size_(n, 1) {
-    std::iota(parent_.begin(), parent_.end(), std::size_t{0});
-  }
-  std::size_t Find(std::size_t x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  // Returns the new root.
-  std::size_t Union(std::size_t a, std::size_t b) {
-    a = Find(a);
-    b = Find(b);
-    if (a == b) return a;
-    if (size_[a] < size_[b]) std::swap(a, b);
-    parent_[b] = a;
-    size_[a] += size_[b];
-    return a;
-  }
-
- private:
-  std::vector<std::size_t> parent_;
-  std::vector<std::size_t> size_;
-};
-
-// Whether two sorted image lists share an image.
-bool Intersect(const std::vector<std::int32_t>& a, const std::vector<std::int32_t>& b) {
-  auto i = a.begin();
-  auto j = b.begin();
-  while (i != a.end() && j != b.end()) {
-    if (*i == *j) return true;
-    if (*i < *j) {
-      ++i;
-    } else {
-      ++j;
-    }
-  }
-  return false;
-}
-
-}  // namespace
 
 bool TrackBuilder::Options::Check() const { return min_track_length >= 2; }
 
@@ -169,30 +122,17 @@ std::vector<Track> TrackBuilder::Build(const std::vector<int>& num_features,
           component_edges[slot_of_component[c]].push_back(static_cast<int>(e));
         }
       }
-      UnionFind split(offset.back());
-      // Sorted images of each set, kept at the set's root.
-      std::vector<std::vector<std::int32_t>> images_of_root(offset.back());
+      std::vector<std::uint64_t> image_of(offset.back());
+      for (std::size_t node = 0; node < offset.back(); ++node) {
+        image_of[node] = static_cast<std::uint64_t>(observation_of[node].image);
+      }
+      ConsistentUnionFind split(std::move(image_of));
       std::vector<int> piece_of_root(offset.back(), -1);  // roots are unique to a component
       for (std::size_t k = 0; k < inconsistent.size(); ++k) {
         std::vector<int>& order = component_edges[k];
         std::stable_sort(order.begin(), order.end(),
                          [&](int x, int y) { return edges[x].distance < edges[y].distance; });
-        for (std::size_t node : component_nodes[inconsistent[k]]) {
-          images_of_root[node] = {observation_of[node].image};
-        }
-        for (int e : order) {
-          const std::size_t ra = split.Find(node_of(edges[e].a));
-          const std::size_t rb = split.Find(node_of(edges[e].b));
-          if (ra == rb || Intersect(images_of_root[ra], images_of_root[rb])) continue;
-          std::vector<std::int32_t> merged;
-          merged.reserve(images_of_root[ra].size() + images_of_root[rb].size());
-          std::merge(images_of_root[ra].begin(), images_of_root[ra].end(),
-                     images_of_root[rb].begin(), images_of_root[rb].end(),
-                     std::back_inserter(merged));
-          images_of_root[ra].clear();
-          images_of_root[rb].clear();
-          images_of_root[split.Union(ra, rb)] = std::move(merged);
-        }
+        for (int e : order) split.Union(node_of(edges[e].a), node_of(edges[e].b));
         // The pieces, numbered by their first node.
         std::vector<Track> pieces;
         for (std::size_t node : component_nodes[inconsistent[k]]) {

@@ -23,6 +23,7 @@
 #include "crop4d/core/hash.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
+#include "crop4d/fusion/cross_pass_tracks.h"
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/colmap_text.h"
@@ -46,75 +47,6 @@ using Clock = std::chrono::steady_clock;
 // Changes whenever the stage's outputs for the same inputs change.
 constexpr int kFuseStageRevision = 3;  // 3: degraded sessions do not move the others
 
-// One (pass, image, feature) as a node of the landmark graph.
-struct Node {
-  int pass = 0, image = 0, feature = 0;
-};
-
-class NodeTable {
- public:
-  int Get(int pass, int image, int feature) {
-    const std::uint64_t key = (static_cast<std::uint64_t>(pass) << 42) |
-                              (static_cast<std::uint64_t>(image) << 21) |
-                              static_cast<std::uint64_t>(feature);
-    auto [it, inserted] = ids_.emplace(key, static_cast<int>(nodes_.size()));
-    if (inserted) nodes_.push_back({pass, image, feature});
-    return it->second;
-  }
-  const Node& node(int id) const { return nodes_[id]; }
-  std::size_t size() const { return nodes_.size(); }
-
- private:
-  std::unordered_map<std::uint64_t, int> ids_;
-  std::vector<Node> nodes_;
-};
-
-// Union-find over the nodes whose components never hold two features of one image (one 3D
-// point is seen at most once per image): a union that would is refused. Replaying the cross
-// matches best first, the weakest link of a conflict is the one cut, as features/tracks.h's
-// kSplit policy does within a pass.
-class ConsistentUnionFind {
- public:
-  explicit ConsistentUnionFind(const NodeTable& nodes)
-      : parent_(nodes.size()), members_(nodes.size()) {
-    for (std::size_t i = 0; i < nodes.size(); ++i) {
-      parent_[i] = static_cast<int>(i);
-      const Node& n = nodes.node(static_cast<int>(i));
-      members_[i].emplace(ImageKey(n.pass, n.image), n.feature);
-    }
-  }
-  int Find(int x) {
-    while (parent_[x] != x) {
-      parent_[x] = parent_[parent_[x]];
-      x = parent_[x];
-    }
-    return x;
-  }
-  // Joins the components of a and b; false (and nothing changes) when they hold different
-  // features of one image.
-  bool Union(int a, int b) {
-    a = Find(a);
-    b = Find(b);
-    if (a == b) return true;
-    if (members_[a].size() < members_[b].size()) std::swap(a, b);
-    for (const auto& [key, feature] : members_[b]) {
-      const auto it = members_[a].find(key);
-      if (it != members_[a].end() && it->second != feature) return false;
-    }
-    members_[a].insert(members_[b].begin(), members_[b].end());
-    members_[b].clear();
-    parent_[b] = a;
-    return true;
-  }
-
- private:
-  static std::uint64_t ImageKey(int pass, int image) {
-    return (static_cast<std::uint64_t>(pass) << 32) | static_cast<std::uint32_t>(image);
-  }
-  std::vector<int> parent_;
-  std::vector<std::unordered_map<std::uint64_t, int>> members_;
-};
-
 struct LoadedPass {
   PassData data;
   fusion::JointOptimiser::Pass input;
@@ -127,92 +59,26 @@ std::uint64_t ImageFeatureKey(int image, int feature) {
   return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
 }
 
-// The landmark graph of the season: its nodes, each pass's landmarks (their first node, and
-// the edges from it to the landmark's other observations), and each cross match (its edges:
-// the match and the tracks it joins, its descriptor distance and its two passes).
-struct LandmarkGraph {
-  NodeTable nodes;
-  std::vector<int> landmark_nodes;
-  std::vector<std::pair<int, int>> landmark_edges;
-  std::vector<std::vector<std::pair<int, int>>> match_edges;
-  std::vector<float> match_distances;
-  std::vector<std::pair<int, int>> match_passes;
-};
-
-// The joint landmarks over the passes with `use[p]` (observations keep the indices of
-// `passes`): each pass's own, then the cross matches between used passes best first (smallest
-// descriptor distance), refusing any union that would put two features of one image in a
-// landmark (counted in `num_conflicting`).
+// The joint landmarks over the passes with `use[p]` (fusion/cross_pass_tracks.h), each
+// observation with its keypoint, each landmark with the mean colour of its keypoints.
 std::vector<fusion::JointLandmark> JoinLandmarks(
-    const LandmarkGraph& graph, const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const fusion::CrossPassTracks& graph, const std::vector<std::unique_ptr<LoadedPass>>& passes,
     const std::vector<bool>& use, std::int64_t* num_conflicting) {
-  const NodeTable& nodes = graph.nodes;
-  ConsistentUnionFind uf(nodes);
-  std::vector<bool> in_graph(nodes.size(), false);
-  for (int id : graph.landmark_nodes) in_graph[id] = use[nodes.node(id).pass];
-  for (const auto& [a, b] : graph.landmark_edges) {
-    if (!use[nodes.node(a).pass]) continue;
-    uf.Union(a, b);
-    in_graph[a] = in_graph[b] = true;
-  }
-  std::vector<std::size_t> order;
-  for (std::size_t m = 0; m < graph.match_edges.size(); ++m) {
-    if (use[graph.match_passes[m].first] && use[graph.match_passes[m].second]) order.push_back(m);
-  }
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
-    return graph.match_distances[x] < graph.match_distances[y];
-  });
-  *num_conflicting = 0;
-  for (std::size_t m : order) {
-    const std::vector<std::pair<int, int>>& edges = graph.match_edges[m];
-    if (!uf.Union(edges.front().first, edges.front().second)) {
-      ++*num_conflicting;
-      continue;
-    }
-    for (const auto& [a, b] : edges) {
-      if (uf.Union(a, b)) in_graph[a] = in_graph[b] = true;
-    }
-  }
-  std::unordered_map<int, int> landmark_of_root;
-  std::vector<fusion::JointLandmark> landmarks;
-  std::vector<Eigen::Vector3i> color_sums;
-  for (std::size_t i = 0; i < nodes.size(); ++i) {
-    if (!in_graph[i]) continue;
-    const int root = uf.Find(static_cast<int>(i));
-    auto [it, inserted] = landmark_of_root.emplace(root, static_cast<int>(landmarks.size()));
-    if (inserted) {
-      landmarks.emplace_back();
-      color_sums.push_back(Eigen::Vector3i::Zero());
-    }
-    const Node& n = nodes.node(static_cast<int>(i));
-    const features::FeatureSet& f = passes[n.pass]->data.features[n.image];
-    landmarks[it->second].observations.push_back({n.pass, n.image, f.Point(n.feature)});
-    if (!f.colors.empty()) {
-      for (int c = 0; c < 3; ++c) color_sums[it->second](c) += f.colors[n.feature][c];
-    }
-  }
-  // A node whose only link was refused is alone: not a landmark.
-  std::size_t kept = 0;
+  const fusion::CrossPassTracks::Result joined = graph.Join(use);
+  *num_conflicting = joined.num_conflicting_matches;
+  std::vector<fusion::JointLandmark> landmarks(joined.landmarks.size());
   for (std::size_t l = 0; l < landmarks.size(); ++l) {
-    if (landmarks[l].observations.size() < 2) continue;
-    if (kept != l) {
-      landmarks[kept] = std::move(landmarks[l]);
-      color_sums[kept] = color_sums[l];
+    Eigen::Vector3i color_sum = Eigen::Vector3i::Zero();
+    for (const fusion::PassFeature& n : joined.landmarks[l]) {
+      const features::FeatureSet& f = passes[n.pass]->data.features[n.image];
+      landmarks[l].observations.push_back({n.pass, n.image, f.Point(n.feature)});
+      if (!f.colors.empty()) {
+        for (int c = 0; c < 3; ++c) color_sum(c) += f.colors[n.feature][c];
+      }
     }
-    ++kept;
-  }
-  landmarks.resize(kept);
-  color_sums.resize(kept);
-  for (std::size_t l = 0; l < landmarks.size(); ++l) {
-    auto& obs = landmarks[l].observations;
-    // The landmark's first pass first (IsCross counts the others' observations).
-    std::stable_sort(obs.begin(), obs.end(),
-                     [](const fusion::JointObservation& a, const fusion::JointObservation& b) {
-                       return a.pass != b.pass ? a.pass < b.pass : a.state < b.state;
-                     });
+    const int count = static_cast<int>(joined.landmarks[l].size());
     for (int c = 0; c < 3; ++c) {
-      landmarks[l].color[c] =
-          static_cast<std::uint8_t>(color_sums[l](c) / static_cast<int>(obs.size()));
+      landmarks[l].color[c] = static_cast<std::uint8_t>(color_sum(c) / count);
     }
   }
   return landmarks;
@@ -580,20 +446,10 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
 
   // The landmark graph: each pass's landmarks, then the cross matches with the cloud tracks
   // they join.
-  LandmarkGraph graph;
-  NodeTable& nodes = graph.nodes;
+  fusion::CrossPassTracks graph;
   for (std::size_t p = 0; p < passes.size(); ++p) {
     for (const PassTrack& t : passes[p]->data.tracks.landmarks) {
-      int first = -1;
-      for (const features::Observation& o : t.observations) {
-        const int id = nodes.Get(static_cast<int>(p), o.image, o.feature);
-        if (first < 0) {
-          first = id;
-          graph.landmark_nodes.push_back(id);
-        } else {
-          graph.landmark_edges.emplace_back(first, id);
-        }
-      }
+      graph.AddPassLandmark(static_cast<int>(p), t.observations);
     }
   }
   // Pairs of passes of two sessions, with their number of cross matches.
@@ -634,22 +490,18 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
         ++report.num_invalid_matches;
         continue;
       }
-      std::vector<std::pair<int, int>> edges;
-      const int na = nodes.Get(pa, m.image_a, m.feature_a);
-      const int nb = nodes.Get(pb, m.image_b, m.feature_b);
-      edges.emplace_back(na, nb);
-      for (const auto& [p, image, feature, anchor] : {std::tuple{pa, m.image_a, m.feature_a, na},
-                                                      std::tuple{pb, m.image_b, m.feature_b, nb}}) {
+      // The tracks of the pass each feature belongs to (none: no cloud track).
+      const auto track_of = [&](int p, int image,
+                                 int feature) -> const std::vector<features::Observation>& {
+        static const std::vector<features::Observation> kNone;
         const auto it = passes[p]->cloud_of.find(ImageFeatureKey(image, feature));
-        if (it == passes[p]->cloud_of.end()) continue;
-        for (const features::Observation& o :
-             passes[p]->data.tracks.cloud[it->second].observations) {
-          edges.emplace_back(anchor, nodes.Get(p, o.image, o.feature));
-        }
-      }
-      graph.match_edges.push_back(std::move(edges));
-      graph.match_distances.push_back(m.distance);
-      graph.match_passes.emplace_back(pa, pb);
+        return it == passes[p]->cloud_of.end()
+                   ? kNone
+                   : passes[p]->data.tracks.cloud[it->second].observations;
+      };
+      graph.AddCrossMatch({pa, m.image_a, m.feature_a}, {pb, m.image_b, m.feature_b}, m.distance,
+                          track_of(pa, m.image_a, m.feature_a),
+                          track_of(pb, m.image_b, m.feature_b));
     }
     if (report.num_invalid_matches > 0) {
       spdlog::warn(

@@ -16,13 +16,8 @@ namespace crop4d::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string Binary() {
-  const char* override_path = std::getenv("CROP4D_TEST_BINARY");
-  return override_path != nullptr ? override_path : std::string(CROP4D_BINARY_DIR) + "/crop4d";
-}
-
-std::string Q(const std::string& s) { return "'" + s + "'"; }
+using io::testing::Crop4dBinary;
+using io::testing::ShellQuote;
 
 // Ground at height z from x0 to x1 every 1 cm, three points at y = 10 and 10 ± 0.02.
 io::PlyPointCloud Ground(double x0, double x1, double z) {
@@ -37,7 +32,7 @@ io::PlyPointCloud Ground(double x0, double x1, double z) {
 class SectionCommandTest : public ::testing::Test {
  public:
   void SetUp() override {
-    ASSERT_TRUE(fs::exists(Binary())) << Binary();
+    ASSERT_TRUE(fs::exists(Crop4dBinary())) << Crop4dBinary();
     // Session 1: two row SLAM clouds; session 2: a fused cloud (and a row cloud, not used);
     // session 3: nothing.
     io::WritePly(ws() + "/sessions/2016-06-01/rows/row00/landmarks.ply", Ground(1.0, 2.0, 0.0));
@@ -60,7 +55,8 @@ class SectionCommandTest : public ::testing::Test {
   };
   Result Run(const std::string& args) {
     const std::string err = dir_ / "stderr.txt";
-    const std::string command = Q(Binary()) + " section " + args + " >/dev/null 2>" + Q(err);
+    const std::string command =
+        ShellQuote(Crop4dBinary()) + " section " + args + " >/dev/null 2>" + ShellQuote(err);
     const int status = std::system(command.c_str());
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, io::testing::ReadText(err)};
   }
@@ -70,8 +66,8 @@ class SectionCommandTest : public ::testing::Test {
 };
 
 TEST_F(SectionCommandTest, DrawsARowSectionFromFusedAndRowClouds) {
-  const Result r =
-      Run("--workspace " + Q(ws()) + " --field " + Q(field()) + " --row 1 -o " + Q(png()));
+  const Result r = Run("--workspace " + ShellQuote(ws()) + " --field " + ShellQuote(field()) +
+                       " --row 1 -o " + ShellQuote(png()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("2016-06-01: 606 points from 2 row SLAM clouds"), std::string::npos)
       << r.err;
@@ -84,15 +80,17 @@ TEST_F(SectionCommandTest, DrawsARowSectionFromFusedAndRowClouds) {
   const std::string first = io::testing::ReadText(png());
   EXPECT_EQ(first.substr(1, 3), "PNG");
   // Deterministic.
-  ASSERT_EQ(Run("--workspace " + Q(ws()) + " --field " + Q(field()) + " --row 1 -o " + Q(png()))
+  ASSERT_EQ(Run("--workspace " + ShellQuote(ws()) + " --field " + ShellQuote(field()) +
+                " --row 1 -o " + ShellQuote(png()))
                 .exit_code,
             0);
   EXPECT_EQ(io::testing::ReadText(png()), first);
 }
 
 TEST_F(SectionCommandTest, SliceByXAndSessionSelection) {
-  const Result r = Run("--workspace " + Q(ws()) + " --x 2 --thickness 0.05 --half-length 0.5 " +
-                       "--sessions 2016-06-10 -o " + Q(png()));
+  const Result r =
+      Run("--workspace " + ShellQuote(ws()) + " --x 2 --thickness 0.05 --half-length 0.5 " +
+          "--sessions 2016-06-10 -o " + ShellQuote(png()));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   // y from the median of the points near x = 2; x from 1.5 to 2.5.
   EXPECT_NE(r.err.find("y = 10.00 m, the median y"), std::string::npos) << r.err;
@@ -102,29 +100,32 @@ TEST_F(SectionCommandTest, SliceByXAndSessionSelection) {
 }
 
 TEST_F(SectionCommandTest, NoPointInTheSliceStillWritesTheFigure) {
-  const Result r = Run("--workspace " + Q(ws()) + " --x 50 --y 10 -o " + Q(png()));
+  const Result r =
+      Run("--workspace " + ShellQuote(ws()) + " --x 50 --y 10 -o " + ShellQuote(png()));
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("no point of any session lies in the slice"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::exists(png()));
 }
 
 TEST_F(SectionCommandTest, BadInputIsExitCode2WithAClearMessage) {
-  const std::string base = "--workspace " + Q(ws()) + " -o " + Q(png()) + " ";
+  const std::string base = "--workspace " + ShellQuote(ws()) + " -o " + ShellQuote(png()) + " ";
   auto expect_error = [&](const std::string& args, const std::string& what) {
     const Result r = Run(args);
     EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.err;
     EXPECT_NE(r.err.find(what), std::string::npos) << args << "\n" << r.err;
   };
   expect_error(base + "--row 1", "--row needs --field FIELD");
-  expect_error(base + "--row 7 --field " + Q(field()), "has no row 7 (rows: 0, 1)");
-  expect_error(base + "--row 1 --x 2 --field " + Q(field()),
+  expect_error(base + "--row 7 --field " + ShellQuote(field()), "has no row 7 (rows: 0, 1)");
+  expect_error(base + "--row 1 --x 2 --field " + ShellQuote(field()),
                "Exactly 1 option from [--row,--x] is required and 2 were given");
   expect_error(base, "Exactly 1 option from [--row,--x] is required");
   expect_error(base + "--x 2 --sessions 2016-06-01,2016-07-01", "session '2016-07-01' is not in");
   expect_error(base + "--x 2 --sessions 2016-06-20", "no point cloud for any session");
   expect_error(base + "--x 2 --thickness 0", "--thickness");
-  expect_error("--workspace " + Q(ws()) + " --x 2 -o " + Q(dir_ / "a.jpg"), "ending in .png");
-  expect_error("--workspace " + Q(dir_ / "nowhere") + " --x 2 -o " + Q(png()), "nowhere");
+  expect_error("--workspace " + ShellQuote(ws()) + " --x 2 -o " + ShellQuote(dir_ / "a.jpg"),
+               "ending in .png");
+  expect_error("--workspace " + ShellQuote(dir_ / "nowhere") + " --x 2 -o " + ShellQuote(png()),
+               "nowhere");
   fs::remove_all(ws() + "/sessions");
   fs::create_directories(ws());
   expect_error(base + "--x 2", "no sessions/ folder");

@@ -18,49 +18,34 @@ namespace crop4d::cli {
 namespace {
 
 namespace fs = std::filesystem;
+using io::testing::Crop4dBinary;
 using io::testing::ReadLines;
 using io::testing::ReadText;
 using io::testing::ReplaceInFile;
 using io::testing::ReplaceLine;
+using io::testing::RunCommand;
+using io::testing::ShellQuote;
 using io::testing::TempDir;
 using io::testing::WriteText;
 
 const std::string kS = "sessions/2016-05-25/";
 
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-// The binary under test: $CROP4D_TEST_BINARY when set, else <build>/crop4d.
-std::string Binary() {
-  const char* override_path = std::getenv("CROP4D_TEST_BINARY");
-  return override_path != nullptr ? override_path : std::string(CROP4D_BINARY_DIR) + "/crop4d";
-}
-
-std::string Quote(const std::string& s) { return "'" + s + "'"; }
+using RunResult = io::testing::CommandResult;
 
 RunResult RunCrop4d(const TempDir& dir, const std::string& args) {
-  const std::string out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string command = Quote(Binary()) + " " + args + " >" + Quote(out) + " 2>" + Quote(err);
-  const int status = std::system(command.c_str());
-  RunResult result;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  result.out = ReadText(out);
-  result.err = ReadText(err);
-  return result;
+  return RunCommand(dir, Crop4dBinary(), args);
 }
 
 class ValidateCommandTest : public ::testing::Test {
  public:
   void SetUp() override {
-    ASSERT_TRUE(fs::exists(Binary())) << Binary();
+    ASSERT_TRUE(fs::exists(Crop4dBinary())) << Crop4dBinary();
     io::WriteSampleField(field());
   }
   std::string field() const { return dir_ / "field"; }
   std::string Path(const std::string& relative) const { return field() + "/" + relative; }
   RunResult Validate(const std::string& extra = "") {
-    return RunCrop4d(dir_, "validate " + Quote(field()) + " " + extra);
+    return RunCrop4d(dir_, "validate " + ShellQuote(field()) + " " + extra);
   }
   std::string ImageOnLine(int line) const {
     const std::string text = ReadLines(Path(kS + "cam0/data.csv")).at(line - 1);
@@ -160,7 +145,7 @@ TEST_F(ValidateCommandTest, WarningsAloneExitZero) {
 }
 
 TEST_F(ValidateCommandTest, MissingFolderExitsTwo) {
-  const RunResult r = RunCrop4d(dir_, "validate " + Quote(dir_ / "nope"));
+  const RunResult r = RunCrop4d(dir_, "validate " + ShellQuote(dir_ / "nope"));
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("error: " + (dir_ / "nope") + ": field folder not found"), std::string::npos)
       << r.err;
@@ -168,7 +153,7 @@ TEST_F(ValidateCommandTest, MissingFolderExitsTwo) {
 
 TEST_F(ValidateCommandTest, JsonReportAndMessageLimit) {
   for (int line : {3, 50, 100}) ReplaceLine(Path(kS + "imu0/data.csv"), line, "bad");
-  const RunResult r = Validate("--json " + Quote(dir_ / "report.json") + " --max-messages 2");
+  const RunResult r = Validate("--json " + ShellQuote(dir_ / "report.json") + " --max-messages 2");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("imu0/data.csv:50: expected 7 columns, found 1"), std::string::npos);
   EXPECT_EQ(r.err.find("imu0/data.csv:100:"), std::string::npos) << r.err;
@@ -211,10 +196,10 @@ TEST(MainTest, VersionHelpAndUsageErrors) {
     const std::string commit = match[1].str();
     ASSERT_NE(commit, "unknown") << version.out;
     const std::string hash = commit.substr(0, commit.find('-'));
-    EXPECT_EQ(
-        std::system(
-            ("git -C " + Quote(source) + " cat-file -e " + hash + "^{commit} 2>/dev/null").c_str()),
-        0)
+    EXPECT_EQ(std::system(("git -C " + ShellQuote(source) + " cat-file -e " + hash +
+                           "^{commit} 2>/dev/null")
+                              .c_str()),
+              0)
         << hash << " is not a commit of " << source;
   }
 

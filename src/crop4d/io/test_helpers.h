@@ -4,7 +4,9 @@
 // Header-only; used by the io tests and the CLI tests.
 
 #include <stdlib.h>
+#include <sys/wait.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -84,6 +86,38 @@ inline void ReplaceInFile(const std::string& path, const std::string& from, cons
   if (at == std::string::npos) throw std::runtime_error("'" + from + "' not in " + path);
   text.replace(at, from.size(), to);
   WriteText(path, text);
+}
+
+// The crop4d binary under test: $CROP4D_TEST_BINARY when set, else <build>/crop4d (test targets
+// define CROP4D_BINARY_DIR).
+#ifdef CROP4D_BINARY_DIR
+inline std::string Crop4dBinary() {
+  const char* override_path = std::getenv("CROP4D_TEST_BINARY");
+  return override_path != nullptr ? override_path : std::string(CROP4D_BINARY_DIR) + "/crop4d";
+}
+#endif
+
+// `s` in single quotes for a shell command line (the tests' paths hold no quote).
+inline std::string ShellQuote(const std::string& s) { return "'" + s + "'"; }
+
+// Exit code and captured output of one command run.
+struct CommandResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+// Runs `program args` through the shell, its stdout and stderr captured in files of `dir`.
+inline CommandResult RunCommand(const TempDir& dir, const std::string& program,
+                                const std::string& args) {
+  const std::string out = dir / "stdout.txt", err = dir / "stderr.txt";
+  const std::string command =
+      ShellQuote(program) + " " + args + " >" + ShellQuote(out) + " 2>" + ShellQuote(err);
+  const int status = std::system(command.c_str());
+  CommandResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.out = ReadText(out);
+  result.err = ReadText(err);
+  return result;
 }
 
 }  // namespace crop4d::io::testing

@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "crop4d/io/test_helpers.h"
 #include "crop4d/pipeline/run_log.h"
 #include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
@@ -36,12 +37,8 @@ namespace crop4d::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
+using io::testing::Crop4dBinary;
 using json = nlohmann::json;
-
-std::string Binary() {
-  const char* override_path = std::getenv("CROP4D_TEST_BINARY");
-  return override_path != nullptr ? override_path : std::string(CROP4D_BINARY_DIR) + "/crop4d";
-}
 
 // The tiny preset with a third session (no rain: the sessions register), simulated once per
 // build tree.
@@ -144,7 +141,7 @@ void RemoveFixes(const fs::path& view, const std::string& id, const std::string&
 
 // Starts `crop4d args...` with output to `log`; returns its pid.
 pid_t Start(const std::vector<std::string>& args, const fs::path& log) {
-  std::vector<std::string> all = {Binary()};
+  std::vector<std::string> all = {Crop4dBinary()};
   all.insert(all.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (std::string& a : all) argv.push_back(a.data());
@@ -265,7 +262,7 @@ bool Listed(const RunRecord& record, const std::string& stage, const std::string
 class SeasonRunTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(fs::exists(Binary())) << Binary();
+    ASSERT_TRUE(fs::exists(Crop4dBinary())) << Crop4dBinary();
     dir_ = fs::path(::testing::TempDir()) /
            ("crop4d_run_" + std::to_string(getpid()) + "_" +
             ::testing::UnitTest::GetInstance()->current_test_info()->name());

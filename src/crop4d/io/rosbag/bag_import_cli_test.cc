@@ -18,38 +18,23 @@ namespace crop4d::io {
 namespace {
 
 namespace fs = std::filesystem;
+using testing::Crop4dBinary;
 using testing::ReadText;
+using testing::RunCommand;
+using testing::ShellQuote;
 using testing::TempDir;
 using testing::WriteText;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-// The binary under test: $CROP4D_TEST_BINARY when set, else <build>/crop4d.
-std::string Binary() {
-  const char* override_path = std::getenv("CROP4D_TEST_BINARY");
-  return override_path != nullptr ? override_path : std::string(CROP4D_BINARY_DIR) + "/crop4d";
-}
-
-std::string Quote(const std::string& s) { return "'" + s + "'"; }
+using RunResult = io::testing::CommandResult;
 
 RunResult RunCrop4d(const TempDir& dir, const std::string& args) {
-  const std::string out = dir / "stdout.txt", err = dir / "stderr.txt";
-  const std::string command = Quote(Binary()) + " " + args + " >" + Quote(out) + " 2>" + Quote(err);
-  const int status = std::system(command.c_str());
-  RunResult result;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  result.out = ReadText(out);
-  result.err = ReadText(err);
-  return result;
+  return RunCommand(dir, Crop4dBinary(), args);
 }
 
 class BagImportCliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(fs::exists(Binary())) << Binary();
+    ASSERT_TRUE(fs::exists(Crop4dBinary())) << Crop4dBinary();
     WriteSampleField(dir_ / "original");
     // The sample session's camera and IMU as a bag (lz4 chunks).
     const Session session(session_folder());
@@ -78,21 +63,21 @@ class BagImportCliTest : public ::testing::Test {
   std::string bag_path() const { return dir_ / "drive.bag"; }
   std::string SensorYaml(const std::string& sensor) const {
     return "--sensor-yaml " + sensor + "=" +
-           Quote(session_folder() + "/" + sensor + "/sensor.yaml");
+           ShellQuote(session_folder() + "/" + sensor + "/sensor.yaml");
   }
   TempDir dir_;
 };
 
 TEST_F(BagImportCliTest, ImportsAndTheFieldValidates) {
   const RunResult run = RunCrop4d(
-      dir_, "import --bag " + Quote(bag_path()) + " --out " + Quote(dir_ / "field") +
+      dir_, "import --bag " + ShellQuote(bag_path()) + " --out " + ShellQuote(dir_ / "field") +
                 " --topic cam0=/camera/image_raw " + SensorYaml("cam0") + " " + SensorYaml("imu0"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("cam0"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("/imu/data (sensor_msgs/Imu)"), std::string::npos) << run.out;
   EXPECT_EQ(ReadText(dir_ / "field/sessions/2016-05-25/imu0/data.csv"),
             ReadText(session_folder() + "/imu0/data.csv"));
-  const RunResult validate = RunCrop4d(dir_, "validate " + Quote(dir_ / "field"));
+  const RunResult validate = RunCrop4d(dir_, "validate " + ShellQuote(dir_ / "field"));
   EXPECT_EQ(validate.exit_code, 0) << validate.err << validate.out;
 }
 
@@ -110,9 +95,9 @@ TEST_F(BagImportCliTest, KalibrCalibrationAppliesToABag) {
             "  intrinsics: [25.6, 25.7, 16.1, 12.2]\n"
             "  resolution: [32, 24]\n"
             "  timeshift_cam_imu: 0.001\n");
-  const RunResult run =
-      RunCrop4d(dir_, "import --bag " + Quote(bag_path()) + " --out " + Quote(dir_ / "field") +
-                          " --kalibr-camchain " + Quote(dir_ / "camchain.yaml"));
+  const RunResult run = RunCrop4d(dir_, "import --bag " + ShellQuote(bag_path()) + " --out " +
+                                            ShellQuote(dir_ / "field") + " --kalibr-camchain " +
+                                            ShellQuote(dir_ / "camchain.yaml"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const Session imported(dir_ / "field/sessions/2016-05-25");
   const CameraSensor* camera = imported.FindCamera("cam0");
@@ -125,17 +110,18 @@ TEST_F(BagImportCliTest, KalibrCalibrationAppliesToABag) {
   ASSERT_EQ(shifted.size(), original.size());
   EXPECT_EQ(shifted.front().t, original.front().t + 1000000);
   // --sensor-yaml and Kalibr for the same camera: a conflict.
-  const RunResult both = RunCrop4d(
-      dir_, "import --bag " + Quote(bag_path()) + " --out " + Quote(dir_ / "field2") +
-                " --kalibr-camchain " + Quote(dir_ / "camchain.yaml") + " " + SensorYaml("cam0"));
+  const RunResult both =
+      RunCrop4d(dir_, "import --bag " + ShellQuote(bag_path()) + " --out " +
+                          ShellQuote(dir_ / "field2") + " --kalibr-camchain " +
+                          ShellQuote(dir_ / "camchain.yaml") + " " + SensorYaml("cam0"));
   EXPECT_EQ(both.exit_code, 2);
   EXPECT_NE(both.err.find("cam0 is also given with --sensor-yaml"), std::string::npos) << both.err;
 }
 
 TEST_F(BagImportCliTest, MissingTopicExitsWithTwoAndListsTheTopics) {
-  const RunResult run =
-      RunCrop4d(dir_, "import --bag " + Quote(bag_path()) + " --out " + Quote(dir_ / "field") +
-                          " --topic imu0=/imu/missing " + SensorYaml("cam0"));
+  const RunResult run = RunCrop4d(dir_, "import --bag " + ShellQuote(bag_path()) + " --out " +
+                                            ShellQuote(dir_ / "field") +
+                                            " --topic imu0=/imu/missing " + SensorYaml("cam0"));
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("/imu/missing"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("/camera/image_raw (sensor_msgs/Image, "), std::string::npos) << run.err;
@@ -146,18 +132,18 @@ TEST_F(BagImportCliTest, MissingTopicExitsWithTwoAndListsTheTopics) {
 TEST_F(BagImportCliTest, TruncatedBagAndBadOptionsExitWithTwo) {
   const std::string bytes = ReadText(bag_path());
   WriteText(dir_ / "cut.bag", bytes.substr(0, bytes.size() / 2));
-  RunResult run = RunCrop4d(dir_, "import --bag " + Quote(dir_ / "cut.bag") + " --out " +
-                                      Quote(dir_ / "field") + " " + SensorYaml("cam0"));
+  RunResult run = RunCrop4d(dir_, "import --bag " + ShellQuote(dir_ / "cut.bag") + " --out " +
+                                      ShellQuote(dir_ / "field") + " " + SensorYaml("cam0"));
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("not a readable ROS 1 bag"), std::string::npos) << run.err;
 
-  run = RunCrop4d(dir_, "import --bag " + Quote(bag_path()) + " --out " + Quote(dir_ / "field") +
-                            " --stamp sometimes");
+  run = RunCrop4d(dir_, "import --bag " + ShellQuote(bag_path()) + " --out " +
+                            ShellQuote(dir_ / "field") + " --stamp sometimes");
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("--stamp"), std::string::npos) << run.err;
 
-  run = RunCrop4d(dir_, "import --bag " + Quote(bag_path()) + " --out " + Quote(dir_ / "field") +
-                            " --topic imu0");
+  run = RunCrop4d(dir_, "import --bag " + ShellQuote(bag_path()) + " --out " +
+                            ShellQuote(dir_ / "field") + " --topic imu0");
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("--topic"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(dir_ / "field/field.yaml"));

@@ -19,6 +19,8 @@ PACKAGES=(
   libtbb-dev libnanoflann-dev
   # recordings of real rigs: ROS 1 bags (crop4d import --bag), JPEG EXIF (crop4d import --images)
   librosbag-storage-dev libsensor-msgs-dev libexiv2-dev
+  # the server of `crop4d view` (docs/viewer.md)
+  libcpp-httplib-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev chromium
   # gdalinfo, gdal_translate and GDAL's COG validator (python3-gdal) for the raster tests
@@ -26,6 +28,12 @@ PACKAGES=(
   # headless OpenGL 3.3 through EGL (Mesa llvmpipe, surfaceless platform)
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libgbm1
 )
+
+# The viewer's page is bundled at build time by node and npm (viewer/package-lock.json, npm ci
+# into the build tree): Debian's packages when the machine has no node yet.
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  PACKAGES+=(nodejs npm)
+fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -42,5 +42,6 @@ RunFunction SetupDensify(CLI::App& app);
 RunFunction SetupRun(CLI::App& app);
 RunFunction SetupExport(CLI::App& app);
 RunFunction SetupReport(CLI::App& app);
+RunFunction SetupView(CLI::App& app);
 
 }  // namespace crop4d::cli

@@ -46,6 +46,8 @@ constexpr Command kCommands[] = {
      crop4d::cli::SetupExport},
     {"report", "Write WS/report.html: one self-contained page with the season's results",
      crop4d::cli::SetupReport},
+    {"view", "Show the workspace in a 4D web viewer: clouds by date, sites, growth, measuring",
+     crop4d::cli::SetupView},
 };
 
 }  // namespace

@@ -1,0 +1,40 @@
+#include "crop4d/viewer/static_viewer.h"
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/viewer/bundle.h"
+
+namespace crop4d::viewer {
+
+namespace fs = std::filesystem;
+
+ViewerDataSummary WriteStaticViewer(const std::string& workspace, const std::string& dir,
+                                    const ViewerDataOptions& options) {
+  const ViewerDataSummary summary =
+      WriteViewerData(workspace, (fs::path(dir) / "ws" / "viewer").string(), options);
+  for (const BundledFile* f = kViewerBundle; f->path != nullptr; ++f)
+    io::WriteFileAtomic((fs::path(dir) / f->path).string(), std::string(f->bytes()));
+  const fs::path report = fs::path(workspace) / "report.html";
+  if (fs::is_regular_file(report)) {
+    std::ifstream in(report, std::ios::binary);
+    std::ostringstream bytes;
+    bytes << in.rdbuf();
+    io::WriteFileAtomic((fs::path(dir) / "ws" / "report.html").string(), bytes.str());
+  }
+  return summary;
+}
+
+std::string FormatViewerDataSummary(const ViewerDataSummary& summary) {
+  std::ostringstream out;
+  for (const auto& s : summary.sessions) {
+    out << "  " << s.id << " (" << s.date << "): " << s.points << " points from " << s.source
+        << ", " << s.nodes << " tiles" << (s.rebuilt ? " (built)" : " (up to date)") << "\n";
+  }
+  out << "  " << summary.sites << " measurement sites\n";
+  return out.str();
+}
+
+}  // namespace crop4d::viewer

@@ -1,0 +1,443 @@
+#include "crop4d/viewer/viewer_data.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+
+#include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
+#include "crop4d/io/atomic_file.h"
+#include "crop4d/io/csv.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
+
+namespace crop4d::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+constexpr int kDataFormat = 1;
+constexpr float kLowQuantile = 0.10f, kTopQuantile = 0.95f;
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path.string(), 0, "cannot be read");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// A table with a header line: column name → index; rows of strings.
+struct Table {
+  std::map<std::string, std::size_t> columns;
+  std::vector<std::vector<std::string>> rows;
+  std::vector<std::int64_t> lines;
+
+  const std::string* Get(std::size_t row, const std::string& column) const {
+    const auto it = columns.find(column);
+    if (it == columns.end() || it->second >= rows[row].size()) return nullptr;
+    return &rows[row][it->second];
+  }
+};
+
+Table ReadTable(const fs::path& path) {
+  Table table;
+  if (!fs::is_regular_file(path)) return table;
+  io::CsvReader reader(path.string());
+  io::CsvRecord record;
+  bool header = true;
+  while (reader.Next(&record)) {
+    if (header) {
+      for (std::size_t i = 0; i < record.fields.size(); ++i)
+        table.columns[std::string(record.fields[i])] = i;
+      header = false;
+      continue;
+    }
+    std::vector<std::string> row;
+    for (std::string_view f : record.fields) row.emplace_back(f);
+    table.rows.push_back(std::move(row));
+    table.lines.push_back(record.line);
+  }
+  return table;
+}
+
+double NumberAt(const Table& table, std::size_t row, const std::string& column,
+                const fs::path& path) {
+  const std::string* text = table.Get(row, column);
+  double value = 0;
+  if (text == nullptr || !io::ParseDouble(*text, &value))
+    throw InputError(path.string(), table.lines[row],
+                     "column " + column + " is missing or not a number");
+  return value;
+}
+
+// The cells of a lattice of `cell` metres: cell (i, j) covers [i·cell, (i+1)·cell) × ....
+struct SessionGrid {
+  std::int64_t ix0 = 0, iy0 = 0;
+  int nx = 0, ny = 0;
+  std::vector<float> low, top;  // row-major, y outer; NaN where no point fell
+};
+
+SessionGrid HeightQuantiles(const std::vector<Eigen::Vector3d>& points, double cell) {
+  SessionGrid grid;
+  std::int64_t x0 = std::numeric_limits<std::int64_t>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (const Eigen::Vector3d& p : points) {
+    const std::int64_t i = std::int64_t(std::floor(p.x() / cell));
+    const std::int64_t j = std::int64_t(std::floor(p.y() / cell));
+    x0 = std::min(x0, i), x1 = std::max(x1, i), y0 = std::min(y0, j), y1 = std::max(y1, j);
+  }
+  grid.ix0 = x0, grid.iy0 = y0, grid.nx = int(x1 - x0 + 1), grid.ny = int(y1 - y0 + 1);
+  const std::size_t cells = std::size_t(grid.nx) * std::size_t(grid.ny);
+  std::vector<std::pair<std::uint32_t, float>> heights(points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const std::int64_t i = std::int64_t(std::floor(points[k].x() / cell)) - x0;
+    const std::int64_t j = std::int64_t(std::floor(points[k].y() / cell)) - y0;
+    heights[k] = {std::uint32_t(j * grid.nx + i), float(points[k].z())};
+  }
+  std::sort(heights.begin(), heights.end());
+  grid.low.assign(cells, std::numeric_limits<float>::quiet_NaN());
+  grid.top = grid.low;
+  for (std::size_t a = 0; a < heights.size();) {
+    std::size_t b = a;
+    while (b < heights.size() && heights[b].first == heights[a].first) ++b;
+    const std::size_t n = b - a;
+    grid.low[heights[a].first] = heights[a + std::size_t(kLowQuantile * float(n - 1))].second;
+    grid.top[heights[a].first] = heights[a + std::size_t(kTopQuantile * float(n - 1))].second;
+    a = b;
+  }
+  return grid;
+}
+
+std::string FloatBytes(const std::vector<float>& values) {
+  return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float));
+}
+
+std::vector<float> Floats(const std::string& bytes, std::size_t count, const fs::path& path) {
+  if (bytes.size() != count * sizeof(float))
+    throw InputError(path.string(), 0, "grid has the wrong size (a stale viewer cache?)");
+  std::vector<float> values(count);
+  std::memcpy(values.data(), bytes.data(), bytes.size());
+  return values;
+}
+
+std::string Fingerprint(const fs::path& cloud, const ViewerDataOptions& options) {
+  Fnv1aHasher hasher;
+  hasher.AddString(cloud.string());
+  hasher.Add<std::uint64_t>(fs::file_size(cloud));
+  hasher.Add<std::int64_t>(fs::last_write_time(cloud).time_since_epoch().count());
+  hasher.Add(kDataFormat);
+  hasher.Add(options.octree.max_points_per_node);
+  hasher.Add(options.octree.grid_cells);
+  hasher.Add(options.octree.max_depth);
+  hasher.Add(options.grid_cell_m);
+  return std::to_string(hasher.hash());
+}
+
+// Builds (or keeps) the tiles of one session in out/clouds/<id>; returns its index.json.
+json BuildSession(const fs::path& cloud_path, const fs::path& folder,
+                  const ViewerDataOptions& options, bool* rebuilt) {
+  const std::string fingerprint = Fingerprint(cloud_path, options);
+  const fs::path index_path = folder / "index.json";
+  if (fs::is_regular_file(index_path)) {
+    try {
+      json index = json::parse(ReadFile(index_path));
+      if (index.value("fingerprint", "") == fingerprint) {
+        *rebuilt = false;
+        return index;
+      }
+    } catch (const json::exception&) {
+      // A damaged index: rebuilt below.
+    }
+  }
+  *rebuilt = true;
+  const io::PlyPointCloud cloud = io::ReadPly(cloud_path.string());
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::array<std::uint8_t, 3>> colors;
+  points.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.points[i].allFinite()) continue;
+    points.push_back(cloud.points[i]);
+    if (!cloud.colors.empty()) colors.push_back(cloud.colors[i]);
+  }
+  if (points.empty()) throw InputError(cloud_path.string(), 0, "the cloud has no finite point");
+  const Octree tree = BuildOctree(points, options.octree);
+  const fs::path tmp = folder.string() + ".tmp." + std::to_string(::getpid());
+  fs::remove_all(tmp);
+  fs::create_directories(tmp);
+  json nodes = json::array();
+  for (const OctreeNode& node : tree.nodes) {
+    io::WriteFileAtomic((tmp / (node.name + ".bin")).string(), EncodeTile(node, points, colors));
+    nodes.push_back({{"name", node.name},
+                     {"min", {node.min.x(), node.min.y(), node.min.z()}},
+                     {"side", node.side},
+                     {"count", node.points.size()},
+                     {"children", node.child_mask}});
+  }
+  const SessionGrid grid = HeightQuantiles(points, options.grid_cell_m);
+  io::WriteFileAtomic((tmp / "low.f32").string(), FloatBytes(grid.low));
+  io::WriteFileAtomic((tmp / "top.f32").string(), FloatBytes(grid.top));
+  json index = {{"format", kDataFormat},
+                {"fingerprint", fingerprint},
+                {"points", points.size()},
+                {"grid",
+                 {{"ix0", grid.ix0},
+                  {"iy0", grid.iy0},
+                  {"nx", grid.nx},
+                  {"ny", grid.ny},
+                  {"cell", options.grid_cell_m}}},
+                {"nodes", nodes}};
+  io::WriteFileAtomic((tmp / "index.json").string(), index.dump());
+  fs::remove_all(folder);
+  fs::create_directories(folder.parent_path());
+  fs::rename(tmp, folder);
+  return index;
+}
+
+json Trajectory(const fs::path& ws, const std::string& id, int max_points) {
+  std::vector<Eigen::Vector3d> positions;
+  const fs::path fused = ws / "fused" / id / "poses.tum";
+  if (fs::is_regular_file(fused)) {
+    for (const io::StampedPose& p : io::ReadTum(fused.string()))
+      positions.push_back(p.pose.translation());
+  } else if (fs::is_directory(ws / "sessions" / id / "rows")) {
+    std::set<fs::path> rows;
+    for (const auto& e : fs::directory_iterator(ws / "sessions" / id / "rows"))
+      if (fs::is_regular_file(e.path() / "poses.tum")) rows.insert(e.path() / "poses.tum");
+    for (const fs::path& row : rows)
+      for (const io::StampedPose& p : io::ReadTum(row.string()))
+        positions.push_back(p.pose.translation());
+  }
+  json out = json::array();
+  const std::size_t step = std::max<std::size_t>(1, (positions.size() + max_points - 1) / max_points);
+  for (std::size_t i = 0; i < positions.size(); i += step) {
+    const Eigen::Vector3d& p = positions[i];
+    out.push_back({std::round(p.x() * 1000) / 1000, std::round(p.y() * 1000) / 1000,
+                   std::round(p.z() * 1000) / 1000});
+  }
+  return out;
+}
+
+// Sites: position from the plants found in them (site_plants.csv), canopy height per date
+// (site_heights.csv), growth fit (growth.csv).
+json Sites(const fs::path& ws) {
+  const fs::path plants_path = ws / "analysis" / "site_plants.csv";
+  const fs::path heights_path = ws / "analysis" / "site_heights.csv";
+  const fs::path growth_path = ws / "analysis" / "growth.csv";
+  std::map<std::string, json> sites;
+  const Table plants = ReadTable(plants_path);
+  std::map<std::string, std::pair<Eigen::Vector2d, int>> sums;
+  for (std::size_t r = 0; r < plants.rows.size(); ++r) {
+    const std::string* id = plants.Get(r, "site_id");
+    if (id == nullptr) continue;
+    auto& s = sums[*id];
+    if (s.second == 0) s.first.setZero();
+    s.first += Eigen::Vector2d(NumberAt(plants, r, "x_m", plants_path),
+                               NumberAt(plants, r, "y_m", plants_path));
+    ++s.second;
+  }
+  for (const auto& [id, s] : sums) {
+    const Eigen::Vector2d c = s.first / s.second;
+    sites[id] = {{"id", id}, {"x", c.x()}, {"y", c.y()}, {"heights", json::object()}};
+  }
+  const Table heights = ReadTable(heights_path);
+  for (std::size_t r = 0; r < heights.rows.size(); ++r) {
+    const std::string* id = heights.Get(r, "site_id");
+    const std::string* date = heights.Get(r, "date");
+    if (id == nullptr || date == nullptr || !sites.count(*id)) continue;
+    const double h = NumberAt(heights, r, "height_m", heights_path);
+    if (std::isfinite(h)) sites[*id]["heights"][*date] = h;
+  }
+  const Table growth = ReadTable(growth_path);
+  for (std::size_t r = 0; r < growth.rows.size(); ++r) {
+    const std::string* id = growth.Get(r, "site_id");
+    const std::string* status = growth.Get(r, "status");
+    const std::string* midpoint = growth.Get(r, "midpoint_date");
+    if (id == nullptr || !sites.count(*id) || status == nullptr || *status != "fitted" ||
+        midpoint == nullptr)
+      continue;
+    sites[*id]["growth"] = {{"asymptote_m", NumberAt(growth, r, "asymptote_m", growth_path)},
+                            {"rate_per_day", NumberAt(growth, r, "rate_per_day", growth_path)},
+                            {"midpoint_date", *midpoint}};
+  }
+  json out = json::array();
+  for (auto& [id, site] : sites) out.push_back(site);
+  return out;
+}
+
+// Session id → date, from the analysis tables; a session without one is dated by its id.
+std::map<std::string, std::string> SessionDates(const fs::path& ws) {
+  std::map<std::string, std::string> dates;
+  const Table heights = ReadTable(ws / "analysis" / "site_heights.csv");
+  for (std::size_t r = 0; r < heights.rows.size(); ++r) {
+    const std::string* s = heights.Get(r, "session");
+    const std::string* d = heights.Get(r, "date");
+    if (s != nullptr && d != nullptr && !d->empty()) dates[*s] = *d;
+  }
+  return dates;
+}
+
+}  // namespace
+
+bool ViewerDataOptions::Check(std::string* why) const {
+  if (!octree.Check(why)) return false;
+  if (!(grid_cell_m > 0) || !std::isfinite(grid_cell_m)) {
+    if (why != nullptr) *why = "viewer: grid_cell_m must be positive";
+    return false;
+  }
+  if (max_trajectory_points < 2 || max_grid_cells < 1) {
+    if (why != nullptr) *why = "viewer: max_trajectory_points ≥ 2 and max_grid_cells ≥ 1";
+    return false;
+  }
+  return true;
+}
+
+ViewerDataSummary WriteViewerData(const std::string& workspace, const std::string& out,
+                                  const ViewerDataOptions& options) {
+  std::string why;
+  CROP4D_CHECK_MSG(options.Check(&why), why);
+  const fs::path ws(workspace), dir(out);
+  // Sessions: dense clouds first, the fused sparse cloud where there is no dense one.
+  std::map<std::string, fs::path> clouds;
+  if (fs::is_directory(ws / "fused"))
+    for (const auto& e : fs::directory_iterator(ws / "fused"))
+      if (fs::is_regular_file(e.path() / "sparse.ply"))
+        clouds[e.path().filename().string()] = e.path() / "sparse.ply";
+  if (fs::is_directory(ws / "dense"))
+    for (const auto& e : fs::directory_iterator(ws / "dense"))
+      if (e.path().extension() == ".ply" && fs::is_regular_file(e.path()))
+        clouds[e.path().stem().string()] = e.path();
+  if (clouds.empty())
+    throw InputError(workspace, 0,
+                     "no cloud to show: neither dense/<session>.ply nor fused/<session>/sparse.ply "
+                     "(run crop4d densify or crop4d fuse first)");
+
+  const std::map<std::string, std::string> dates = SessionDates(ws);
+  struct Entry {
+    std::string id, date;
+    fs::path cloud;
+    json index;
+  };
+  std::vector<Entry> entries;
+  ViewerDataSummary summary;
+  for (const auto& [id, cloud] : clouds) {
+    const auto d = dates.find(id);
+    Entry e{id, d != dates.end() ? d->second : id, cloud, {}};
+    bool rebuilt = false;
+    e.index = BuildSession(cloud, dir / "clouds" / id, options, &rebuilt);
+    summary.sessions.push_back({id, e.date, fs::relative(cloud, ws).string(),
+                                e.index["points"].get<std::size_t>(), e.index["nodes"].size(),
+                                rebuilt});
+    entries.push_back(std::move(e));
+  }
+  std::stable_sort(entries.begin(), entries.end(),
+                   [](const Entry& a, const Entry& b) { return a.date < b.date; });
+  std::stable_sort(summary.sessions.begin(), summary.sessions.end(),
+                   [](const auto& a, const auto& b) { return a.date < b.date; });
+
+  // One grid over every session's cells; the terrain from the earliest session.
+  std::int64_t x0 = std::numeric_limits<std::int64_t>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (const Entry& e : entries) {
+    const json& g = e.index["grid"];
+    x0 = std::min(x0, g["ix0"].get<std::int64_t>());
+    y0 = std::min(y0, g["iy0"].get<std::int64_t>());
+    x1 = std::max(x1, g["ix0"].get<std::int64_t>() + g["nx"].get<std::int64_t>() - 1);
+    y1 = std::max(y1, g["iy0"].get<std::int64_t>() + g["ny"].get<std::int64_t>() - 1);
+  }
+  const double cell = options.grid_cell_m;
+  const int nx = int(x1 - x0 + 1), ny = int(y1 - y0 + 1);
+  // Cells shared by every layer, grouped by `factor` when the field needs too many.
+  int factor = 1;
+  while (std::size_t((nx + factor - 1) / factor) * std::size_t((ny + factor - 1) / factor) >
+         options.max_grid_cells)
+    ++factor;
+  const int gx = (nx + factor - 1) / factor, gy = (ny + factor - 1) / factor;
+  const auto layer_of = [&](const Entry& e, const char* file, bool take_min) {
+    const json& g = e.index["grid"];
+    const int sx = g["nx"], sy = g["ny"];
+    const fs::path path = dir / "clouds" / e.id / file;
+    const std::vector<float> values = Floats(ReadFile(path), std::size_t(sx) * sy, path);
+    std::vector<float> layer(std::size_t(gx) * gy, std::numeric_limits<float>::quiet_NaN());
+    const std::int64_t ox = g["ix0"].get<std::int64_t>() - x0, oy = g["iy0"].get<std::int64_t>() - y0;
+    for (int j = 0; j < sy; ++j)
+      for (int i = 0; i < sx; ++i) {
+        const float v = values[std::size_t(j) * sx + i];
+        if (std::isnan(v)) continue;
+        float& c = layer[std::size_t((oy + j) / factor) * gx + std::size_t((ox + i) / factor)];
+        c = std::isnan(c) ? v : (take_min ? std::min(c, v) : std::max(c, v));
+      }
+    return layer;
+  };
+  std::vector<float> terrain = layer_of(entries.front(), "low.f32", true);
+  // Holes (no point of the earliest session) take the mean of their filled neighbours, pass by
+  // pass, so the surface is closed.
+  for (int pass = 0; pass < gx + gy; ++pass) {
+    std::vector<float> next = terrain;
+    bool hole = false;
+    for (int j = 0; j < gy; ++j)
+      for (int i = 0; i < gx; ++i) {
+        if (!std::isnan(terrain[std::size_t(j) * gx + i])) continue;
+        double sum = 0;
+        int n = 0;
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const int a = i + di, b = j + dj;
+            if (a < 0 || b < 0 || a >= gx || b >= gy) continue;
+            const float v = terrain[std::size_t(b) * gx + a];
+            if (!std::isnan(v)) sum += v, ++n;
+          }
+        if (n > 0) next[std::size_t(j) * gx + i] = float(sum / n);
+        else hole = true;
+      }
+    terrain.swap(next);
+    if (!hole) break;
+  }
+  std::string grids = FloatBytes(terrain);
+  json layers = json::array({"terrain"});
+  for (const Entry& e : entries) {
+    grids += FloatBytes(layer_of(e, "top.f32", false));
+    layers.push_back("top:" + e.id);
+  }
+  io::WriteFileAtomic((dir / "grids.bin").string(), grids);
+
+  json sessions = json::array();
+  for (const Entry& e : entries) {
+    sessions.push_back({{"id", e.id},
+                        {"date", e.date},
+                        {"source", fs::relative(e.cloud, ws).string()},
+                        {"points", e.index["points"]},
+                        {"octree", "clouds/" + e.id + "/index.json"},
+                        {"trajectory", Trajectory(ws, e.id, options.max_trajectory_points)}});
+  }
+  const json sites = Sites(ws);
+  summary.sites = sites.size();
+  const json scene = {
+      {"format", kDataFormat},
+      {"sessions", sessions},
+      {"grid",
+       {{"min", {double(x0) * cell, double(y0) * cell}},
+        {"cell", cell * factor},
+        {"nx", gx},
+        {"ny", gy},
+        {"file", "grids.bin"},
+        {"layers", layers}}},
+      {"sites", sites},
+      {"report", fs::is_regular_file(ws / "report.html") ? json("report.html") : json(nullptr)}};
+  io::WriteFileAtomic((dir / "scene.json").string(), scene.dump());
+  // Sessions whose cloud is gone leave no tiles behind.
+  if (fs::is_directory(dir / "clouds"))
+    for (const auto& e : fs::directory_iterator(dir / "clouds"))
+      if (!clouds.count(e.path().filename().string())) fs::remove_all(e.path());
+  return summary;
+}
+
+}  // namespace crop4d::viewer

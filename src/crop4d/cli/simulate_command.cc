@@ -1,7 +1,7 @@
 // crop4d simulate: make a synthetic field (docs/simulator.md).
 //
-//   crop4d simulate --preset {tiny,demo,paper} [--config FILE.yaml] [--seed N] [--depth]
-//                   [--force] --out FIELD
+//   crop4d simulate --preset {tiny,demo,paper} [--realism {ideal,real}] [--config FILE.yaml]
+//                   [--seed N] [--depth] [--force] --out FIELD
 //   crop4d simulate --print-config [--preset P] [--config FILE.yaml]
 
 #include <spdlog/spdlog.h>
@@ -24,6 +24,7 @@ RunFunction SetupSimulate(CLI::App& app) {
   struct Args {
     std::string preset = "demo";
     std::string config_file;
+    std::string realism;
     std::optional<std::uint64_t> seed;
     bool depth = false;
     bool print_config = false;
@@ -36,6 +37,10 @@ RunFunction SetupSimulate(CLI::App& app) {
                  "scale of Dong et al. 2017: 21 rows x 150 m, 23 sessions)")
       ->check(CLI::IsMember(sim::PresetNames()))
       ->capture_default_str();
+  app.add_option("--realism", args->realism,
+                 "Set every imperfection of real rigs at once (the `realism` key): ideal (none, "
+                 "the presets' default) or real; applied to the preset before --config")
+      ->check(CLI::IsMember(sim::RealismLevels()));
   app.add_option("--config", args->config_file,
                  "YAML file whose keys override the preset's (same keys as --print-config)");
   app.add_option("--seed", args->seed, "Master seed (overrides the configuration's seed)");
@@ -51,6 +56,7 @@ RunFunction SetupSimulate(CLI::App& app) {
 
   return [args]() -> int {
     sim::SimConfig config = sim::PresetConfig(args->preset);
+    if (!args->realism.empty()) sim::ApplyRealism(args->realism, &config);
     if (!args->config_file.empty()) sim::LoadSimConfigFile(args->config_file, &config);
     if (args->seed) config.seed = *args->seed;
     if (args->depth) config.ground_truth.depth = true;
@@ -65,9 +71,10 @@ RunFunction SetupSimulate(CLI::App& app) {
     }
     sim::PrepareOutputFolder(args->out, args->force);
     sim::Simulator simulator(config);
-    spdlog::info("simulate: field \"{}\", {} rows x {} m, {} sessions, {}x{} images, seed {}",
-                 config.name, config.world.num_rows, config.world.row_length_m,
-                 config.sessions.size(), config.camera.width, config.camera.height, config.seed);
+    spdlog::info(
+        "simulate: field \"{}\", {} rows x {} m, {} sessions, {}x{} images, seed {}, realism {}",
+        config.name, config.world.num_rows, config.world.row_length_m, config.sessions.size(),
+        config.camera.width, config.camera.height, config.seed, config.realism);
     const sim::Simulator::Summary summary = simulator.Write(args->out);
     spdlog::info(
         "simulate: wrote {} in {}: {} sessions, {} images ({:.1f} img/s, rendering {:.0f}% of "

@@ -32,6 +32,10 @@ void ImuOptions::Check() const {
   Require(NonNegative(accelerometer_random_walk), "imu.accelerometer_random_walk", "must be >= 0");
   Require(NonNegative(gyroscope_bias_sigma), "imu.gyroscope_bias_sigma", "must be >= 0");
   Require(NonNegative(accelerometer_bias_sigma), "imu.accelerometer_bias_sigma", "must be >= 0");
+  Require(NonNegative(scale_factor_sigma) && scale_factor_sigma <= 0.2, "imu.scale_factor_sigma",
+          "must be in [0, 0.2]");
+  Require(NonNegative(misalignment_sigma_rad) && misalignment_sigma_rad <= 0.2,
+          "imu.misalignment_sigma_rad", "must be in [0, 0.2]");
 }
 
 void IdealImu(const BodyState& state, Eigen::Vector3d* gyro, Eigen::Vector3d* accel) {
@@ -112,6 +116,7 @@ void GpsOptions::Check(const std::string& name) const {
   Require(Finite(antenna_in_body), name + ".antenna_in_body", "must be finite");
   Require(ReportedSigmaH() > 0.0 && ReportedSigmaV() > 0.0, name + ".sigma_h_m",
           "the reported sigmas must be positive (the dataset format needs them)");
+  faults.Check(name);
 }
 
 double GpsOptions::ReportedSigmaH() const { return std::hypot(sigma_h_m, bias_sigma_h_m); }

@@ -12,6 +12,7 @@
 #include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/io/dataset.h"
+#include "crop4d/sim/imperfections.h"
 #include "crop4d/sim/random.h"
 #include "crop4d/sim/trajectory.h"
 
@@ -41,6 +42,11 @@ struct ImuOptions {
   double gyroscope_bias_sigma = 5.0e-3;
   // Std-dev of the accelerometer bias at the start of a session, m/s².
   double accelerometer_bias_sigma = 5.0e-2;
+  // Std-dev of each axis's scale factor error (fraction; 0 = exact), gyro and accelerometer,
+  // drawn once per field (imperfections.h ImuAxisErrors).
+  double scale_factor_sigma = 0.0;
+  // Std-dev of each off-diagonal entry of the axis misalignment matrix, rad.
+  double misalignment_sigma_rad = 0.0;
 
   // Throws InputError naming the bad option (prefix "imu.").
   void Check() const;
@@ -121,6 +127,8 @@ struct GpsOptions {
   double bias_time_constant_s = 600.0;
   // Antenna phase centre in the body frame (lever arm), m.
   Eigen::Vector3d antenna_in_body = Eigen::Vector3d(-0.30, 0.20, 1.20);
+  // Multipath outliers, RTK float episodes and dropouts (all off by default).
+  GpsFaultOptions faults;
 
   // `name` prefixes messages ("gps0").
   void Check(const std::string& name) const;

@@ -60,6 +60,11 @@ const std::vector<Section>& Sections() {
        "Low-accuracy GPS receiver (gps1) with a slowly drifting bias (first-order "
        "Gauss-Markov)."},
       {"ground_truth", "Ground truth written to FIELD/ground_truth/."},
+      {"calibration_error",
+       "Errors of the calibration written to the dataset (sensor.yaml) while the renderer and "
+       "the sensor models use the truth; the drawn errors are in "
+       "ground_truth/calibration_truth.yaml. Each error has exactly this size, its sign or "
+       "direction is seeded, the same in every session. 0 = exact."},
   };
   return sections;
 }
@@ -71,6 +76,9 @@ std::vector<Key> Keys(SimConfig& c) {
   std::vector<Key> k = {
       {"", "seed", &c.seed,
        "master seed: every random choice derives from it (same seed = byte-identical files)"},
+      {"", "realism", &c.realism,
+       "\"ideal\" or \"real\": the level every imperfection below was set to as a whole "
+       "(in a --config file it is applied first, the file's other keys then override it)"},
       {"field", "name", &c.name, "field name, written to field.yaml"},
       {"field", "latitude_deg", &c.origin.lat_deg, "WGS84 latitude of the origin, degrees"},
       {"field", "longitude_deg", &c.origin.lon_deg, "WGS84 longitude of the origin, degrees"},
@@ -136,6 +144,17 @@ std::vector<Key> Keys(SimConfig& c) {
       {"camera", "msaa_samples", &cam.msaa_samples, "renderer anti-aliasing samples (1, 2, 4, 8)"},
       {"camera", "trigger", &cam.trigger,
        "\"continuous\": the camera records the whole drive; \"passes\": only along the row passes"},
+      {"camera", "exposure_s", &c.image.exposure_s,
+       "exposure time: motion blur over it, s (0 = instant, no blur)"},
+      {"camera", "electrons_per_dn", &c.image.electrons_per_dn,
+       "shot noise: photo-electrons per grey level (0 = no shot noise)"},
+      {"camera", "read_noise_dn", &c.image.read_noise_dn, "read noise std-dev, grey levels"},
+      {"camera", "auto_exposure_jitter", &c.image.auto_exposure_jitter,
+       "auto exposure (clouds): the gain varies by up to +- this fraction within a session"},
+      {"camera", "auto_exposure_period_s", &c.image.auto_exposure_period_s,
+       "time scale of those gain changes, s"},
+      {"camera", "jpeg_quality", &c.image.jpeg_quality,
+       "write JPEG images of this quality (1-100); 0 = PNG"},
       {"drive", "lane", &d.lane,
        "\"row\": centred over each row (straddling it); \"furrow\": between rows"},
       {"drive", "speed_mps", &d.speed_mps, "cruise speed along the rows, m/s"},
@@ -154,7 +173,16 @@ std::vector<Key> Keys(SimConfig& c) {
       {"drive", "knot_interval_s", &d.knot_interval_s,
        "knot interval of the trajectory splines (smoothing), s"},
       {"drive", "max_duration_s", &d.max_duration_s,
-       "stop each session after this many seconds; 0 = drive the whole field"},
+       "stop each session after this many seconds of driving; 0 = drive the whole field"},
+      {"drive", "standstill_start_s", &d.standstill_start_s,
+       "the vehicle stands still this long at the start of each session, s"},
+      {"drive", "stop_probability_row_end", &d.stop_probability_row_end,
+       "chance of a stop at the end of each pass (beyond the row end)"},
+      {"drive", "stop_probability_in_row", &d.stop_probability_in_row,
+       "chance of a stop at a random place within each pass"},
+      {"drive", "stop_duration_s", &d.stop_duration_s, "duration of such a stop, s"},
+      {"drive", "stop_ramp_s", &d.stop_ramp_s,
+       "braking to and accelerating from a standstill take this long each, s"},
       {"imu", "rate_hz", &c.imu.rate_hz, "sample rate, Hz"},
       {"imu", "gyroscope_noise_density", &c.imu.gyroscope_noise_density,
        "gyro white noise, rad/s/sqrt(Hz)"},
@@ -168,6 +196,10 @@ std::vector<Key> Keys(SimConfig& c) {
        "std-dev of the gyro bias at session start, rad/s"},
       {"imu", "accelerometer_bias_sigma", &c.imu.accelerometer_bias_sigma,
        "std-dev of the accelerometer bias at session start, m/s^2"},
+      {"imu", "scale_factor_sigma", &c.imu.scale_factor_sigma,
+       "std-dev of each axis's scale factor error (gyro and accelerometer), fraction"},
+      {"imu", "misalignment_sigma_rad", &c.imu.misalignment_sigma_rad,
+       "std-dev of each off-diagonal axis misalignment entry, rad"},
       {"mag", "rate_hz", &c.mag.rate_hz, "sample rate, Hz"},
       {"mag", "field_enu_ut", &c.mag.field_enu_ut, "Earth's magnetic field [E, N, U], uT"},
       {"mag", "noise_ut", &c.mag.noise_ut, "white noise std-dev per axis, uT"},
@@ -185,6 +217,20 @@ std::vector<Key> Keys(SimConfig& c) {
         {name, "bias_time_constant_s", &g->bias_time_constant_s, "correlation time of the bias, s"},
         {name, "antenna_in_body", &g->antenna_in_body,
          "antenna lever arm [x, y, z] in the body, m"},
+        {name, "outlier_probability", &g->faults.outlier_probability,
+         "chance that a sample is a multipath outlier"},
+        {name, "outlier_sigma_m", &g->faults.outlier_sigma_m,
+         "std-dev of an outlier's offset per horizontal axis (vertical 1.5x), m"},
+        {name, "float_rate_per_min", &g->faults.float_rate_per_min,
+         "rtk only: rate of losing the fix (RTK float, fix 5), per minute"},
+        {name, "float_duration_s", &g->faults.float_duration_s,
+         "mean duration of an RTK float episode, s"},
+        {name, "float_sigma_h_m", &g->faults.float_sigma_h_m,
+         "noise std-dev (and reported sigma) in RTK float, horizontal, m"},
+        {name, "float_sigma_v_m", &g->faults.float_sigma_v_m, "same, vertical, m"},
+        {name, "dropout_rate_per_min", &g->faults.dropout_rate_per_min,
+         "rate of dropouts beyond the row ends (near the tree line), per minute"},
+        {name, "dropout_duration_s", &g->faults.dropout_duration_s, "duration of a dropout, s"},
     };
     k.insert(k.end(), gps.begin(), gps.end());
   }
@@ -198,6 +244,22 @@ std::vector<Key> Keys(SimConfig& c) {
        "grid spacing of terrain.csv, m"},
       {"ground_truth", "depth", &c.ground_truth.depth,
        "write a 16-bit PNG depth map (mm) per image (--depth)"},
+      {"calibration_error", "focal_px", &c.calibration_error.focal_px,
+       "fx and fy each written off by +- this, px"},
+      {"calibration_error", "principal_point_px", &c.calibration_error.principal_point_px,
+       "principal point written off by this distance, px"},
+      {"calibration_error", "radial_distortion", &c.calibration_error.radial_distortion,
+       "k1 and k2 each written off by +- this"},
+      {"calibration_error", "tangential_distortion", &c.calibration_error.tangential_distortion,
+       "p1 and p2 each written off by +- this"},
+      {"calibration_error", "lever_arm_m", &c.calibration_error.lever_arm_m,
+       "every lever arm (camera, GPS antennas, magnetometer) written off by this distance, m"},
+      {"calibration_error", "rotation_deg", &c.calibration_error.rotation_deg,
+       "camera T_BS rotation written off by this angle, deg"},
+      {"calibration_error", "camera_time_offset_s", &c.calibration_error.camera_time_offset_s,
+       "image stamps = capture time on the IMU clock +- this, s"},
+      {"calibration_error", "camera_clock_drift_ppm", &c.calibration_error.camera_clock_drift_ppm,
+       "plus a camera clock drift of +- this, parts per million"},
   };
   k.insert(k.end(), gt.begin(), gt.end());
   return k;
@@ -513,6 +575,11 @@ void SimConfig::Check() const {
           "must be in [0, 1]");
   Require(In(ground_truth.terrain_grid_m, 0.01, 100.0), "ground_truth.terrain_grid_m",
           "must be in [0.01, 100]");
+  const std::vector<std::string> levels = RealismLevels();
+  Require(std::find(levels.begin(), levels.end(), realism) != levels.end(), "realism",
+          "must be \"ideal\" or \"real\", not \"" + realism + "\"");
+  calibration_error.Check();
+  image.Check();
 
   MakeWorldOptions().Check();
 }
@@ -578,6 +645,74 @@ SimConfig PresetConfig(const std::string& preset) {
   }
   c.Check();
   return c;
+}
+
+std::vector<std::string> RealismLevels() { return {"ideal", "real"}; }
+
+void ApplyRealism(const std::string& level, SimConfig* c) {
+  if (level != "ideal" && level != "real") {
+    throw InputError(fmt::format("realism: must be \"ideal\" or \"real\", not \"{}\"", level));
+  }
+  c->realism = level;
+  const SimConfig defaults;
+  c->calibration_error = defaults.calibration_error;
+  c->image = defaults.image;
+  c->imu.scale_factor_sigma = defaults.imu.scale_factor_sigma;
+  c->imu.misalignment_sigma_rad = defaults.imu.misalignment_sigma_rad;
+  c->gps0.faults = c->gps1.faults = GpsFaultOptions();
+  c->drive.standstill_start_s = defaults.drive.standstill_start_s;
+  c->drive.stop_probability_row_end = defaults.drive.stop_probability_row_end;
+  c->drive.stop_probability_in_row = defaults.drive.stop_probability_in_row;
+  c->drive.stop_duration_s = defaults.drive.stop_duration_s;
+  c->drive.stop_ramp_s = defaults.drive.stop_ramp_s;
+  if (level == "ideal") return;
+
+  // The driver waits a few seconds before starting and stops now and then.
+  c->drive.standstill_start_s = 5.0;
+  c->drive.stop_probability_row_end = 0.25;
+  c->drive.stop_probability_in_row = 0.15;
+  c->drive.stop_duration_s = 3.0;
+  c->drive.stop_ramp_s = 1.5;
+
+  // A rig like the paper's: a machine-vision camera calibrated in the lab and mounted on the
+  // vehicle afterwards, no hardware synchronisation, a consumer MEMS IMU, an RTK receiver and
+  // a standard one, driven along a tree line.
+  const double px = c->camera.width / 1280.0;  // pixel magnitudes are for 1280 px wide images
+  CalibrationErrorOptions& e = c->calibration_error;
+  e.focal_px = 3.0 * px;
+  e.principal_point_px = 3.0 * px;
+  e.radial_distortion = 0.005;
+  e.tangential_distortion = 2.0e-4;
+  e.lever_arm_m = 0.015;
+  e.rotation_deg = 0.3;
+  e.camera_time_offset_s = 0.025;
+  e.camera_clock_drift_ppm = 20.0;
+
+  ImageEffectsOptions& im = c->image;
+  im.exposure_s = 0.004;
+  im.electrons_per_dn = 12.0;  // ≈ 3.3 grey levels of shot noise at mid-grey
+  im.read_noise_dn = 1.5;
+  im.auto_exposure_jitter = 0.12;
+  im.auto_exposure_period_s = 20.0;
+  im.jpeg_quality = 0;  // JPEG stays an option
+
+  // MPU-9250 class: scale factor tolerance ±3 % (datasheet), a third of it after the factory
+  // trim; cross-axis sensitivity ±2 %.
+  c->imu.scale_factor_sigma = 0.005;
+  c->imu.misalignment_sigma_rad = 0.002;
+
+  for (GpsOptions* g : {&c->gps0, &c->gps1}) {
+    GpsFaultOptions& f = g->faults;
+    const bool rtk = g->kind == "rtk";
+    f.outlier_probability = rtk ? 0.005 : 0.01;
+    f.outlier_sigma_m = rtk ? 0.3 : 5.0;
+    f.float_rate_per_min = rtk ? 0.5 : 0.0;
+    f.float_duration_s = 15.0;
+    f.float_sigma_h_m = 0.15;
+    f.float_sigma_v_m = 0.30;
+    f.dropout_rate_per_min = 2.0;
+    f.dropout_duration_s = 3.0;
+  }
 }
 
 // ---- YAML -----------------------------------------------------------------------------------
@@ -648,6 +783,17 @@ void ApplySimConfigYaml(const std::string& file, const std::string& text, SimCon
     return false;
   };
   const std::string hint = " (crop4d simulate --print-config lists every key)";
+  // `realism` sets every imperfection at once, so it is applied before the file's other keys.
+  if (const YAML::Node level = root["realism"]) {
+    std::string text;
+    ParseValue(file, level, "realism", &text);
+    try {
+      ApplyRealism(text, config);
+    } catch (const InputError& e) {
+      throw InputError(file, LineOf(level), e.message());
+    }
+    lines["realism"] = LineOf(level);
+  }
   for (const auto& item : root) {
     const std::string top = item.first.Scalar();
     const YAML::Node& value = item.second;

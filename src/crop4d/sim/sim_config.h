@@ -14,6 +14,7 @@
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/enu.h"
 #include "crop4d/geometry/rigid.h"
+#include "crop4d/sim/imperfections.h"
 #include "crop4d/sim/sensor_models.h"
 #include "crop4d/sim/trajectory.h"
 #include "crop4d/sim/world.h"
@@ -102,6 +103,13 @@ struct SimConfig {
   MagOptions mag;
   GpsOptions gps0, gps1;
   GroundTruthOptions ground_truth;
+  // The imperfections of real rigs (imperfections.h), all off in the ideal world: the errors
+  // of the calibration written to the dataset, and the camera's sensor effects (keys under
+  // "camera."). IMU and GPS imperfections are in imu and gps0/gps1, standstills in drive.
+  // `realism` names the level they were last set to as a whole (ApplyRealism).
+  std::string realism = "ideal";
+  CalibrationErrorOptions calibration_error;
+  ImageEffectsOptions image;
 
   // Throws InputError "<key>: <what is wrong>" for the first bad value.
   void Check() const;
@@ -116,6 +124,12 @@ struct SimConfig {
 // another name.
 SimConfig PresetConfig(const std::string& preset);
 std::vector<std::string> PresetNames();
+
+// Sets every imperfection to the magnitudes of `level`: "ideal" (all off, the default of every
+// preset) or "real" (realistic values for a rig like the paper's: see docs/simulator.md;
+// pixel magnitudes scale with camera.width / 1280). Throws InputError for another level.
+void ApplyRealism(const std::string& level, SimConfig* config);
+std::vector<std::string> RealismLevels();
 
 // The configuration as YAML with a comment on every key; `preset` is named in the header.
 std::string SimConfigToYaml(const SimConfig& config, const std::string& preset = "");

@@ -1,6 +1,7 @@
 #include "crop4d/sim/simulator.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
@@ -41,6 +42,13 @@ enum StreamTag : std::uint64_t {
   kTagLight = 0x119b,
   kTagWind = 0x3119,
   kTagRuler = 0x2a1e,
+  // Imperfections (issue 26): their own streams, so that the ideal world's are untouched.
+  kTagCalibration = 0xca1b,
+  kTagImuAxes = 0x1a5c,
+  kTagGpsFaults0 = 0x6bf0,
+  kTagGpsFaults1 = 0x6bf1,
+  kTagImageNoise = 0x1a9e,
+  kTagExposure = 0xe7b0,
 };
 
 constexpr double kDegToRad = M_PI / 180.0;
@@ -68,6 +76,30 @@ cv::Mat DepthToMillimetres(const cv::Mat& depth) {
     }
   }
   return out;
+}
+
+void EncodeJpeg(const cv::Mat& image, int quality, const std::string& path) {
+  std::vector<unsigned char> bytes;
+  if (!cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality})) {
+    throw std::runtime_error("cannot encode " + path + " as JPEG");
+  }
+  io::WriteFileAtomic(path, std::string(bytes.begin(), bytes.end()));
+}
+
+std::string FormatVector(const Eigen::Vector3d& v) {
+  return fmt::format("[{:.9g}, {:.9g}, {:.9g}]", v.x(), v.y(), v.z());
+}
+
+std::string FormatMatrix(const Eigen::Matrix3d& m) {
+  return fmt::format("[{}, {}, {}]", FormatVector(m.row(0).transpose()),
+                     FormatVector(m.row(1).transpose()), FormatVector(m.row(2).transpose()));
+}
+
+std::string FormatIntrinsics(const geometry::PinholeRadTan& c) {
+  return fmt::format(
+      "{{fx: {:.9g}, fy: {:.9g}, cx: {:.9g}, cy: {:.9g}, k1: {:.9g}, k2: {:.9g}, p1: {:.9g}, "
+      "p2: {:.9g}, k3: {:.9g}}}",
+      c.fx, c.fy, c.cx, c.cy, c.k1, c.k2, c.p1, c.p2, c.k3);
 }
 
 void EncodePng(const cv::Mat& image, const std::string& path) {
@@ -162,6 +194,15 @@ void PrepareOutputFolder(const std::string& out_dir, bool force) {
 Simulator::Simulator(const SimConfig& config) : config_(config) {
   config_.Check();
   world_ = std::make_unique<World>(config_.MakeWorldOptions());
+  if (config_.calibration_error.Any()) {
+    calibration_errors_ =
+        DrawCalibrationErrors(config_.calibration_error, HashCombine(config_.seed, kTagCalibration));
+  }
+  if (config_.imu.scale_factor_sigma > 0.0 || config_.imu.misalignment_sigma_rad > 0.0) {
+    imu_axis_errors_ = DrawImuAxisErrors(config_.imu.scale_factor_sigma,
+                                         config_.imu.misalignment_sigma_rad,
+                                         HashCombine(config_.seed, kTagImuAxes));
+  }
 }
 
 geometry::Rigid3 Simulator::BodyFromCamera() const {
@@ -239,6 +280,20 @@ SessionRecord Simulator::SimulateSession(int i) const {
       SensorTimestamps(rec.start, end, cfg.gps0.rate_hz, phase(cfg.gps0.rate_hz)),
       SensorTimestamps(rec.start, end, cfg.gps1.rate_hz, phase(cfg.gps1.rate_hz))};
   MakeTimestampsUnique({&rec.image_times, &imu_times, &mag_times, &gps_times[0], &gps_times[1]});
+  // The camera's clock: its stamps are off the capture times by the time offset and drift
+  // (kept distinct from every other sensor's stamps, 1 ns later when they collide).
+  rec.image_capture_times = rec.image_times;
+  if (calibration_errors_.time_offset_s != 0.0 || calibration_errors_.drift != 0.0) {
+    std::vector<Timestamp> others;
+    for (const std::vector<Timestamp>* v : {&imu_times, &mag_times, &gps_times[0], &gps_times[1]}) {
+      others.insert(others.end(), v->begin(), v->end());
+    }
+    std::sort(others.begin(), others.end());
+    for (Timestamp& t : rec.image_times) {
+      t = calibration_errors_.WrittenStamp(rec.start, t);
+      while (std::binary_search(others.begin(), others.end(), t)) ++t;
+    }
+  }
 
   // IMU.
   ImuModel imu(cfg.imu, HashCombine(cfg.seed, kTagImu, static_cast<std::uint64_t>(i)));
@@ -248,6 +303,10 @@ SessionRecord Simulator::SimulateSession(int i) const {
         k == 0 ? 1.0 / cfg.imu.rate_hz : DurationSeconds(imu_times[k - 1], imu_times[k]);
     Eigen::Vector3d gyro, accel;
     IdealImu(traj.StateAt(rec.Seconds(imu_times[k])), &gyro, &accel);
+    if (!imu_axis_errors_.IsIdentity()) {
+      gyro = imu_axis_errors_.Gyro(gyro);
+      accel = imu_axis_errors_.Accel(accel);
+    }
     rec.imu.push_back(imu.Measure(imu_times[k], dt, gyro, accel));
     rec.gyro_bias.push_back(imu.gyro_bias());
     rec.accel_bias.push_back(imu.accel_bias());
@@ -263,24 +322,47 @@ SessionRecord Simulator::SimulateSession(int i) const {
   const geometry::LocalEnu enu(cfg.origin);
   const std::array<const GpsOptions*, 2> gps_options = {&cfg.gps0, &cfg.gps1};
   const std::array<std::uint64_t, 2> gps_tags = {kTagGps0, kTagGps1};
+  const std::array<std::uint64_t, 2> fault_tags = {kTagGpsFaults0, kTagGpsFaults1};
+  // "Near the tree line": beyond the ends of the rows, over the headlands.
+  const double rows_y0 = std::min(world_->RowStart(0).y(), world_->RowEnd(0).y());
+  const double rows_y1 = std::max(world_->RowStart(0).y(), world_->RowEnd(0).y());
   for (int g = 0; g < 2; ++g) {
     const GpsOptions& o = *gps_options[g];
     GpsModel model(o, HashCombine(cfg.seed, gps_tags[g], static_cast<std::uint64_t>(i)));
     const std::vector<Timestamp>& times = gps_times[g];
+    std::vector<Eigen::Vector3d> antennas;
+    std::vector<double> seconds;
+    std::vector<bool> in_headland;
+    for (const Timestamp t : times) {
+      antennas.push_back(traj.WorldFromBody(rec.Seconds(t)) * o.antenna_in_body);
+      seconds.push_back(rec.Seconds(t));
+      in_headland.push_back(antennas.back().y() < rows_y0 || antennas.back().y() > rows_y1);
+    }
+    const std::vector<GpsFault> faults =
+        o.faults.Any()
+            ? SimulateGpsFaults(o.faults, o.kind == "rtk", o.sigma_h_m, o.sigma_v_m, seconds,
+                                in_headland,
+                                HashCombine(cfg.seed, fault_tags[g], static_cast<std::uint64_t>(i)))
+            : std::vector<GpsFault>(times.size());
     for (size_t k = 0; k < times.size(); ++k) {
       const double dt = k == 0 ? 1.0 / o.rate_hz : DurationSeconds(times[k - 1], times[k]);
-      const Eigen::Vector3d antenna = traj.WorldFromBody(rec.Seconds(times[k])) * o.antenna_in_body;
-      const Eigen::Vector3d measured = model.Measure(dt, antenna);
+      const Eigen::Vector3d& antenna = antennas[k];
+      // Every sample draws its noise, dropped or not, so a dropout changes no other sample.
+      Eigen::Vector3d measured = model.Measure(dt, antenna);
+      const GpsFault& fault = faults[k];
+      if (fault.dropped) continue;
+      measured += fault.extra;
       io::GpsSample sample;
       sample.t = times[k];
       sample.position = enu.ToGeodetic(measured);
-      sample.sigma_h = o.ReportedSigmaH();
-      sample.sigma_v = o.ReportedSigmaV();
-      sample.fix = o.Fix();
+      sample.sigma_h = fault.is_float ? o.faults.float_sigma_h_m : o.ReportedSigmaH();
+      sample.sigma_v = fault.is_float ? o.faults.float_sigma_v_m : o.ReportedSigmaV();
+      sample.fix = fault.is_float ? io::GpsFix::kRtkFloat : o.Fix();
       rec.gps[g].push_back(sample);
       rec.gps_true_enu[g].push_back(antenna);
       rec.gps_measured_enu[g].push_back(measured);
       rec.gps_bias[g].push_back(model.bias());
+      rec.gps_faults[g].push_back(fault);
     }
   }
   return rec;
@@ -321,6 +403,43 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
 
   // ---- Field-wide ground truth.
   io::WriteFileAtomic(Join(truth_dir, "simulate.yaml"), SimConfigToYaml(cfg));
+  const CalibrationErrors& calib = calibration_errors_;
+  const geometry::PinholeRadTan written_intrinsics =
+      calib.WrittenIntrinsics(cfg.camera.Intrinsics());
+  const geometry::Rigid3 written_body_from_camera = calib.WrittenBodyFromCamera(body_from_camera);
+  const std::array<const GpsOptions*, 2> all_gps = {&cfg.gps0, &cfg.gps1};
+  if (cfg.calibration_error.Any() || !imu_axis_errors_.IsIdentity()) {
+    // The true calibration next to the one written to the sensor.yaml files.
+    std::string y =
+        "# The rig's true calibration (used to render and to simulate the sensors) and the one\n"
+        "# written to sessions/*/*/sensor.yaml (calibration_error in simulate.yaml).\n";
+    y += fmt::format("camera_time_offset_s: {:.9g}  # image stamp - capture time at session start\n",
+                     calib.time_offset_s);
+    y += fmt::format("camera_clock_drift: {:.9g}  # d(stamp - capture)/dt\n", calib.drift);
+    y += "cam0:\n";
+    y += "  true_intrinsics: " + FormatIntrinsics(cfg.camera.Intrinsics()) + "\n";
+    y += "  written_intrinsics: " + FormatIntrinsics(written_intrinsics) + "\n";
+    const Eigen::Matrix4d tt = body_from_camera.Matrix(), tw = written_body_from_camera.Matrix();
+    y += fmt::format("  true_T_BS: [{}]\n", fmt::join(tt.data(), tt.data() + 16, ", "));
+    y += fmt::format("  written_T_BS: [{}]\n", fmt::join(tw.data(), tw.data() + 16, ", "));
+    y += "  # T_BS matrices column-major; written R = Exp(rotation_error) R_true\n";
+    y += "  rotation_error_rad: " + FormatVector(calib.camera_rotation) + "\n";
+    y += "  translation_error_m: " + FormatVector(calib.camera_translation) + "\n";
+    for (int g = 0; g < 2; ++g) {
+      y += fmt::format("gps{}:\n  true_antenna_in_body: {}\n  written_antenna_in_body: {}\n", g,
+                       FormatVector(all_gps[g]->antenna_in_body),
+                       FormatVector(all_gps[g]->antenna_in_body + calib.gps_antenna[g]));
+    }
+    y += fmt::format("mag0:\n  true_position_in_body: {}\n  written_position_in_body: {}\n",
+                     FormatVector(cfg.mag.position_in_body),
+                     FormatVector(cfg.mag.position_in_body + calib.mag_position));
+    y += "imu0:  # measured = (I + misalignment) * scale * truth + bias + noise\n";
+    y += "  gyro_scale: " + FormatVector(imu_axis_errors_.gyro_scale.diagonal()) + "\n";
+    y += "  gyro_misalignment: " + FormatMatrix(imu_axis_errors_.gyro_misalignment) + "\n";
+    y += "  accel_scale: " + FormatVector(imu_axis_errors_.accel_scale.diagonal()) + "\n";
+    y += "  accel_misalignment: " + FormatMatrix(imu_axis_errors_.accel_misalignment) + "\n";
+    io::WriteFileAtomic(Join(truth_dir, "calibration_truth.yaml"), y);
+  }
   {
     fmt::memory_buffer b;
     fmt::format_to(std::back_inserter(b), "x,y,z\n");
@@ -397,30 +516,71 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     fmt::format_to(std::back_inserter(camera_tum),
                    "# world_from_camera of cam0 (OpenCV camera frame) in the field's ENU frame\n"
                    "# t[s] tx ty tz qx qy qz qw\n");
+    const ImageEffectsOptions& effects = cfg.image;
+    const bool image_effects = effects.Any();
+    const bool blur = effects.exposure_s > 0.0;
+    const std::string image_extension = effects.jpeg_quality > 0 ? "jpg" : "png";
+    const std::uint64_t exposure_seed =
+        HashCombine(cfg.seed, kTagExposure, static_cast<std::uint64_t>(i));
+    fmt::memory_buffer exposure_csv;
+    fmt::format_to(std::back_inserter(exposure_csv),
+                   "#timestamp [ns],capture [ns],gain,exposure [s]\n");
     {
       Progress progress("render " + rec.info.id, rec.image_times.size(), "img");
       tbb::task_group group;
       std::counting_semaphore<> slots(max_in_flight);
       std::atomic<bool> failed{false};
-      for (const Timestamp t : rec.image_times) {
+      for (size_t f = 0; f < rec.image_times.size(); ++f) {
         if (failed) break;
-        const geometry::Rigid3 world_from_camera =
-            traj.WorldFromBody(rec.Seconds(t)) * body_from_camera;
+        // The image is stamped t on the camera's clock and shows the capture instant.
+        const Timestamp t = rec.image_times[f];
+        const double capture = rec.Seconds(rec.image_capture_times[f]);
+        const geometry::Rigid3 world_from_camera = traj.WorldFromBody(capture) * body_from_camera;
         AppendTumLine(&camera_tum, t, world_from_camera);
         io::ImageEntry entry;
         entry.t = t;
-        entry.filename = fmt::format("{}.png", t);
+        entry.filename = fmt::format("{}.{}", t, image_extension);
         entries.push_back(entry);
         auto frame = std::make_shared<std::pair<cv::Mat, cv::Mat>>();
         const auto r0 = std::chrono::steady_clock::now();
         renderer.Render(world_from_camera, &frame->first,
-                        cfg.ground_truth.depth ? &frame->second : nullptr);
+                        cfg.ground_truth.depth || blur ? &frame->second : nullptr);
         summary.render_seconds +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
         const std::string image_path = Join(image_dir, entry.filename);
-        const std::string depth_path = Join(depth_dir, entry.filename);
-        auto encode = [frame, image_path, depth_path, &progress, &cfg]() {
-          EncodePng(frame->first, image_path);
+        const std::string depth_path =
+            Join(depth_dir, fmt::format("{}.png", t));
+        // The camera at the start and the end of the exposure, seen from its mid-exposure frame.
+        geometry::Rigid3 begin_from_mid, end_from_mid;
+        if (blur) {
+          auto camera_at = [&](double s) {
+            return traj.WorldFromBody(std::clamp(s, 0.0, traj.Duration())) * body_from_camera;
+          };
+          begin_from_mid = camera_at(capture - 0.5 * effects.exposure_s).Inverse() * world_from_camera;
+          end_from_mid = camera_at(capture + 0.5 * effects.exposure_s).Inverse() * world_from_camera;
+        }
+        const double gain = AutoExposureGain(effects, exposure_seed, capture);
+        if (image_effects) {
+          fmt::format_to(std::back_inserter(exposure_csv), "{},{},{:.6f},{}\n", t,
+                         rec.image_capture_times[f], gain, effects.exposure_s);
+        }
+        const std::uint64_t noise_seed = HashCombine(cfg.seed, kTagImageNoise,
+                                                     static_cast<std::uint64_t>(i), f);
+        const geometry::PinholeRadTan intrinsics = cfg.camera.Intrinsics();
+        auto encode = [frame, image_path, depth_path, &progress, &cfg, image_effects, blur,
+                       begin_from_mid, end_from_mid, gain, noise_seed, intrinsics]() {
+          if (image_effects) {
+            const cv::Mat sharp = frame->first;
+            frame->first = ExposeAndQuantise(
+                blur ? MotionBlur(sharp, frame->second, intrinsics, begin_from_mid, end_from_mid)
+                     : sharp,
+                gain, cfg.image, noise_seed);
+          }
+          if (cfg.image.jpeg_quality > 0) {
+            EncodeJpeg(frame->first, cfg.image.jpeg_quality, image_path);
+          } else {
+            EncodePng(frame->first, image_path);
+          }
           if (cfg.ground_truth.depth) EncodePng(DepthToMillimetres(frame->second), depth_path);
           progress.Add();
         };
@@ -452,11 +612,12 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     // Sensor data and descriptions.
     io::SessionInfo info = rec.info;
     io::WriteSessionYaml(Join(session_dir, "session.yaml"), info);
+    if (image_effects) WriteBuffer(Join(session_truth, "cam0_exposure.csv"), exposure_csv);
     io::CameraSensor camera;
     camera.name = "cam0";
-    camera.camera = cfg.camera.Intrinsics();
+    camera.camera = written_intrinsics;
     camera.rate_hz = cfg.camera.rate_hz;
-    camera.body_from_sensor = body_from_camera;
+    camera.body_from_sensor = written_body_from_camera;
     camera.height_above_ground_m = cfg.camera.height_m;
     io::WriteCameraSensorYaml(Join(session_dir, "cam0/sensor.yaml"), camera);
     io::WriteImageCsv(Join(session_dir, "cam0/data.csv"), entries);
@@ -475,8 +636,8 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     io::MagSensor mag;
     mag.name = "mag0";
     mag.rate_hz = cfg.mag.rate_hz;
-    mag.body_from_sensor =
-        geometry::Rigid3(Eigen::Quaterniond::Identity(), cfg.mag.position_in_body);
+    mag.body_from_sensor = geometry::Rigid3(Eigen::Quaterniond::Identity(),
+                                            cfg.mag.position_in_body + calib.mag_position);
     io::WriteMagSensorYaml(Join(session_dir, "mag0/sensor.yaml"), mag);
     io::WriteMagCsv(Join(session_dir, "mag0/data.csv"), rec.mag);
 
@@ -487,7 +648,7 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
       gps.name = fmt::format("gps{}", g);
       gps.kind = o.Kind();
       gps.rate_hz = o.rate_hz;
-      gps.antenna_in_body = o.antenna_in_body;
+      gps.antenna_in_body = o.antenna_in_body + calib.gps_antenna[g];
       gps.default_sigma_h = o.ReportedSigmaH();
       gps.default_sigma_v = o.ReportedSigmaV();
       io::WriteGpsSensorYaml(Join(session_dir, gps.name + "/sensor.yaml"), gps);
@@ -503,6 +664,20 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
                        rec.gps[g][k].t, p.x(), p.y(), p.z(), bias.x(), bias.y(), bias.z());
       }
       WriteBuffer(Join(session_truth, gps.name + "_antenna.csv"), b);
+      if (o.faults.Any()) {
+        // Which samples are multipath outliers or RTK float, and their extra offset (dropped
+        // samples are missing from data.csv and from here).
+        fmt::memory_buffer q;
+        fmt::format_to(std::back_inserter(q),
+                       "#timestamp [ns],fix,outlier,extra_x [m],extra_y [m],extra_z [m]\n");
+        for (size_t k = 0; k < rec.gps[g].size(); ++k) {
+          const GpsFault& fault = rec.gps_faults[g][k];
+          fmt::format_to(std::back_inserter(q), "{},{},{},{:.6f},{:.6f},{:.6f}\n", rec.gps[g][k].t,
+                         static_cast<int>(rec.gps[g][k].fix), fault.outlier ? 1 : 0,
+                         fault.extra.x(), fault.extra.y(), fault.extra.z());
+        }
+        WriteBuffer(Join(session_truth, gps.name + "_faults.csv"), q);
+      }
       summary.gps_samples += static_cast<std::int64_t>(rec.gps[g].size());
     }
     summary.imu_samples += static_cast<std::int64_t>(rec.imu.size());
@@ -539,6 +714,15 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
                        rec.start + SecondsToTimestamp(p.t_end));
       }
       WriteBuffer(Join(session_truth, "passes.csv"), b);
+    }
+    if (!traj.standstills().empty()) {
+      fmt::memory_buffer b;
+      fmt::format_to(std::back_inserter(b), "t_begin [ns],t_end [ns]\n");
+      for (const Standstill& still : traj.standstills()) {
+        fmt::format_to(std::back_inserter(b), "{},{}\n", rec.start + SecondsToTimestamp(still.t_begin),
+                       rec.start + SecondsToTimestamp(still.t_end));
+      }
+      WriteBuffer(Join(session_truth, "standstills.csv"), b);
     }
     {
       fmt::memory_buffer b;

@@ -18,6 +18,7 @@
 #include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/io/dataset.h"
+#include "crop4d/sim/imperfections.h"
 #include "crop4d/sim/sim_config.h"
 #include "crop4d/sim/trajectory.h"
 #include "crop4d/sim/world.h"
@@ -32,7 +33,10 @@ struct SessionRecord {
   Timestamp start = 0;           // the trajectory's t = 0
   std::shared_ptr<const Trajectory> trajectory;
 
+  // Image timestamps as written (on the camera's clock, calibration_error applied) and the
+  // true capture times (mid-exposure, the trajectory's clock) they stand for.
   std::vector<Timestamp> image_times;
+  std::vector<Timestamp> image_capture_times;
   std::vector<io::ImuSample> imu;
   std::vector<Eigen::Vector3d> gyro_bias, accel_bias;  // true biases at each IMU sample
   std::vector<io::MagSample> mag;
@@ -41,6 +45,7 @@ struct SessionRecord {
   std::array<std::vector<Eigen::Vector3d>, 2> gps_true_enu;      // true antenna position
   std::array<std::vector<Eigen::Vector3d>, 2> gps_measured_enu;  // what was converted to lat/lon
   std::array<std::vector<Eigen::Vector3d>, 2> gps_bias;          // true bias (ENU)
+  std::array<std::vector<GpsFault>, 2> gps_faults;               // outlier / float of each sample
 
   // Seconds since `start`.
   double Seconds(Timestamp t) const { return DurationSeconds(start, t); }
@@ -76,6 +81,10 @@ class Simulator {
   SessionConditions ConditionsOf(int i) const;
   // The camera's mounting: body_from_camera (OpenCV camera frame).
   geometry::Rigid3 BodyFromCamera() const;
+  // The errors of the calibration written to the dataset (all zero in the ideal world).
+  const CalibrationErrors& calibration_errors() const { return calibration_errors_; }
+  // The IMU's scale factors and axis misalignment (identity in the ideal world).
+  const ImuAxisErrors& imu_axis_errors() const { return imu_axis_errors_; }
   // field.yaml's content: origin, rows, sites, sessions.
   io::FieldInfo MakeFieldInfo() const;
 
@@ -87,6 +96,8 @@ class Simulator {
  private:
   SimConfig config_;
   std::unique_ptr<World> world_;
+  CalibrationErrors calibration_errors_;
+  ImuAxisErrors imu_axis_errors_;
 };
 
 // Makes `out_dir` ready for a simulation: creates it when missing; an empty folder is fine.

@@ -50,6 +50,19 @@ void TrajectoryOptions::Check() const {
           "knot_interval_s", "must be in [0.01, 1]");
   Require(std::isfinite(max_duration_s) && max_duration_s >= 0.0, "max_duration_s",
           "must be >= 0 (0 = the whole field)");
+  Require(std::isfinite(standstill_start_s) && standstill_start_s >= 0.0 &&
+              standstill_start_s <= 3600.0,
+          "standstill_start_s", "must be in [0, 3600]");
+  Require(std::isfinite(stop_probability_row_end) && stop_probability_row_end >= 0.0 &&
+              stop_probability_row_end <= 1.0,
+          "stop_probability_row_end", "must be in [0, 1]");
+  Require(std::isfinite(stop_probability_in_row) && stop_probability_in_row >= 0.0 &&
+              stop_probability_in_row <= 1.0,
+          "stop_probability_in_row", "must be in [0, 1]");
+  Require(std::isfinite(stop_duration_s) && stop_duration_s >= 0.0 && stop_duration_s <= 3600.0,
+          "stop_duration_s", "must be in [0, 3600]");
+  Require(std::isfinite(stop_ramp_s) && stop_ramp_s >= 0.1 && stop_ramp_s <= 60.0, "stop_ramp_s",
+          "must be in [0.1, 60]");
 }
 
 // ---- UniformBSpline -----------------------------------------------------------------------
@@ -247,6 +260,138 @@ Trajectory::Trajectory(const World& world, const TrajectoryOptions& options, std
   }
   xyz_ = UniformBSpline(kSplineDegree, dt, std::move(xyz));
   angles_ = UniformBSpline(kSplineDegree, dt, std::move(angles));
+
+  wall_duration_ = duration_;
+  PlanStandstills(seed);
+}
+
+// ---- Standstills ----------------------------------------------------------------------------
+
+void Trajectory::PlanStandstills(std::uint64_t seed) {
+  const TrajectoryOptions& o = options_;
+  const bool any_stops = o.stop_probability_row_end > 0.0 || o.stop_probability_in_row > 0.0;
+  if (o.standstill_start_s <= 0.0 && !any_stops) return;
+  // The driving times at which the vehicle comes to rest (its own random stream: the path's
+  // stream is untouched).
+  Random random(HashCombine(seed, 0x5700u));
+  const double ramp = o.stop_ramp_s;
+  std::vector<double> stops;
+  for (const Pass& pass : passes_) {
+    const double row_part = pass.t_end - pass.t_begin - 2.0 * ramp;
+    const double in_row = random.Uniform();
+    const double where = random.Uniform();
+    const double at_end = random.Uniform();
+    if (o.stop_probability_in_row > 0.0 && in_row < o.stop_probability_in_row && row_part > 0) {
+      stops.push_back(pass.t_begin + ramp + where * row_part);
+    }
+    if (o.stop_probability_row_end > 0.0 && at_end < o.stop_probability_row_end) {
+      stops.push_back(pass.t_end);
+    }
+  }
+  std::sort(stops.begin(), stops.end());
+  // Braking takes ramp/2 of driving time: keep the stops that leave room for it after the
+  // start (or the previous stop) and before the end.
+  std::vector<double> kept;
+  double earliest = o.standstill_start_s > 0.0 ? 0.5 * ramp : 0.0;
+  for (const double tau : stops) {
+    if (tau - 0.5 * ramp < earliest || tau + 0.5 * ramp > duration_) continue;
+    kept.push_back(tau);
+    earliest = tau + 0.5 * ramp;
+  }
+
+  // Pieces in session time.
+  double t = 0.0, tau = 0.0;
+  auto add = [&](WarpKind kind, double length, double driven) {
+    warp_.push_back({kind, t, t + length, tau});
+    t += length;
+    tau += driven;
+  };
+  if (o.standstill_start_s > 0.0) {
+    standstills_.push_back({0.0, o.standstill_start_s});
+    add(WarpKind::kStill, o.standstill_start_s, 0.0);
+    add(WarpKind::kAccelerate, ramp, 0.5 * ramp);
+  }
+  for (const double stop : kept) {
+    add(WarpKind::kDrive, stop - 0.5 * ramp - tau, stop - 0.5 * ramp - tau);
+    add(WarpKind::kBrake, ramp, 0.5 * ramp);
+    standstills_.push_back({t, t + o.stop_duration_s});
+    add(WarpKind::kStill, o.stop_duration_s, 0.0);
+    add(WarpKind::kAccelerate, ramp, 0.5 * ramp);
+  }
+  add(WarpKind::kDrive, duration_ - tau, duration_ - tau);
+  wall_duration_ = t;
+  for (Pass& pass : passes_) {
+    pass.t_begin = SessionTimeOf(pass.t_begin, false);
+    pass.t_end = SessionTimeOf(pass.t_end, true);
+  }
+}
+
+void Trajectory::Warp(double t, double* tau, double* sigma, double* sigma_rate) const {
+  if (warp_.empty()) {
+    *tau = t;
+    *sigma = 1.0;
+    *sigma_rate = 0.0;
+    return;
+  }
+  t = std::clamp(t, 0.0, wall_duration_);
+  auto it = std::upper_bound(warp_.begin(), warp_.end(), t,
+                             [](double x, const WarpPiece& p) { return x < p.t_begin; });
+  const WarpPiece& p = *std::prev(it);
+  const double length = p.t_end - p.t_begin, dt = t - p.t_begin;
+  const double u = length > 0.0 ? std::clamp(dt / length, 0.0, 1.0) : 0.0;
+  switch (p.kind) {
+    case WarpKind::kDrive:
+      *tau = p.tau_begin + dt;
+      *sigma = 1.0;
+      *sigma_rate = 0.0;
+      break;
+    case WarpKind::kStill:
+      *tau = p.tau_begin;
+      *sigma = 0.0;
+      *sigma_rate = 0.0;
+      break;
+    case WarpKind::kBrake:  // σ = (1 + cos πu) / 2
+      *tau = p.tau_begin + 0.5 * length * (u + std::sin(M_PI * u) / M_PI);
+      *sigma = 0.5 * (1.0 + std::cos(M_PI * u));
+      *sigma_rate = -0.5 * M_PI * std::sin(M_PI * u) / length;
+      break;
+    case WarpKind::kAccelerate:  // σ = (1 − cos πu) / 2
+      *tau = p.tau_begin + 0.5 * length * (u - std::sin(M_PI * u) / M_PI);
+      *sigma = 0.5 * (1.0 - std::cos(M_PI * u));
+      *sigma_rate = 0.5 * M_PI * std::sin(M_PI * u) / length;
+      break;
+  }
+}
+
+double Trajectory::SessionTimeOf(double tau, bool last) const {
+  if (warp_.empty()) return tau;
+  // τ(t) is non-decreasing: bisection for the first t with τ(t) >= tau (or the last with
+  // τ(t) <= tau).
+  double lo = 0.0, hi = wall_duration_;
+  for (int k = 0; k < 100; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    double x, sigma, rate;
+    Warp(mid, &x, &sigma, &rate);
+    if (last ? x <= tau : x < tau) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return last ? lo : hi;
+}
+
+BodyState Trajectory::StateAt(double t) const {
+  if (warp_.empty()) return DrivingStateAt(t);
+  double tau, sigma, sigma_rate;
+  Warp(t, &tau, &sigma, &sigma_rate);
+  BodyState state = DrivingStateAt(tau);
+  // d/dt = σ d/dτ: v = σ v_τ, a = σ² a_τ + σ' v_τ, and every rate (ω) scales with σ.
+  state.acceleration_world = sigma * sigma * state.acceleration_world +
+                             sigma_rate * state.velocity_world;
+  state.velocity_world *= sigma;
+  state.angular_velocity_body *= sigma;
+  return state;
 }
 
 double Trajectory::SpeedAt(double s) const {
@@ -283,7 +428,7 @@ Trajectory::PlanarPose Trajectory::PathAt(double s) const {
   return pose;
 }
 
-BodyState Trajectory::StateAt(double t) const {
+BodyState Trajectory::DrivingStateAt(double t) const {
   const Eigen::VectorXd p = xyz_.Evaluate(t, 0);
   const Eigen::VectorXd v = xyz_.Evaluate(t, 1);
   const Eigen::VectorXd a = xyz_.Evaluate(t, 2);

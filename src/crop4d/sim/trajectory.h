@@ -63,8 +63,21 @@ struct TrajectoryOptions {
   double track_width_m = 0.91;
   // Knot interval of the trajectory splines; larger is smoother, s.
   double knot_interval_s = 0.1;
-  // Stop the session after this many seconds; 0 drives the whole field.
+  // Stop the session after this many seconds of driving (standstills not counted); 0 drives
+  // the whole field.
   double max_duration_s = 0.0;
+  // Standstills (real drivers stop; every sensor keeps recording): the vehicle stands still
+  // for this long at the start of the session, s (0 = none) ...
+  double standstill_start_s = 0.0;
+  // ... stops at the end of a pass (beyond the row end) with this probability ...
+  double stop_probability_row_end = 0.0;
+  // ... and at a random place within a pass with this probability ...
+  double stop_probability_in_row = 0.0;
+  // ... for this long, s ...
+  double stop_duration_s = 3.0;
+  // ... braking to and accelerating from the stop over this long each (raised-cosine speed
+  // profile), s.
+  double stop_ramp_s = 1.5;
 
   // Throws InputError naming the bad option (prefix "drive.").
   void Check() const;
@@ -77,6 +90,12 @@ struct BodyState {
   Eigen::Vector3d acceleration_world = Eigen::Vector3d::Zero();     // m/s², ENU (no gravity)
   Eigen::Vector3d angular_velocity_body = Eigen::Vector3d::Zero();  // rad/s, frame B
   double roll = 0.0, pitch = 0.0, yaw = 0.0;                        // rad, R = Rz Ry Rx
+};
+
+// An interval in which the vehicle stands exactly still, seconds since the session start.
+struct Standstill {
+  double t_begin = 0.0;
+  double t_end = 0.0;
 };
 
 // One straight pass along a lane, lead-in and lead-out included.
@@ -116,8 +135,10 @@ class Trajectory {
   Trajectory(const World& world, const TrajectoryOptions& options, std::uint64_t seed);
 
   const TrajectoryOptions& options() const { return options_; }
-  // Seconds from the start to the end of the session (max_duration_s applied).
-  double Duration() const { return duration_; }
+  // Seconds from the start to the end of the session (max_duration_s and standstills applied).
+  double Duration() const { return wall_duration_; }
+  // The intervals in which the vehicle stands still, in time order.
+  const std::vector<Standstill>& standstills() const { return standstills_; }
   // The state at `t` seconds since the session start, t in [0, Duration()].
   BodyState StateAt(double t) const;
   geometry::Rigid3 WorldFromBody(double t) const { return StateAt(t).world_from_body; }
@@ -164,6 +185,24 @@ class Trajectory {
   };
   PlanarPose PathAt(double s) const;  // along the planned path, lateral offset included
   double SpeedAt(double s) const;
+  // The state at `tau` seconds of driving time (standstills removed).
+  BodyState DrivingStateAt(double tau) const;
+
+  // Standstills warp time: the session's time t maps to the driving time τ(t) with
+  // dτ/dt = σ(t) ∈ [0, 1], 1 while driving, 0 standing still, raised-cosine ramps between.
+  // Pieces of the warp in session time, contiguous from t = 0.
+  enum class WarpKind { kDrive, kBrake, kStill, kAccelerate };
+  struct WarpPiece {
+    WarpKind kind = WarpKind::kDrive;
+    double t_begin = 0.0, t_end = 0.0;  // session time
+    double tau_begin = 0.0;             // driving time at t_begin
+  };
+  // τ, σ = dτ/dt and dσ/dt at session time t.
+  void Warp(double t, double* tau, double* sigma, double* sigma_rate) const;
+  // The session time at which the driving time reaches `tau` (the first such time, or the
+  // last with `last`).
+  double SessionTimeOf(double tau, bool last) const;
+  void PlanStandstills(std::uint64_t seed);
 
   const World* world_;
   TrajectoryOptions options_;
@@ -172,7 +211,10 @@ class Trajectory {
   std::vector<Segment> segments_;
   std::vector<double> segment_start_s_;
   double path_length_ = 0.0;
-  double duration_ = 0.0;
+  double duration_ = 0.0;       // driving time
+  double wall_duration_ = 0.0;  // session time
+  std::vector<WarpPiece> warp_;  // empty: no standstills, t = τ
+  std::vector<Standstill> standstills_;
   std::vector<Pass> passes_;
   UniformBSpline xyz_;     // x, y, z
   UniformBSpline angles_;  // roll, pitch

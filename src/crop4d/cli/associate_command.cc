@@ -47,7 +47,7 @@ int RunAssociate(AssociateArgs& args) {
   if (o.prealign != "auto" && o.prealign != "always" && o.prealign != "never") {
     throw InputError("--prealign", 0, "expected auto, always or never, got '" + o.prealign + "'");
   }
-  if (!o.Check()) throw InputError("crop4d associate", 0, "invalid options");
+  if (const std::string why = o.Check(); !why.empty()) throw InputError("crop4d associate", 0, why);
   if (args.schedule_only) {
     for (const pipeline::PassPair& p :
          pipeline::ScheduleAssociations(args.field, args.workspace, o)) {

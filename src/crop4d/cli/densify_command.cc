@@ -67,7 +67,7 @@ int RunDensify(DensifyArgs& args) {
   if (!(o.stereo.max_canopy_height_m > 0 && o.stereo.max_canopy_height_m <= 5)) {
     throw InputError("--max-canopy-height", 0, "expected a height in (0, 5] m");
   }
-  if (!o.Check()) throw InputError("crop4d densify", 0, "invalid options");
+  if (const std::string why = o.Check(); !why.empty()) throw InputError("crop4d densify", 0, why);
   const auto lock = LockWorkspace(args.workspace, "crop4d densify", /*create=*/false);
   const std::vector<pipeline::DensifySessionReport> reports =
       pipeline::RunDensifyStage(args.field, args.workspace, o);

@@ -37,7 +37,7 @@ int RunFuse(FuseArgs& args) {
   if (o.method != "robust" && o.method != "naive") {
     throw InputError("--method", 0, "expected robust or naive, got '" + o.method + "'");
   }
-  if (!o.Check()) throw InputError("crop4d fuse", 0, "invalid options");
+  if (const std::string why = o.Check(); !why.empty()) throw InputError("crop4d fuse", 0, why);
   // Ceres follows num_threads; the stage's parallel loops (triangulation, ties) follow this.
   std::optional<tbb::global_control> limit;
   if (args.threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, args.threads);

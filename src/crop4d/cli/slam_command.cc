@@ -52,7 +52,7 @@ int RunSlam(SlamArgs& args) {
     }
   }
   for (const std::string& text : args.gps_outages) o.gps_outages.push_back(ParseOutage(text));
-  if (!o.Check()) throw InputError("crop4d slam", 0, "invalid options");
+  if (const std::string why = o.Check(); !why.empty()) throw InputError("crop4d slam", 0, why);
   // The stage's own thread pools follow num_threads; its parallel loops follow this.
   std::optional<tbb::global_control> limit;
   if (o.front_end.num_threads > 0) {

@@ -16,6 +16,7 @@
 #include <optional>
 #include <unordered_map>
 
+#include "crop4d/association/prealignment.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/hash.h"
 #include "crop4d/core/progress.h"
@@ -93,13 +94,10 @@ std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string&
           {o.feature, cloud[c].position_world, static_cast<std::int32_t>(c)});
     }
   }
-  if (!heights.empty()) {
-    const std::size_t q = heights.size() / 4;
-    std::nth_element(heights.begin(), heights.begin() + q, heights.end());
-    ctx->ground_z = heights[q];
-  } else if (!ctx->data.poses.empty()) {
-    ctx->ground_z = ctx->data.poses.front().translation().z() - 1.5;
-  }
+  ctx->ground_z = association::GroundHeight(
+      std::move(heights), ctx->data.poses.empty()
+                              ? std::nullopt
+                              : std::optional<double>(ctx->data.poses.front().translation().z()));
   if (options.method != "naive") {
     ctx->planes = std::make_unique<association::LocalPlanes>(std::move(positions));
   }
@@ -164,53 +162,28 @@ void InArena(int num_threads, Body&& body) {
   arena.execute(body);
 }
 
-// Naive matches between sampled images of pass a and every few images of pass b within
-// `prealign_radius_m` (the poses may be metres off, so footprint overlap cannot choose the
-// pairs) give ground points placed by both passes (their cloud points); their 4-DOF alignment
-// maps pass a's frame onto pass b's.
+// Pass b's frame relative to pass a's (association/prealignment.h).
 fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
                                const AssociateStageOptions& options) {
-  std::vector<std::pair<int, int>> image_pairs;
-  const int step_a = std::max(1, options.prealign_stride);
-  const int step_b = std::max(1, options.prealign_stride / 3);
-  for (int ia = 0; ia < static_cast<int>(a.data.poses.size()); ia += step_a) {
-    const geometry::Rigid3& ca = a.data.poses[ia];
-    for (int ib = 0; ib < static_cast<int>(b.data.poses.size()); ib += step_b) {
-      const geometry::Rigid3& cb = b.data.poses[ib];
-      const Eigen::Vector3d axis_a = ca.rotation() * Eigen::Vector3d::UnitZ();
-      const Eigen::Vector3d axis_b = cb.rotation() * Eigen::Vector3d::UnitZ();
-      if ((ca.translation() - cb.translation()).head<2>().norm() > options.prealign_radius_m ||
-          axis_a.dot(axis_b) < 0) {
-        continue;
-      }
-      image_pairs.emplace_back(ia, ib);
-    }
-  }
-  std::vector<association::AssociationResult> results(image_pairs.size());
-  InArena(options.num_threads, [&] {
-    tbb::parallel_for(std::size_t{0}, image_pairs.size(), [&](std::size_t k) {
-      const features::FeatureSet& fa = a.data.features[image_pairs[k].first];
-      const features::FeatureSet& fb = b.data.features[image_pairs[k].second];
-      if (fa.empty() || fb.empty()) return;
-      results[k] = association::NaiveMatch(a.camera, fa, b.camera, fb, options.naive);
-    });
-  });
-  std::vector<fusion::ObservedPoint> points_a, points_b;
-  for (std::size_t k = 0; k < image_pairs.size(); ++k) {
-    for (const association::LandmarkMatch& m : results[k].matches) {
-      const auto ca = a.cloud_of.find(ImageFeatureKey(image_pairs[k].first, m.feature_a));
-      const auto cb = b.cloud_of.find(ImageFeatureKey(image_pairs[k].second, m.feature_b));
-      if (ca == a.cloud_of.end() || cb == b.cloud_of.end()) continue;
-      points_a.push_back({a.data.tracks.cloud[ca->second].position_world,
-                          a.data.poses[image_pairs[k].first].translation()});
-      points_b.push_back({b.data.tracks.cloud[cb->second].position_world,
-                          b.data.poses[image_pairs[k].second].translation()});
-    }
-  }
-  // Only the ground that the robust search will match (the same range as its landmarks): the
-  // distant tree line, matched just as well, would otherwise decide the alignment.
-  return fusion::AlignPasses4DofNear(points_a, points_b, options.max_landmark_distance_m,
-                                     options.alignment);
+  association::PreAlignmentOptions prealignment;
+  prealignment.stride = options.prealign_stride;
+  prealignment.radius_m = options.prealign_radius_m;
+  prealignment.max_landmark_distance_m = options.max_landmark_distance_m;
+  prealignment.naive = options.naive;
+  prealignment.alignment = options.alignment;
+  const auto view = [](const PassContext& pass) {
+    return association::PreAlignmentPass{
+        &pass.camera, &pass.data.poses, &pass.data.features,
+        [&pass](int image, int feature) -> std::optional<Eigen::Vector3d> {
+          const auto it = pass.cloud_of.find(ImageFeatureKey(image, feature));
+          if (it == pass.cloud_of.end()) return std::nullopt;
+          return pass.data.tracks.cloud[it->second].position_world;
+        }};
+  };
+  fusion::PassAlignment alignment;
+  InArena(options.num_threads,
+          [&] { alignment = association::PreAlignPasses(view(a), view(b), prealignment); });
+  return alignment;
 }
 
 // The fingerprint of a pair's inputs: the stage revision, the options and the two passes'
@@ -449,14 +422,28 @@ const char* ToString(PassPairType type) {
   return "?";
 }
 
-bool AssociateStageOptions::Check() const {
-  return (method == "robust" || method == "naive" || method == "both") && session_gap >= 1 &&
-         (prealign == "auto" || prealign == "always" || prealign == "never") &&
-         prealign_stride >= 1 && prealign_radius_m > 0 && prealigned_sigma_position_m > 0 &&
-         imprecise_sigma_position_m > 0 && alignment.Check() && image_pairs.Check() &&
-         min_track_length >= 2 && max_landmark_distance_m > 0 &&
-         (!surface_points || surface.Check()) && robust.Check() && naive.Check() &&
-         num_threads >= 0;
+std::string AssociateStageOptions::Check() const {
+  if (method != "robust" && method != "naive" && method != "both") {
+    return "method: must be robust, naive or both (got '" + method + "')";
+  }
+  if (session_gap < 1) return "session_gap: must be >= 1";
+  if (prealign != "auto" && prealign != "always" && prealign != "never") {
+    return "prealign: must be auto, always or never (got '" + prealign + "')";
+  }
+  if (prealign_stride < 1) return "prealign_stride: must be >= 1";
+  if (!(prealign_radius_m > 0)) return "prealign_radius_m: must be > 0";
+  if (!(prealigned_sigma_position_m > 0)) return "prealigned_sigma_position_m: must be > 0";
+  if (!(imprecise_sigma_position_m > 0)) return "imprecise_sigma_position_m: must be > 0";
+  if (min_track_length < 2) return "min_track_length: must be >= 2";
+  if (!(max_landmark_distance_m > 0)) return "max_landmark_distance_m: must be > 0";
+  if (num_threads < 0) return "num_threads: must be >= 0 (0: all cores)";
+  // The nested options of the modules (docs/fusion.md, association).
+  if (!alignment.Check()) return "alignment: invalid pass alignment options";
+  if (!image_pairs.Check()) return "image_pairs: invalid image pair selection options";
+  if (surface_points && !surface.Check()) return "surface: invalid surface point options";
+  if (!robust.Check()) return "robust: invalid robust matcher options";
+  if (!naive.Check()) return "naive: invalid naive matcher options";
+  return {};
 }
 
 std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
@@ -539,7 +526,7 @@ std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
 std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
                                               const std::string& workspace,
                                               const AssociateStageOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("RunAssociateStage: invalid options");
+  if (const std::string why = options.Check(); !why.empty()) throw InputError("associate." + why);
   const io::Field field(field_folder);
   if (!options.session.empty()) {
     const auto& ids = field.session_ids();

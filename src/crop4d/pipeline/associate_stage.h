@@ -103,7 +103,9 @@ struct AssociateStageOptions {
   bool force = false;
   bool show_progress = true;
 
-  bool Check() const;
+  // Empty when the options are valid, else the option that is wrong and why ("state_rate_hz:
+  // must be > 0"; the names of the configuration file's section, docs/run.md).
+  std::string Check() const;
 };
 
 struct PassPairReport {

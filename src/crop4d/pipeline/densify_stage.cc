@@ -103,21 +103,29 @@ Eigen::AlignedBox2d FieldRegion(const io::FieldInfo& field, const io::PlyPointCl
 
 }  // namespace
 
-bool DensifyStageOptions::Check() const {
+std::string DensifyStageOptions::Check() const {
   for (const Eigen::AlignedBox2d& b : boxes) {
-    if (b.isEmpty() || !b.min().allFinite() || !b.max().allFinite()) return false;
+    if (b.isEmpty() || !b.min().allFinite() || !b.max().allFinite()) {
+      return "boxes: a box must be finite and not empty";
+    }
   }
   for (const Eigen::Vector2d& c : centers) {
-    if (!c.allFinite()) return false;
+    if (!c.allFinite()) return "centers: a centre must be finite";
   }
-  return !camera.empty() && margin_m >= 0 && radius_m > 0 && num_threads >= 0 && stereo.Check() &&
-         ground.Check();
+  if (camera.empty()) return "camera: must name a camera";
+  if (!(margin_m >= 0)) return "margin_m: must be >= 0";
+  if (!(radius_m > 0)) return "radius_m: must be > 0";
+  if (num_threads < 0) return "num_threads: must be >= 0 (0: all cores)";
+  // The nested options of the modules (docs/run.md, densify).
+  if (!stereo.Check()) return "stereo: invalid height-field stereo options";
+  if (!ground.Check()) return "ground: invalid ground level options";
+  return {};
 }
 
 std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folder,
                                                   const std::string& workspace,
                                                   const DensifyStageOptions& options) {
-  CROP4D_CHECK(options.Check());
+  if (const std::string why = options.Check(); !why.empty()) throw InputError("densify." + why);
   const io::Field field(field_folder);
   const fs::path fused_dir = fs::path(workspace) / "fused";
   const fs::path out_dir = fs::path(workspace) / "dense";

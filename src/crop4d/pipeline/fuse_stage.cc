@@ -345,14 +345,22 @@ std::vector<association::CrossMatch> ThinMatches(const std::vector<association::
 
 }  // namespace
 
-bool FuseStageOptions::Check() const {
-  return (method == "robust" || method == "naive") && max_matches_per_image_pair >= 0 &&
-         ground_tie_max_matches >= 0 && ground_tie.Check() && optimiser.Check() && cloud.Check();
+std::string FuseStageOptions::Check() const {
+  if (method != "robust" && method != "naive") {
+    return "method: must be robust or naive (got '" + method + "')";
+  }
+  if (max_matches_per_image_pair < 0) return "max_matches_per_image_pair: must be >= 0 (0: all)";
+  if (ground_tie_max_matches < 0) return "ground_tie_max_matches: must be >= 0";
+  // The nested options of the modules (docs/fusion.md).
+  if (!ground_tie.Check()) return "ground_tie: invalid ground tie options";
+  if (!optimiser.Check()) return "optimiser: invalid joint optimiser options";
+  if (!cloud.Check()) return "cloud: invalid triangulation options";
+  return {};
 }
 
 FuseReport RunFuseStage(const std::string& field_folder, const std::string& workspace,
                         const FuseStageOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("RunFuseStage: invalid options");
+  if (const std::string why = options.Check(); !why.empty()) throw InputError("fuse." + why);
   const auto start = Clock::now();
   FuseReport report;
   const io::Field field(field_folder);
@@ -492,7 +500,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       }
       // The tracks of the pass each feature belongs to (none: no cloud track).
       const auto track_of = [&](int p, int image,
-                                 int feature) -> const std::vector<features::Observation>& {
+                                int feature) -> const std::vector<features::Observation>& {
         static const std::vector<features::Observation> kNone;
         const auto it = passes[p]->cloud_of.find(ImageFeatureKey(image, feature));
         return it == passes[p]->cloud_of.end()

@@ -491,10 +491,11 @@ bool RunConfig::Check(std::string* message) const {
     return fail("fuse.method '" + fuse.method + "' needs associate.method '" + fuse.method +
                 "' or 'both' (got '" + associate.method + "')");
   }
-  if (!slam.Check()) return fail("invalid slam options");
-  if (!associate.Check()) return fail("invalid associate options");
-  if (!fuse.Check()) return fail("invalid fuse options");
-  if (!densify_options.Check()) return fail("invalid densify options");
+  for (const auto& [section, why] :
+       {std::pair{"slam.", slam.Check()}, std::pair{"associate.", associate.Check()},
+        std::pair{"fuse.", fuse.Check()}, std::pair{"densify.", densify_options.Check()}}) {
+    if (!why.empty()) return fail(section + why);
+  }
   if (!analyze.Check()) return fail("invalid analyze options");
   if (!eval_options.Check()) return fail("invalid eval options");
   return true;

@@ -970,15 +970,31 @@ std::vector<slam::GpsFixWorld> ApplyGpsOutages(const std::vector<slam::GpsFixWor
   return kept;
 }
 
-bool SlamStageOptions::Check() const {
+std::string SlamStageOptions::Check() const {
   for (const GpsOutage& g : gps_outages) {
-    if (!(g.duration_s > 0) || !std::isfinite(g.start_s)) return false;
+    if (!(g.duration_s > 0)) return "gps_outages: a duration must be > 0";
+    if (!std::isfinite(g.start_s)) return "gps_outages: a start must be a finite time";
   }
-  return state_rate_hz > 0 && session_state_rate_hz >= 0 && session_solve_max_sigma_m >= 0 &&
-         session_bias_sigma_gyro > 0 && session_bias_sigma_accel > 0 && front_end.Check() &&
-         passes.Check() && initialisation.Check() && visual_initialisation.Check() &&
-         optimiser.Check() && cloud.Check() && camera_height_m >= 0 &&
-         std::isfinite(camera_height_m) && window_overlap_s >= 0 && max_window_s > window_overlap_s;
+  if (!(state_rate_hz > 0)) return "state_rate_hz: must be > 0";
+  if (!(session_state_rate_hz >= 0)) return "session_state_rate_hz: must be >= 0 (0: off)";
+  if (!(session_solve_max_sigma_m >= 0)) return "session_solve_max_sigma_m: must be >= 0";
+  if (!(session_bias_sigma_gyro > 0)) return "session_bias_sigma_gyro: must be > 0";
+  if (!(session_bias_sigma_accel > 0)) return "session_bias_sigma_accel: must be > 0";
+  if (!(camera_height_m >= 0) || !std::isfinite(camera_height_m)) {
+    return "camera_height_m: must be >= 0 and finite (0: from sensor.yaml)";
+  }
+  if (!(window_overlap_s >= 0)) return "window_overlap_s: must be >= 0";
+  if (!(max_window_s > window_overlap_s)) return "max_window_s: must be > window_overlap_s";
+  // The nested options of the modules (their fields are documented in docs/slam.md).
+  if (!front_end.Check()) return "front_end: invalid front-end options";
+  if (!passes.Check()) return "passes: invalid row-pass options";
+  if (!initialisation.Check()) return "initialisation: invalid initialisation options";
+  if (!visual_initialisation.Check()) {
+    return "visual_initialisation: invalid visual initialisation options";
+  }
+  if (!optimiser.Check()) return "optimiser: invalid row optimiser options";
+  if (!cloud.Check()) return "cloud: invalid triangulation options";
+  return {};
 }
 
 const char* ToString(PassMode mode) {
@@ -1007,7 +1023,7 @@ std::string PassFolder(const std::string& workspace, const std::string& session,
 
 std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std::string& workspace,
                                      const SlamStageOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("RunSlamStage: invalid options");
+  if (const std::string why = options.Check(); !why.empty()) throw InputError("slam." + why);
   const io::Field field(field_folder);
   std::vector<std::string> sessions = field.session_ids();
   if (!options.session.empty()) {
@@ -1201,8 +1217,11 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
         report.num_landmarks = outcome.num_landmarks;
         report.num_cloud_points = outcome.num_cloud_points;
       } catch (const InputError&) {
-        throw;
-      } catch (const std::exception& e) {
+        throw;  // bad input stops the stage with its file and line
+      } catch (const std::runtime_error& e) {
+        // An expected failure of this pass's solve (no GPS course to start from, a solver that
+        // gives up): the pass fails, the others go on. Programmer errors (std::logic_error,
+        // std::invalid_argument of a violated precondition) are not caught.
         report.failed = true;
         report.message = e.what();
         spdlog::error("{}/{}: {}", id, pass.id, e.what());

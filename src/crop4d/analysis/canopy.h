@@ -85,7 +85,7 @@ struct CanopyOptions {
   // in the next session plus this, m (negative: off). A false match that floats above a plant in
   // one session is then not taken for its top. Where a crop really shrinks between sessions
   // (lodging after a storm, wilting), set it to that loss or turn it off. On six fields only one
-  // site/session changed, with 3 or 5 cm: bench/RESULTS.md, crop analysis, "Update (session 14)".
+  // site/session changed, with 3 or 5 cm (bench/RESULTS.md, crop analysis).
   double max_shrink_m = 0.05;
   // kCrownPeaks: a crown top is the highest canopy within this radius, metres (about half the
   // distance between neighbouring plants' tops).

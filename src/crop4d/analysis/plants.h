@@ -31,7 +31,7 @@ struct PlantDetectionOptions {
   // The stem is the centroid of the plant's cells at least this fraction of its top height.
   double top_fraction = 0.8;
   // Two touching plants make one island; it is split at a saddle when the lower top rises at
-  // least this much above it, m (bench/RESULTS.md, crop analysis, "Update (session 14)")...
+  // least this much above it, m...
   double min_prominence_m = 0.01;
   // ...and at least this fraction of its own height.
   double min_prominence_fraction = 0.15;

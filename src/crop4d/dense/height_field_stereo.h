@@ -95,7 +95,7 @@ class HeightFieldStereo {
     // lost. 0.5 cm cells (2.5 cm patches) gave the lowest canopy-height error on three 640×480
     // fields and on one 1280×960 field, against 0.75, 0.6 and 0.4 cm (and 0.375 cm at 1280×960);
     // on a fourth field, held out from that choice, the gain over 0.75 cm was small (1.93 →
-    // 1.87 cm): bench/RESULTS.md, "Update (session 13)". 1 cm cells flatten the tops of small
+    // 1.87 cm; the cell-size study in bench/RESULTS.md). 1 cm cells flatten the tops of small
     // plants by 1–3 cm. The cost grows with the number of cells: 0.5 cm costs 2.1× as much as
     // 0.75 cm.
     double cell_m = 0.005;
@@ -141,7 +141,7 @@ class HeightFieldStereo {
     // top_surface_min_excess_green: a leaf), the highest such peak gets a fine sweep of its own,
     // and the cell takes it when that sweep keeps it and its point is still green; otherwise
     // the cell keeps its best peak. Measured on the demo field and a second one:
-    // bench/RESULTS.md (crop analysis, "Update (session 9): the top surface").
+    // bench/RESULTS.md, crop analysis (the top surface).
     double top_surface_margin = 0.15;
     double top_surface_min_reference_score = 0.45;
     double top_surface_min_height_m = 0.05;

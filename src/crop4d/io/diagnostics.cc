@@ -72,15 +72,6 @@ std::vector<Diagnostic> Diagnostics::items() const {
   return items_;
 }
 
-std::vector<Diagnostic> Diagnostics::ItemsForFile(const std::string& file) const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  std::vector<Diagnostic> out;
-  for (const Diagnostic& d : items_) {
-    if (d.file == file) out.push_back(d);
-  }
-  return out;
-}
-
 std::size_t Diagnostics::error_count() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return errors_;

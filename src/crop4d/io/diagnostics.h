@@ -55,8 +55,6 @@ class Diagnostics {
 
   // Every item kept, in the order reported.
   std::vector<Diagnostic> items() const;
-  // Items for one file (as stored, i.e. relative to the root when under it).
-  std::vector<Diagnostic> ItemsForFile(const std::string& file) const;
   // Counts include the items that were only counted (over max_items_per_file).
   std::size_t error_count() const;
   std::size_t warning_count() const;

@@ -66,9 +66,10 @@ struct FuseStageOptions {
   // The grades of the sessions (season_quality.h).
   QualityOptions quality;
   bool force = false;
-  bool show_progress = true;
 
-  bool Check() const;
+  // Empty when the options are valid, else the option that is wrong and why ("state_rate_hz:
+  // must be > 0"; the names of the configuration file's section, docs/run.md).
+  std::string Check() const;
 };
 
 struct FusePassReport {

@@ -127,7 +127,6 @@ TEST_F(FusionStagesTest, RtkAssociationIsPreciseAndFusionKeepsTheAccuracy) {
   const std::vector<PassPairReport> reports = RunAssociateStage(Field(), workspace_, ao);
   ASSERT_EQ(reports.size(), 2 * schedule.size());
   FuseStageOptions fo;
-  fo.show_progress = false;
   const FuseReport fused = RunFuseStage(Field(), workspace_, fo);
   EXPECT_GT(fused.joint.num_shared_landmarks, 100);
 
@@ -183,7 +182,6 @@ TEST_F(FusionStagesTest, LowAccuracyGpsSessionsAreRegisteredByAssociation) {
   for (const PassPairReport& r : reports) prealigned += r.prealigned ? 1 : 0;
   EXPECT_GE(prealigned, 3);  // at least the cross-session pairs
   FuseStageOptions fo;
-  fo.show_progress = false;
   const FuseReport fused = RunFuseStage(Field(), workspace_, fo);
   EXPECT_GE(fused.joint.num_passes_aligned, 1);
   // Each session sits where its biased receiver put it; after fusion the ground of the two
@@ -196,7 +194,6 @@ TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) 
   Slam("cam+imu+gps", RainField());
   Associate(RainField());
   FuseStageOptions fo;
-  fo.show_progress = false;
   const FuseReport fused = RunFuseStage(RainField(), workspace_, fo);
   // After the rain nothing matches: each row's two dates are tied through the ground.
   ASSERT_EQ(fused.tie_pairs.size(), 2u);

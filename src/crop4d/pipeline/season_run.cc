@@ -269,7 +269,6 @@ void SeasonRun::Associate(StageRecord& stage) {
 void SeasonRun::Fuse(StageRecord& stage) {
   FuseStageOptions o = config_.fuse;
   o.force = options_.force;
-  o.show_progress = options_.show_progress;
   o.optimiser.row.num_threads = config_.threads;
   const FuseReport report = RunFuseStage(field_, ws_, o);
   Item(stage, "", fmt::format("{} sessions, {} passes", report.num_sessions, report.num_passes),

@@ -8,13 +8,6 @@
 
 namespace crop4d::slam {
 
-Vector6d BodyVelocity(const GpState& state) {
-  Vector6d varpi;
-  varpi.head<3>() = state.world_from_body.rotation().conjugate() * state.vel_world;
-  varpi.tail<3>() = state.rate_body;
-  return varpi;
-}
-
 void SetBodyVelocity(const Vector6d& body_velocity, GpState* state) {
   state->vel_world = state->world_from_body.rotation() * body_velocity.head<3>();
   state->rate_body = body_velocity.tail<3>();

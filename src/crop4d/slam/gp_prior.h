@@ -54,9 +54,7 @@ struct GpState {
   Eigen::Vector3d rate_body = Eigen::Vector3d::Zero();
 };
 
-// ϖ = [Rᵀ vel_world; rate_body].
-Vector6d BodyVelocity(const GpState& state);
-// Inverse of BodyVelocity: writes vel_world and rate_body of `state` from ϖ.
+// Writes vel_world and rate_body of `state` from its body velocity ϖ = [Rᵀ vel_world; rate_body].
 void SetBodyVelocity(const Vector6d& body_velocity, GpState* state);
 
 // The 2×2 interpolation matrices Λ(τ), Ψ(τ) for s = τ − t_i in [0, Δt] (file comment).

@@ -13,6 +13,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/pipeline/export_stage.h"
+#include "crop4d/viewer/static_viewer.h"
 
 namespace crop4d::cli {
 namespace {
@@ -21,11 +22,27 @@ struct ExportArgs {
   std::string field;
   std::string workspace;
   std::string out;
+  std::string viewer;  // --viewer: the static viewer folder
   std::vector<std::string> formats;
   pipeline::ExportOptions options;
 };
 
 int RunExportCommand(ExportArgs& args) {
+  if (args.out.empty() && args.viewer.empty())
+    throw InputError("crop4d export", 0, "nothing to write: give --out, --viewer or both");
+  if (!args.out.empty() && args.field.empty())
+    throw InputError("crop4d export", 0, "--out needs --field (the field's origin and sessions)");
+  if (!args.viewer.empty()) {
+    // The viewer as a static folder (docs/viewer.md): the page, the tiles, the report.
+    const viewer::ViewerDataSummary summary =
+        viewer::WriteStaticViewer(args.workspace, args.viewer);
+    if (!IsQuiet()) {
+      std::printf("viewer: %s (host it with any web server)\n%s", args.viewer.c_str(),
+                  viewer::FormatViewerDataSummary(summary).c_str());
+      std::fflush(stdout);
+    }
+    if (args.out.empty()) return 0;
+  }
   pipeline::ExportOptions& o = args.options;
   o.formats.clear();
   for (const std::string& f : args.formats) {
@@ -61,14 +78,18 @@ RunFunction SetupExport(CLI::App& app) {
       "every file. A format whose inputs are missing is skipped with a warning.\n\nExamples:\n"
       "  crop4d export --workspace demo/workspace --field demo/field --out demo/export\n"
       "  crop4d export -w demo/workspace --field demo/field -o out --format ply,las "
-      "--clouds dense");
+      "--clouds dense\n"
+      "  crop4d export -w demo/workspace --viewer demo/viewer   (the 4D viewer as a static site)");
   app.add_option("-w,--workspace", args->workspace, "Workspace to export")
       ->required()
       ->check(CLI::ExistingDirectory);
-  app.add_option("--field", args->field, "Field folder (docs/format.md): origin and sessions")
-      ->required()
+  app.add_option("--field", args->field,
+                 "Field folder (docs/format.md): origin and sessions (needed with --out)")
       ->check(CLI::ExistingDirectory);
-  app.add_option("-o,--out", args->out, "Output folder (created when missing)")->required();
+  app.add_option("-o,--out", args->out, "Output folder (created when missing)");
+  app.add_option("--viewer", args->viewer,
+                 "Also (or only) write the 4D viewer as a static folder any web server can host "
+                 "(docs/viewer.md)");
   app.add_option("--format", args->formats,
                  "Formats, comma-separated: ply, las, colmap, tum, geotiff, csv, or all")
       ->delimiter(',')

@@ -529,6 +529,13 @@ std::string Builder::Build(HtmlReportResult* result) {
        " &middot; generated " + E(NowIsoUtc()) + " by crop4d " + E(kVersion) + "</p>\n";
   h += "<p>" + std::to_string(sessions_.size()) + " session" + (sessions_.size() == 1 ? "" : "s") +
        ": " + (sessions_.empty() ? std::string("none found") : session_list) + "</p>\n";
+  // The 4D viewer serves this report at <viewer>/ws/report.html (`crop4d view`, `crop4d export
+  // --viewer`): the link back to it is shown only there, since opened as a file the page has no
+  // viewer next to it.
+  h += "<p class=\"sub\">4D viewer of these clouds: <code>crop4d view " + E(ws_) +
+       "</code> <a id=\"viewer-link\" href=\"../index.html\" hidden>open the 4D viewer</a></p>\n"
+       "<script>if (/\\/ws\\/report\\.html$/.test(location.pathname)) "
+       "document.getElementById('viewer-link').hidden = false;</script>\n";
   h += "<nav>";
   for (const Section& s : sections) {
     h += "<a href=\"#" + s.info.id + "\"" + (s.info.has_data ? "" : " class=\"nodata\"") + ">" +

@@ -180,6 +180,8 @@ void ExpectSelfContained(const std::string& html) {
     for (std::size_t p = html.find(attr); p != std::string::npos; p = html.find(attr, p + 1)) {
       const std::string value = html.substr(p + attr.size(), 16);
       if (attr.rfind("href", 0) == 0) {
+        // The one link out: back to the 4D viewer that serves the report (docs/viewer.md).
+        if (value.rfind("../index.html\"", 0) == 0) continue;
         EXPECT_EQ(value[0], '#') << "link out of the page: " << html.substr(p, 80);
       } else {
         EXPECT_EQ(value.rfind("data:", 0), 0u) << "external resource: " << html.substr(p, 80);

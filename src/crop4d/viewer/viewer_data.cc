@@ -334,7 +334,7 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
     Entry e{id, d != dates.end() ? d->second : id, cloud, {}};
     bool rebuilt = false;
     e.index = BuildSession(cloud, dir / "clouds" / id, options, &rebuilt);
-    summary.sessions.push_back({id, e.date, fs::relative(cloud, ws).string(),
+    summary.sessions.push_back({id, e.date, cloud.lexically_relative(ws).string(),
                                 e.index["points"].get<std::size_t>(), e.index["nodes"].size(),
                                 rebuilt});
     entries.push_back(std::move(e));
@@ -413,7 +413,7 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
   for (const Entry& e : entries) {
     sessions.push_back({{"id", e.id},
                         {"date", e.date},
-                        {"source", fs::relative(e.cloud, ws).string()},
+                        {"source", e.cloud.lexically_relative(ws).string()},
                         {"points", e.index["points"]},
                         {"octree", "clouds/" + e.id + "/index.json"},
                         {"trajectory", Trajectory(ws, e.id, options.max_trajectory_points)}});

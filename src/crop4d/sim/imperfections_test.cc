@@ -295,6 +295,8 @@ TEST(ImperfectionsTest, RealismLevelsSetEveryMagnitudeAndRoundTrip) {
   EXPECT_TRUE(real.image.Any());
   EXPECT_GT(real.imu.scale_factor_sigma, 0.0);
   EXPECT_GT(real.gps0.faults.float_rate_per_min, 0.0);
+  EXPECT_GT(real.soil_change.fraction, 0.0);
+  EXPECT_GT(real.drive.standstill_start_s, 0.0);
   EXPECT_EQ(real.gps1.faults.float_rate_per_min, 0.0);  // a standard receiver has no RTK
   // Printed and loaded back over the ideal preset, the real configuration is the same.
   SimConfig loaded = ideal;

@@ -201,6 +201,9 @@ struct Renderer::Impl {
   SessionConditions session;
   bool has_session = false;
   int soil_epoch_loaded = -1;
+  int soil_level_loaded = 0;
+  SoilChangeOptions soil_change_loaded;
+  cv::Mat soil_base;  // the loaded epoch's texture, kept when the soil changes within an epoch
   Vector3d sun_dir = Vector3d::UnitZ();
   Vector3d sun_color = Vector3d::Ones();
   Vector3d ambient_color = Vector3d::Ones();
@@ -218,7 +221,7 @@ struct Renderer::Impl {
   void ComputeDistortionMaps();
   void BuildUnusedMask();
   void UploadTexture(GLuint texture, const cv::Mat& rgba, bool repeat, bool mipmaps);
-  void LoadSoil(int epoch);
+  void LoadSoil(int epoch, int level, const SoilChangeOptions& change);
   void Session(const SessionConditions& c);
   GpuMesh& Mesh(Chunk& chunk, PlantLod lod);
   void EvictMeshes();
@@ -705,14 +708,29 @@ void Renderer::Impl::UploadTexture(GLuint texture, const cv::Mat& rgba, bool rep
   }
 }
 
-void Renderer::Impl::LoadSoil(int epoch) {
-  if (epoch == soil_epoch_loaded) return;
+void Renderer::Impl::LoadSoil(int epoch, int level, const SoilChangeOptions& change) {
+  const bool changes = level > 0 && (change.fraction > 0.0 || change.drying != 0.0);
+  if (!changes) level = 0;
+  if (epoch == soil_epoch_loaded && level == soil_level_loaded &&
+      change.fraction == soil_change_loaded.fraction &&
+      change.patch_m == soil_change_loaded.patch_m && change.drying == soil_change_loaded.drying) {
+    return;
+  }
   SoilTextureOptions soil;
   soil.size_px = options.soil_texture_size;
   soil.extent_m = options.soil_texture_extent_m;
   soil.seed = world.options().seed;
   soil.epoch = epoch;
-  UploadTexture(soil_texture, GenerateSoilTexture(soil), true, true);
+  if (!changes) {
+    UploadTexture(soil_texture, GenerateSoilTexture(soil), true, true);
+    soil_base.release();
+  } else {
+    // The same ground as the epoch's first session, with the patches renewed since.
+    if (soil_base.empty() || epoch != soil_epoch_loaded) soil_base = GenerateSoilTexture(soil);
+    UploadTexture(soil_texture, ApplySoilChange(soil, soil_base, level, change), true, true);
+  }
+  soil_level_loaded = level;
+  soil_change_loaded = change;
   if (!options.soil_trilinear) {
     // Bilinear in the nearest mip level: half the texels of a trilinear fetch (≈10 % of the
     // frame time on llvmpipe); the three hex-tiled fetches per soil pixel dominate the frame.
@@ -725,7 +743,7 @@ void Renderer::Impl::Session(const SessionConditions& c) {
   gl.MakeCurrent();
   session = c;
   has_session = true;
-  LoadSoil(c.soil_epoch);
+  LoadSoil(c.soil_epoch, c.soil_change_level, c.soil_change);
 
   // Sun: azimuth clockwise from north, so east = sin, north = cos.
   const double el = std::clamp(c.sun_elevation_rad, 0.02, 0.5 * M_PI);

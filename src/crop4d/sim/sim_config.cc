@@ -60,6 +60,9 @@ const std::vector<Section>& Sections() {
        "Low-accuracy GPS receiver (gps1) with a slowly drifting bias (first-order "
        "Gauss-Markov)."},
       {"ground_truth", "Ground truth written to FIELD/ground_truth/."},
+      {"soil_change",
+       "How the soil changes between two sessions without rain (rain renews all of it): a "
+       "seeded share of the ground is renewed at every session, and the surface dries."},
       {"calibration_error",
        "Errors of the calibration written to the dataset (sensor.yaml) while the renderer and "
        "the sensor models use the truth; the drawn errors are in "
@@ -244,6 +247,11 @@ std::vector<Key> Keys(SimConfig& c) {
        "grid spacing of terrain.csv, m"},
       {"ground_truth", "depth", &c.ground_truth.depth,
        "write a 16-bit PNG depth map (mm) per image (--depth)"},
+      {"soil_change", "fraction_per_session", &c.soil_change.fraction,
+       "share of the ground whose fine texture and residue are renewed at every session"},
+      {"soil_change", "patch_m", &c.soil_change.patch_m, "typical size of a renewed patch, m"},
+      {"soil_change", "drying_per_session", &c.soil_change.drying,
+       "the soil brightens (dries, crusts) by this fraction per session since the last rain"},
       {"calibration_error", "focal_px", &c.calibration_error.focal_px,
        "fx and fy each written off by +- this, px"},
       {"calibration_error", "principal_point_px", &c.calibration_error.principal_point_px,
@@ -580,6 +588,11 @@ void SimConfig::Check() const {
           "must be \"ideal\" or \"real\", not \"" + realism + "\"");
   calibration_error.Check();
   image.Check();
+  Require(In(soil_change.fraction, 0.0, 1.0), "soil_change.fraction_per_session",
+          "must be in [0, 1]");
+  Require(In(soil_change.patch_m, 0.01, 2.0), "soil_change.patch_m", "must be in [0.01, 2]");
+  Require(In(soil_change.drying, -0.2, 0.2), "soil_change.drying_per_session",
+          "must be in [-0.2, 0.2]");
 
   MakeWorldOptions().Check();
 }
@@ -660,12 +673,19 @@ void ApplyRealism(const std::string& level, SimConfig* c) {
   c->imu.scale_factor_sigma = defaults.imu.scale_factor_sigma;
   c->imu.misalignment_sigma_rad = defaults.imu.misalignment_sigma_rad;
   c->gps0.faults = c->gps1.faults = GpsFaultOptions();
+  c->soil_change = defaults.soil_change;
   c->drive.standstill_start_s = defaults.drive.standstill_start_s;
   c->drive.stop_probability_row_end = defaults.drive.stop_probability_row_end;
   c->drive.stop_probability_in_row = defaults.drive.stop_probability_in_row;
   c->drive.stop_duration_s = defaults.drive.stop_duration_s;
   c->drive.stop_ramp_s = defaults.drive.stop_ramp_s;
   if (level == "ideal") return;
+
+  // Between two visits without rain a fifth of the surface changes (weathering, residue moved,
+  // footprints, tracks, fallen leaves) and it dries a little.
+  c->soil_change.fraction = 0.2;
+  c->soil_change.patch_m = 0.15;
+  c->soil_change.drying = 0.02;
 
   // The driver waits a few seconds before starting and stops now and then.
   c->drive.standstill_start_s = 5.0;

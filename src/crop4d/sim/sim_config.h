@@ -110,6 +110,8 @@ struct SimConfig {
   std::string realism = "ideal";
   CalibrationErrorOptions calibration_error;
   ImageEffectsOptions image;
+  // How the soil changes between sessions without rain (textures.h).
+  SoilChangeOptions soil_change;
 
   // Throws InputError "<key>: <what is wrong>" for the first bad value.
   void Check() const;

@@ -223,6 +223,8 @@ SessionConditions Simulator::ConditionsOf(int i) const {
   c.soil_epoch = 0;
   for (int k = 0; k <= i; ++k) c.soil_epoch += config_.sessions[k].rain_before ? 1 : 0;
   c.wind_seed = HashCombine(config_.seed, kTagWind, static_cast<std::uint64_t>(i));
+  for (int k = i; k > 0 && !config_.sessions[k].rain_before; --k) ++c.soil_change_level;
+  c.soil_change = config_.soil_change;
   return c;
 }
 

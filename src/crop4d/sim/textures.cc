@@ -71,7 +71,7 @@ const float kLight[3] = {-0.38f, -0.42f, 0.82f};
 }  // namespace
 
 bool SoilTextureOptions::Check() const {
-  return IsPowerOfTwo(size_px) && size_px >= 64 && extent_m > 0.0 && epoch >= 0 &&
+  return IsPowerOfTwo(size_px) && size_px >= 64 && extent_m > 0.0 && epoch >= 0 && change >= 0 &&
          clod_density >= 0.0 && pebbles_per_m2 >= 0.0 && grit_per_m2 >= 0.0 &&
          straws_per_m2 >= 0.0 && litter_per_m2 >= 0.0 && clod_smoothing_per_epoch >= 0.0 &&
          min_relief > 0.0 && min_relief <= 1.0;
@@ -102,7 +102,10 @@ cv::Mat GenerateSoilTexture(const SoilTextureOptions& o) {
   const float texel_m = static_cast<float>(o.extent_m / S);
   const float texels_per_m = 1.0f / texel_m;
   const double area_m2 = o.extent_m * o.extent_m;
-  const std::uint64_t seed = HashCombine(o.seed, 0x50117u, static_cast<std::uint64_t>(o.epoch));
+  const std::uint64_t seed =
+      o.change == 0 ? HashCombine(o.seed, 0x50117u, static_cast<std::uint64_t>(o.epoch))
+                    : HashCombine(o.seed, 0x50117u, static_cast<std::uint64_t>(o.epoch),
+                                  static_cast<std::uint64_t>(o.change));
   Random random(seed);
   const float relief = static_cast<float>(
       std::max(o.min_relief, 1.0 / (1.0 + o.clod_smoothing_per_epoch * o.epoch)));
@@ -427,6 +430,76 @@ void SampleRepeat(const cv::Mat& rgba, double u, double v, std::uint8_t out[4]) 
     const double bottom = p01[c] * (1 - ax) + p11[c] * ax;
     out[c] = static_cast<std::uint8_t>(std::lround(top * (1 - ay) + bottom * ay));
   }
+}
+
+}  // namespace crop4d::sim
+
+namespace crop4d::sim {
+
+cv::Mat SoilChangeMask(int size_px, double extent_m, double patch_m, double fraction,
+                       std::uint64_t seed) {
+  CROP4D_CHECK(IsPowerOfTwo(size_px) && extent_m > 0.0 && patch_m > 0.0);
+  cv::Mat mask(size_px, size_px, CV_8U, cv::Scalar(0));
+  const std::size_t n = static_cast<std::size_t>(size_px) * size_px;
+  const std::size_t wanted =
+      static_cast<std::size_t>(std::llround(std::clamp(fraction, 0.0, 1.0) * n));
+  if (wanted == 0) return mask;
+  // Lattice cells of about the patch size (a power of two dividing size_px); two octaves for
+  // ragged patch edges.
+  int cells = 1;
+  while (cells < size_px && extent_m / (2 * cells) >= patch_m) cells *= 2;
+  const cv::Mat coarse = PeriodicValueNoise(size_px, cells, HashCombine(seed, 1));
+  const cv::Mat fine = PeriodicValueNoise(size_px, std::min(size_px, 4 * cells), HashCombine(seed, 2));
+  std::vector<float> value(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    value[i] = coarse.ptr<float>()[i] + 0.3f * fine.ptr<float>()[i];
+  }
+  std::vector<float> sorted = value;
+  std::nth_element(sorted.begin(), sorted.begin() + (n - wanted), sorted.end());
+  const float threshold = sorted[n - wanted];
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < n && count < wanted; ++i) {
+    if (value[i] > threshold) {
+      mask.ptr<std::uint8_t>()[i] = 1;
+      ++count;
+    }
+  }
+  // Ties at the threshold fill the rest, in texel order.
+  for (std::size_t i = 0; i < n && count < wanted; ++i) {
+    if (value[i] == threshold && mask.ptr<std::uint8_t>()[i] == 0) {
+      mask.ptr<std::uint8_t>()[i] = 1;
+      ++count;
+    }
+  }
+  return mask;
+}
+
+cv::Mat ApplySoilChange(const SoilTextureOptions& base_options, const cv::Mat& base, int level,
+                        const SoilChangeOptions& change) {
+  CROP4D_CHECK(base.type() == CV_8UC4 && base.rows == base_options.size_px);
+  cv::Mat out = base.clone();
+  for (int j = 1; j <= level && change.fraction > 0.0; ++j) {
+    SoilTextureOptions renewed_options = base_options;
+    renewed_options.change = j;
+    const cv::Mat renewed = GenerateSoilTexture(renewed_options);
+    const cv::Mat mask = SoilChangeMask(
+        base_options.size_px, base_options.extent_m, change.patch_m, change.fraction,
+        HashCombine(base_options.seed, 0x5c4a, static_cast<std::uint64_t>(base_options.epoch),
+                    static_cast<std::uint64_t>(j)));
+    renewed.copyTo(out, mask);
+  }
+  const double tone = 1.0 + change.drying * std::min(level, 3);
+  if (tone != 1.0) {
+    for (int r = 0; r < out.rows; ++r) {
+      std::uint8_t* p = out.ptr<std::uint8_t>(r);
+      for (int c = 0; c < out.cols; ++c) {
+        for (int k = 0; k < 3; ++k) {
+          p[4 * c + k] = static_cast<std::uint8_t>(std::min(255.0, std::round(p[4 * c + k] * tone)));
+        }
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace crop4d::sim

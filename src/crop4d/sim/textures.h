@@ -25,8 +25,31 @@ struct SoilTextureOptions {
   // at least min_relief.
   double clod_smoothing_per_epoch = 0.2;
   double min_relief = 0.45;
+  // Renewed surface `change` sessions after the epoch began (0: the epoch's own surface): a
+  // texture of the same kind from another seed, used by ApplySoilChange.
+  int change = 0;
   bool Check() const;
 };
+
+// How the soil changes between two sessions without rain (SessionConditions): a seeded set of
+// patches covering `fraction` of the ground is renewed at every session (weathering, residue
+// moved by wind and irrigation, footprints and tracks, fallen leaves), and the surface dries
+// and crusts, brightening by `drying` per session (at most 3 sessions' worth).
+struct SoilChangeOptions {
+  double fraction = 0.0;  // share of the area renewed per session, [0, 1]
+  double patch_m = 0.15;  // typical size of a renewed patch, m
+  double drying = 0.0;    // relative albedo increase per session without rain
+};
+
+// A periodic patch mask (CV_8U, 1 = renewed) of `size_px`² texels covering exactly
+// round(fraction · size_px²) texels: the highest values of value noise of `patch_m` features.
+cv::Mat SoilChangeMask(int size_px, double extent_m, double patch_m, double fraction,
+                       std::uint64_t seed);
+
+// The soil `level` sessions after its epoch began: the epoch's texture `base` (level 0) with the
+// patches of sessions 1..level replaced by renewed surface, then the drying tone. RGBA8.
+cv::Mat ApplySoilChange(const SoilTextureOptions& base_options, const cv::Mat& base, int level,
+                        const SoilChangeOptions& change);
 
 // RGBA8 (CV_8UC4, R first) soil albedo with the small-scale relief shading baked in.
 cv::Mat GenerateSoilTexture(const SoilTextureOptions& options);

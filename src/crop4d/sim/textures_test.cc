@@ -134,5 +134,60 @@ TEST(SampleRepeatTest, BilinearWithRepeatWrappingAndTexelCentres) {
   }
 }
 
+// Share of texels whose colour differs between two RGBA textures.
+double ChangedFraction(const cv::Mat& a, const cv::Mat& b) {
+  int changed = 0;
+  for (int r = 0; r < a.rows; ++r) {
+    for (int c = 0; c < a.cols; ++c) {
+      const cv::Vec4b x = a.at<cv::Vec4b>(r, c), y = b.at<cv::Vec4b>(r, c);
+      changed += x[0] != y[0] || x[1] != y[1] || x[2] != y[2];
+    }
+  }
+  return static_cast<double>(changed) / (a.rows * a.cols);
+}
+
+TEST(SoilTextureTest, SoilChangesLocallyAndPartiallyBetweenSessions) {
+  const SoilTextureOptions base_options = Small();
+  const cv::Mat base = GenerateSoilTexture(base_options);
+  SoilChangeOptions change;
+  change.fraction = 0.2;
+  change.patch_m = 0.05;
+  // The mask covers exactly the fraction, in patches (most renewed texels have renewed
+  // neighbours).
+  const cv::Mat mask = SoilChangeMask(512, 0.5, 0.05, 0.2, 9);
+  EXPECT_EQ(cv::countNonZero(mask), std::llround(0.2 * 512 * 512));
+  int inner = 0;
+  for (int r = 1; r < 511; ++r) {
+    for (int c = 1; c < 511; ++c) {
+      if (mask.at<std::uint8_t>(r, c) && mask.at<std::uint8_t>(r - 1, c) &&
+          mask.at<std::uint8_t>(r + 1, c) && mask.at<std::uint8_t>(r, c - 1) &&
+          mask.at<std::uint8_t>(r, c + 1)) {
+        ++inner;
+      }
+    }
+  }
+  EXPECT_GT(inner, 0.8 * cv::countNonZero(mask));
+  // Level 0 is the epoch's own texture; every later session renews about `fraction` of it.
+  EXPECT_EQ(MeanAbsDiff(ApplySoilChange(base_options, base, 0, change), base), 0.0);
+  cv::Mat previous = base;
+  for (int level = 1; level <= 3; ++level) {
+    const cv::Mat now = ApplySoilChange(base_options, base, level, change);
+    const double between = ChangedFraction(previous, now);
+    EXPECT_GT(between, 0.15) << level;
+    EXPECT_LT(between, 0.21) << level;
+    previous = now;
+  }
+  // Most of the pattern survives two sessions: ≈ 1 − (1 − 0.2)² = 36 % has changed.
+  const double two = ChangedFraction(base, ApplySoilChange(base_options, base, 2, change));
+  EXPECT_GT(two, 0.28);
+  EXPECT_LT(two, 0.40);
+  // Drying brightens the soil by the configured fraction per session.
+  change.fraction = 0.0;
+  change.drying = 0.03;
+  const cv::Mat dry = ApplySoilChange(base_options, base, 2, change);
+  const double gain = cv::mean(dry)[1] / cv::mean(base)[1];
+  EXPECT_NEAR(gain, 1.06, 0.01);
+}
+
 }  // namespace
 }  // namespace crop4d::sim

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "crop4d/core/timestamp.h"
+#include "crop4d/sim/textures.h"
 
 namespace crop4d::sim {
 
@@ -78,6 +79,10 @@ struct SessionConditions {
   bool rain_before = false;      // rain since the previous session
   int soil_epoch = 0;            // increments at every rain: re-randomises the fine soil texture
   std::uint64_t wind_seed = 0;   // small per-session leaf perturbation
+  // Sessions since the last rain (0 in the first session and right after rain), and how the
+  // soil changes at each of them (textures.h; nothing with the defaults).
+  int soil_change_level = 0;
+  SoilChangeOptions soil_change;
 };
 
 class World {

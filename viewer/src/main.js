@@ -15,8 +15,8 @@ const params = new URLSearchParams(location.search);
 // Points drawn at most per frame, over all sessions shown.
 const POINT_BUDGET = Number(params.get('budget') || 3000000);
 // A node is refined while it covers more than this many pixels on the screen (its subsample
-// holds 64 points per side: ~1.5 px spacing).
-const REFINE_PIXELS = Number(params.get('refine') || 100);
+// holds up to 64 points per side: ~1.3 px spacing).
+const REFINE_PIXELS = Number(params.get('refine') || 80);
 const MAX_LOADS = 6;
 const TINTS = [new THREE.Color(0xff9a3c), new THREE.Color(0x3cc8ff)];
 const SESSION_COLOURS = [0xffd35c, 0x5cd6ff, 0xff6b8b, 0x8bff6b, 0xc58bff, 0xffa64d];
@@ -276,9 +276,16 @@ function buildTerrainMesh() {
 function buildTrajectories() {
   sceneInfo.sessions.forEach((s, k) => {
     if (!s.trajectory || s.trajectory.length < 2) return;
-    const geometry = new THREE.BufferGeometry().setFromPoints(
-      s.trajectory.map((p) => new THREE.Vector3(p[0], p[1], p[2])));
-    const line = new THREE.Line(geometry, new THREE.LineBasicMaterial({
+    // Segments between consecutive poses; a jump of more than a metre (between row passes)
+    // is not drawn.
+    const segments = [];
+    for (let i = 1; i < s.trajectory.length; ++i) {
+      const a = s.trajectory[i - 1], b = s.trajectory[i];
+      if (Math.hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]) > 1.0) continue;
+      segments.push(new THREE.Vector3(...a), new THREE.Vector3(...b));
+    }
+    const geometry = new THREE.BufferGeometry().setFromPoints(segments);
+    const line = new THREE.LineSegments(geometry, new THREE.LineBasicMaterial({
       color: SESSION_COLOURS[k % SESSION_COLOURS.length] }));
     line.userData.session = s.id;
     trajectories.add(line);
@@ -377,6 +384,14 @@ function updateLegend() {
   }
 }
 
+// Turns the view about the target by `radians` (the bench orbits the camera with it).
+api.rotate = (radians) => {
+  const offset = camera.position.clone().sub(controls.target);
+  offset.applyAxisAngle(new THREE.Vector3(0, 0, 1), radians);
+  camera.position.copy(controls.target).add(offset);
+  controls.update();
+  needsUpdate = true;
+};
 api.setDate = (i) => { state.dateIndex = Math.max(0, Math.min(state.dates.length - 1, i)); $('date').value = state.dateIndex; applyState(); };
 api.setCompare = (i) => { state.compareIndex = Math.max(0, Math.min(state.dates.length - 1, i)); $('compare').value = state.compareIndex; applyState(); };
 api.setMode = (m) => { state.mode = m; $('mode').value = m; applyState(); };
@@ -557,8 +572,9 @@ async function main() {
   const g = sceneInfo.grid;
   const cx = g.min[0] + g.nx * g.cell / 2, cy = g.min[1] + g.ny * g.cell / 2;
   const extent = Math.max(g.nx, g.ny) * g.cell;
-  controls.target.set(cx, cy, terrainAt(cx, cy));
-  camera.position.set(cx + 0.15 * extent, cy - 0.9 * extent, terrainAt(cx, cy) + 0.7 * extent);
+  const z0 = terrainAt(cx, cy);
+  controls.target.set(cx, cy + 0.05 * extent, z0);
+  camera.position.set(cx + 0.25 * extent, cy - 0.55 * extent, z0 + 0.4 * extent);
   controls.update();
   const last = state.dates.length - 1;
   $('date').max = last; $('compare').max = last;

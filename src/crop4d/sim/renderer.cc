@@ -209,6 +209,7 @@ struct Renderer::Impl {
   Vector3d ambient_color = Vector3d::Ones();
   Vector3d haze_color = Vector3d::Ones();
   float wet = 0.0f;
+  double time_s = 0.0;  // SetTime
 
   bool shadow_valid = false;
   std::array<long long, 2> shadow_key{};
@@ -1008,6 +1009,16 @@ void Renderer::Impl::RenderFrame(const geometry::Rigid3& world_from_camera, cv::
   // Plants first, front to back (they hide much of the soil: less soil shading, and the
   // early depth test rejects hidden leaves).
   set_common(plant_program);
+  {
+    // Two gust waves with seeded phases; the second at 1.37× the frequency of the first.
+    Random wind(HashCombine(session.wind_seed, 0x5a7u));
+    const double phase1 = wind.Uniform(0.0, 2.0 * M_PI), phase2 = wind.Uniform(0.0, 2.0 * M_PI);
+    const double w = 2.0 * M_PI / session.wind_period_s;
+    glUniform4f(glGetUniformLocation(plant_program, "u_sway"),
+                static_cast<float>(session.wind_sway_m),
+                static_cast<float>(std::fmod(w * time_s + phase1, 2.0 * M_PI)),
+                static_cast<float>(std::fmod(1.37 * w * time_s + phase2, 2.0 * M_PI)), 0.0f);
+  }
   std::vector<std::pair<double, Chunk*>> drawn;
   for (Chunk& chunk : chunks) {
     if (chunk.empty) continue;
@@ -1226,6 +1237,8 @@ Renderer::Renderer(const World& world, const RenderOptions& options) {
 Renderer::~Renderer() = default;
 
 void Renderer::SetSession(const SessionConditions& conditions) { impl_->Session(conditions); }
+
+void Renderer::SetTime(double seconds) { impl_->time_s = seconds; }
 
 void Renderer::Render(const geometry::Rigid3& world_from_camera, cv::Mat* bgr, cv::Mat* depth) {
   impl_->RenderFrame(world_from_camera, bgr, depth);

@@ -58,6 +58,10 @@ class Renderer {
   // Builds the plants of this date and the soil of this soil epoch, sets sun and sky.
   void SetSession(const SessionConditions& conditions);
 
+  // The time of the next frames, seconds since the session start: the leaves' sway in the wind
+  // (SessionConditions::wind_sway_m) follows it.
+  void SetTime(double seconds);
+
   // Renders the view of a camera (OpenCV camera frame, world_from_camera in ENU).
   // `bgr`: CV_8UC3, distorted like a real lens. `depth` (optional): CV_32F, the z of the
   // visible surface in the camera frame at each distorted pixel, 0 for sky.

@@ -301,6 +301,65 @@ TEST_F(RendererTest, RainChangesTheSoilButNotTheGeometry) {
   EXPECT_LT(corr.at<float>(0, 0), 0.5);
 }
 
+TEST_F(RendererTest, LeavesSwayInTheWindAndNothingElseMoves) {
+  const RenderOptions options = SmallOptions();
+  MAKE_RENDERER(renderer, world_, options);
+  const geometry::Rigid3 pose = Pose();
+  // A pixel sees a plant when its surface point lies clearly above the terrain.
+  auto plant = [&](const cv::Mat& depth, int r, int c) {
+    Eigen::Vector3d ray;
+    const float z = depth.at<float>(r, c);
+    if (z <= 0.0f || !options.camera.Unproject(Eigen::Vector2d(c, r), &ray)) return false;
+    const Eigen::Vector3d p = pose * Eigen::Vector3d(ray * (z / ray.z()));
+    return p.z() - world_.TerrainHeight(p.x(), p.y()) > 0.01;
+  };
+  auto render = [&](double sway_m, double t, cv::Mat* bgr, cv::Mat* depth) {
+    SessionConditions session = Session(60.0);
+    session.wind_sway_m = sway_m;
+    renderer->SetSession(session);
+    renderer->SetTime(t);
+    renderer->Render(pose, bgr, depth);
+  };
+  // Still air: time changes nothing.
+  cv::Mat a, b, da, db;
+  render(0.0, 0.0, &a, &da);
+  render(0.0, 0.7, &b, &db);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  // A breeze moves the leaves between two frames, and only them: every pixel whose depth
+  // changes sees a plant in one of the frames; the change grows with the amplitude.
+  double previous_change = 0.0;
+  for (const double sway : {0.005, 0.02}) {
+    render(sway, 0.0, &a, &da);
+    render(sway, 0.7, &b, &db);
+    // Plant pixels in either frame, grown by 2 px (the depth at a leaf's edge is resolved
+    // from the multisampled image and mixes leaf and soil).
+    cv::Mat plant_mask(da.size(), CV_8U, cv::Scalar(0));
+    for (int r = 0; r < da.rows; ++r) {
+      for (int c = 0; c < da.cols; ++c) {
+        plant_mask.at<std::uint8_t>(r, c) = plant(da, r, c) || plant(db, r, c) ? 255 : 0;
+      }
+    }
+    const int plant_pixels = cv::countNonZero(plant_mask);
+    cv::dilate(plant_mask, plant_mask, cv::Mat::ones(5, 5, CV_8U));
+    int changed = 0, changed_soil = 0;
+    for (int r = 0; r < da.rows; ++r) {
+      for (int c = 0; c < da.cols; ++c) {
+        if (da.at<float>(r, c) != db.at<float>(r, c)) {
+          ++changed;
+          changed_soil += plant_mask.at<std::uint8_t>(r, c) == 0;
+        }
+      }
+    }
+    ASSERT_GT(plant_pixels, 1000);
+    EXPECT_GT(changed, 0) << sway;
+    // (Allowing for the few leaf tips that hang within 1 cm of the soil.)
+    EXPECT_LE(changed_soil, changed / 200) << sway << ": " << changed;
+    const double change = cv::norm(a, b, cv::NORM_L1) / (a.total() * 3);
+    EXPECT_GT(change, previous_change) << sway;
+    previous_change = change;
+  }
+}
+
 TEST(RenderOptionsTest, Check) {
   RenderOptions options;
   EXPECT_FALSE(options.Check());  // no camera

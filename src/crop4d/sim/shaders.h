@@ -169,13 +169,21 @@ layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec4 a_normal;
 layout(location = 2) in vec4 a_color;  // rgb albedo; a = 1 on leaf blades
 uniform mat4 u_view_proj;
+// Wind: x = sway amplitude (m), y and z = the current phases of two gust waves (rad).
+uniform vec4 u_sway;
 centroid out vec3 v_ambient;  // reflected sky light
 centroid out vec3 v_sun;      // reflected (and transmitted) sunlight where unshadowed
 // Two-sided leaves: the normal faces the camera; the underside is paler and some sunlight
 // shines through a leaf lit from behind. Lit per vertex (leaves are small next to pixels).
 void main() {
+  // Leaf blades sway in the wind: two gust waves of ≈1 m wavelength travel over the field, so
+  // nearby leaves move together; stems stay put. Amplitude 0: the position is unchanged.
+  vec3 position = a_position;
+  position.xy += u_sway.x * a_color.a *
+                 vec2(sin(dot(a_position.xy, vec2(5.3, 3.1)) + u_sway.y),
+                      sin(dot(a_position.xy, vec2(-2.7, 6.1)) + u_sway.z));
   vec3 n = normalize(a_normal.xyz);
-  bool back = dot(n, u_camera_pos - a_position) < 0.0;
+  bool back = dot(n, u_camera_pos - position) < 0.0;
   if (back) n = -n;
   float blade = a_color.a;
   vec3 albedo = a_color.rgb;
@@ -184,9 +192,9 @@ void main() {
   float direct = max(ndl, 0.0) + blade * 0.3 * max(-ndl, 0.0);
   v_ambient = albedo * u_ambient_color * (0.55 + 0.3 * n.z) * u_brightness;
   v_sun = albedo * u_sun_color * direct * u_brightness;
-  v_haze = HazeWeight(a_position);
-  ShadowCoordinates(a_position);
-  gl_Position = u_view_proj * vec4(a_position, 1.0);
+  v_haze = HazeWeight(position);
+  ShadowCoordinates(position);
+  gl_Position = u_view_proj * vec4(position, 1.0);
 }
 )";
 

@@ -127,6 +127,9 @@ std::vector<Key> Keys(SimConfig& c) {
        "each session starts up to this many hours later (seeded)"},
       {"recording", "brightness_jitter", &c.recording.brightness_jitter,
        "exposure varies by up to +- this fraction between sessions"},
+      {"recording", "wind_sway_m", &c.recording.wind_sway_m,
+       "leaves sway in the wind between frames by up to this (x a seeded 0.3-1 per session), m"},
+      {"recording", "wind_period_s", &c.recording.wind_period_s, "period of the gusts, s"},
       {"camera", "width", &cam.width, "image width, px"},
       {"camera", "height", &cam.height, "image height, px"},
       {"camera", "fx", &cam.fx, "focal length x, px"},
@@ -536,6 +539,9 @@ void SimConfig::Check() const {
           "recording.start_jitter_h", "must be >= 0 with start_utc_h + start_jitter_h < 24");
   Require(In(recording.brightness_jitter, 0.0, 0.5), "recording.brightness_jitter",
           "must be in [0, 0.5]");
+  Require(In(recording.wind_sway_m, 0.0, 0.2), "recording.wind_sway_m", "must be in [0, 0.2]");
+  Require(In(recording.wind_period_s, 0.1, 100.0), "recording.wind_period_s",
+          "must be in [0.1, 100]");
 
   const CameraRigOptions& cam = camera;
   Require(cam.width >= 16 && cam.width <= 8192, "camera.width", "must be in [16, 8192]");
@@ -674,6 +680,8 @@ void ApplyRealism(const std::string& level, SimConfig* c) {
   c->imu.misalignment_sigma_rad = defaults.imu.misalignment_sigma_rad;
   c->gps0.faults = c->gps1.faults = GpsFaultOptions();
   c->soil_change = defaults.soil_change;
+  c->recording.wind_sway_m = defaults.recording.wind_sway_m;
+  c->recording.wind_period_s = defaults.recording.wind_period_s;
   c->drive.standstill_start_s = defaults.drive.standstill_start_s;
   c->drive.stop_probability_row_end = defaults.drive.stop_probability_row_end;
   c->drive.stop_probability_in_row = defaults.drive.stop_probability_in_row;
@@ -686,6 +694,10 @@ void ApplyRealism(const std::string& level, SimConfig* c) {
   c->soil_change.fraction = 0.2;
   c->soil_change.patch_m = 0.15;
   c->soil_change.drying = 0.02;
+
+  // A breeze: leaves move by up to a centimetre between frames.
+  c->recording.wind_sway_m = 0.01;
+  c->recording.wind_period_s = 2.0;
 
   // The driver waits a few seconds before starting and stops now and then.
   c->drive.standstill_start_s = 5.0;

@@ -69,6 +69,11 @@ struct RecordingOptions {
   double start_jitter_h = 2.0;
   // Exposure varies by up to ± this fraction between sessions (seeded).
   double brightness_jitter = 0.1;
+  // Leaves sway in the wind between frames: a session's sway amplitude is this × a seeded
+  // factor in [0.3, 1], m (0 = still air).
+  double wind_sway_m = 0.0;
+  // Period of the gusts, s.
+  double wind_period_s = 2.0;
 };
 
 struct GroundTruthOptions {

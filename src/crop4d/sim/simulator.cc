@@ -225,6 +225,11 @@ SessionConditions Simulator::ConditionsOf(int i) const {
   c.wind_seed = HashCombine(config_.seed, kTagWind, static_cast<std::uint64_t>(i));
   for (int k = i; k > 0 && !config_.sessions[k].rain_before; --k) ++c.soil_change_level;
   c.soil_change = config_.soil_change;
+  if (config_.recording.wind_sway_m > 0.0) {
+    Random wind(HashCombine(c.wind_seed, 0xa3u));
+    c.wind_sway_m = config_.recording.wind_sway_m * wind.Uniform(0.3, 1.0);
+    c.wind_period_s = config_.recording.wind_period_s;
+  }
   return c;
 }
 
@@ -545,6 +550,7 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
         entries.push_back(entry);
         auto frame = std::make_shared<std::pair<cv::Mat, cv::Mat>>();
         const auto r0 = std::chrono::steady_clock::now();
+        renderer.SetTime(capture);
         renderer.Render(world_from_camera, &frame->first,
                         cfg.ground_truth.depth || blur ? &frame->second : nullptr);
         summary.render_seconds +=

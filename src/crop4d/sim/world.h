@@ -83,6 +83,10 @@ struct SessionConditions {
   // soil changes at each of them (textures.h; nothing with the defaults).
   int soil_change_level = 0;
   SoilChangeOptions soil_change;
+  // Leaves sway in the wind within the session: amplitude of a leaf's displacement (m; 0 =
+  // still) and the period of the gusts (s); phases from wind_seed. Renderer::SetTime.
+  double wind_sway_m = 0.0;
+  double wind_period_s = 2.0;
 };
 
 class World {

@@ -16,6 +16,7 @@
 #include <regex>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/viewer/viewer_data_test_util.h"
@@ -109,6 +110,54 @@ TEST(ViewerBrowserTest, LoadsWithoutErrorAndTheSliderSwitchesDates) {
   const int status = ::pclose(pipe);
   EXPECT_EQ(status, 0) << output;
   EXPECT_NE(output.find("viewer check ok"), std::string::npos) << output;
+}
+
+// Runs `command` through the shell; its output (stdout and stderr) and exit code.
+std::pair<std::string, int> RunShell(const std::string& command) {
+  FILE* pipe = ::popen((command + " 2>&1").c_str(), "r");
+  std::string output;
+  std::array<char, 4096> buffer;
+  while (pipe != nullptr && std::fgets(buffer.data(), buffer.size(), pipe) != nullptr)
+    output += buffer.data();
+  const int status = pipe != nullptr ? ::pclose(pipe) : -1;
+  return {output, WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+}
+
+TEST(ViewCommandTest, WorkspaceWithoutCloudsIsBadInputNamingWhatIsMissing) {
+  TempDir dir;
+  fs::create_directories(dir / "ws");
+  const auto [output, code] =
+      RunShell(ShellQuote(io::testing::Crop4dBinary()) + " view " + ShellQuote(dir / "ws") +
+          " --port 0 --no-browser");
+  EXPECT_EQ(code, 2) << output;
+  EXPECT_NE(output.find("no cloud to show"), std::string::npos) << output;
+}
+
+TEST(ViewCommandTest, ANonLoopbackHostIsServedWithAWarning) {
+  TempDir dir;
+  testing::WriteSmallWorkspace(dir / "ws", 2000);
+  // Stopped by SIGTERM after two seconds: a clean exit (status 0).
+  const auto [output, code] =
+      RunShell("timeout --preserve-status 2 " + ShellQuote(io::testing::Crop4dBinary()) + " view " +
+          ShellQuote(dir / "ws") + " --host 0.0.0.0 --port 0 --no-browser");
+  EXPECT_EQ(code, 0) << output;
+  EXPECT_NE(output.find("warning: serving on 0.0.0.0"), std::string::npos) << output;
+  EXPECT_NE(output.find("crop4d view: serving"), std::string::npos) << output;
+}
+
+TEST(ViewCommandTest, ExportViewerWritesTheStaticFolderAndNeedsSomethingToWrite) {
+  TempDir dir;
+  testing::WriteSmallWorkspace(dir / "ws", 2000);
+  const std::string binary = ShellQuote(io::testing::Crop4dBinary());
+  const auto [output, code] = RunShell(binary + " export -w " + ShellQuote(dir / "ws") +
+                                  " --viewer " + ShellQuote(dir / "site"));
+  EXPECT_EQ(code, 0) << output;
+  EXPECT_TRUE(fs::is_regular_file(dir / "site/index.html")) << output;
+  EXPECT_TRUE(fs::is_regular_file(dir / "site/ws/viewer/scene.json")) << output;
+  EXPECT_TRUE(fs::is_regular_file(dir / "site/ws/report.html")) << output;
+  const auto [nothing, nothing_code] = RunShell(binary + " export -w " + ShellQuote(dir / "ws"));
+  EXPECT_EQ(nothing_code, 2) << nothing;
+  EXPECT_NE(nothing.find("--viewer"), std::string::npos) << nothing;
 }
 
 }  // namespace

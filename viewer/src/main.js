@@ -67,8 +67,12 @@ const uniforms = {
   grid: { value: new THREE.Vector4(0, 0, 1, 1) },
   heightRange: { value: 0.6 },
   changeRange: { value: 0.3 },
-  pointSize: { value: 2.0 },
+  // Points are drawn POINT_METRES wide in the field, at least MIN_POINT_PIXELS: close up the
+  // dense cloud (~6 mm between points) closes, far away every point stays visible.
+  pointScale: { value: 1.0 },
+  minPointSize: { value: 1.5 },
 };
+const POINT_METRES = 0.008;
 
 const vertexShader = `
 uniform int colorBy;
@@ -77,7 +81,8 @@ uniform sampler2D changeTex;
 uniform vec4 grid;
 uniform float heightRange;
 uniform float changeRange;
-uniform float pointSize;
+uniform float pointScale;
+uniform float minPointSize;
 uniform vec3 tint;
 uniform float tintMix;
 varying vec3 vColor;
@@ -101,8 +106,9 @@ void main() {
     c = d < -900.0 ? vec3(0.45) : diverging(d / changeRange);
   }
   vColor = mix(c, tint, tintMix);
-  gl_Position = projectionMatrix * viewMatrix * world;
-  gl_PointSize = pointSize;
+  vec4 view = viewMatrix * world;
+  gl_Position = projectionMatrix * view;
+  gl_PointSize = clamp(pointScale / max(-view.z, 1e-3), minPointSize, 8.0);
 }`;
 const fragmentShader = `
 varying vec3 vColor;
@@ -343,6 +349,27 @@ function updateChangeTexture() {
   }
   if (uniforms.changeTex.value) uniforms.changeTex.value.dispose();
   uniforms.changeTex.value = floatTexture(change, g);
+  // The colour scale spans the 98th percentile of the change's size.
+  uniforms.changeRange.value = scaleOf(Array.from(change).filter((d) => d > -900).map(Math.abs));
+}
+
+// The 98th percentile of `values` (≥ 0), rounded up to 5 cm; 0.3 m when there are none.
+function scaleOf(values) {
+  if (!values.length) return 0.3;
+  values.sort((a, b) => a - b);
+  const p = values[Math.min(values.length - 1, Math.floor(0.98 * values.length))];
+  return Math.max(0.05, Math.ceil(p / 0.05) * 0.05);
+}
+
+// Height colouring spans the 98th percentile of the canopy top above the terrain of the date.
+function updateHeightRange() {
+  const top = grids.tops.get(sceneInfo.sessions[state.dateIndex].id);
+  const heights = [];
+  for (let k = 0; k < top.length; ++k) {
+    const h = top[k] - grids.terrain[k];
+    if (Number.isFinite(h)) heights.push(Math.max(h, 0));
+  }
+  uniforms.heightRange.value = scaleOf(heights);
 }
 
 function applyState() {
@@ -360,6 +387,7 @@ function applyState() {
   if (terrainMesh) terrainMesh.visible = $('show-terrain').checked;
   uniforms.colorBy.value = { rgb: 0, height: 1, change: 2 }[state.colorBy];
   if (state.colorBy === 'change') updateChangeTexture();
+  if (state.colorBy === 'height') updateHeightRange();
   $('date-label').textContent = state.dates[state.dateIndex];
   $('compare-label').textContent = state.dates[state.compareIndex];
   $('compare-box').style.opacity = state.mode === 'two' || state.colorBy === 'change' ? 1 : 0.4;
@@ -375,8 +403,9 @@ function updateLegend() {
     legend.innerHTML = 'height above terrain: 0 <span class="ramp" style="background:linear-gradient(90deg,#261a73,#1aa673,#fae626)"></span> ' +
       uniforms.heightRange.value.toFixed(2) + ' m';
   } else if (state.colorBy === 'change') {
-    legend.innerHTML = `canopy top ${state.dates[state.dateIndex]} − ${state.dates[state.compareIndex]}: −${uniforms.changeRange.value} m ` +
-      '<span class="ramp" style="background:linear-gradient(90deg,#d91a1a,#f2f2f2,#0d9926)"></span> +' + uniforms.changeRange.value + ' m';
+    const r = uniforms.changeRange.value.toFixed(2);
+    legend.innerHTML = `canopy top ${state.dates[state.dateIndex]} − ${state.dates[state.compareIndex]}: −${r} m ` +
+      '<span class="ramp" style="background:linear-gradient(90deg,#d91a1a,#f2f2f2,#0d9926)"></span> +' + r + ' m';
   } else if (state.mode === 'two') {
     legend.innerHTML = `<span style="color:#ff9a3c">■ ${state.dates[state.dateIndex]}</span> &nbsp; <span style="color:#3cc8ff">■ ${state.dates[state.compareIndex]}</span>`;
   } else {
@@ -525,6 +554,7 @@ function frame() {
     projection.multiplyMatrices(camera.projectionMatrix, camera.matrixWorldInverse);
     frustum.setFromProjectionMatrix(projection);
     const pixelFactor = renderer.domElement.height / (2 * Math.tan(THREE.MathUtils.degToRad(camera.fov) / 2));
+    uniforms.pointScale.value = POINT_METRES * pixelFactor;
     let budget = POINT_BUDGET, shown = 0;
     for (const cloud of clouds) {
       const n = cloud.update(frustum, pixelFactor, budget);

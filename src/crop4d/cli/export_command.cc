@@ -34,8 +34,10 @@ int RunExportCommand(ExportArgs& args) {
     throw InputError("crop4d export", 0, "--out needs --field (the field's origin and sessions)");
   if (!args.viewer.empty()) {
     // The viewer as a static folder (docs/viewer.md): the page, the tiles, the report.
+    viewer::ViewerDataOptions viewer_options;
+    viewer_options.field = args.field;  // the analysis terrain and the declared sites
     const viewer::ViewerDataSummary summary =
-        viewer::WriteStaticViewer(args.workspace, args.viewer);
+        viewer::WriteStaticViewer(args.workspace, args.viewer, viewer_options);
     if (!IsQuiet()) {
       std::printf("viewer: %s (host it with any web server)\n%s", args.viewer.c_str(),
                   viewer::FormatViewerDataSummary(summary).c_str());

@@ -25,6 +25,7 @@ namespace {
 
 struct ViewArgs {
   std::string workspace;
+  viewer::ViewerDataOptions data;
   viewer::ServerOptions server;
   bool no_browser = false;
 };
@@ -50,7 +51,7 @@ int RunView(const ViewArgs& args) {
     // The viewer data is written under the workspace's lock, then the lock is released: a
     // pipeline stage may run while the viewer is open (reload the page to see its results).
     const auto lock = LockWorkspace(args.workspace, "view", /*create=*/false);
-    const viewer::ViewerDataSummary summary = viewer::WriteViewerData(args.workspace, data);
+    const viewer::ViewerDataSummary summary = viewer::WriteViewerData(args.workspace, data, args.data);
     if (!IsQuiet()) std::fputs(viewer::FormatViewerDataSummary(summary).c_str(), stdout);
   }
   viewer::ViewerServer server(args.workspace, args.server);
@@ -95,6 +96,10 @@ RunFunction SetupView(CLI::App& app) {
       "  crop4d view demo/workspace --host 0.0.0.0 --port 8084   (the LAN can see it)");
   app.add_option("workspace", args->workspace, "Workspace to show")
       ->required()
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--field", args->data.field,
+                 "Field folder (optional): the analysis terrain model (analysis/dtm.tif) as the "
+                 "terrain, and the sites at the centres of its field.yaml")
       ->check(CLI::ExistingDirectory);
   app.add_option("--host", args->server.host,
                  "Address to listen on; anything but loopback shows the workspace to the network")

@@ -33,7 +33,8 @@ std::string FormatViewerDataSummary(const ViewerDataSummary& summary) {
     out << "  " << s.id << " (" << s.date << "): " << s.points << " points from " << s.source
         << ", " << s.nodes << " tiles" << (s.rebuilt ? " (built)" : " (up to date)") << "\n";
   }
-  out << "  " << summary.sites << " measurement sites\n";
+  out << "  " << summary.sites << " measurement sites; terrain from "
+      << summary.terrain_source << "\n";
   return out.str();
 }
 

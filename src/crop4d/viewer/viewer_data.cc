@@ -17,6 +17,8 @@
 #include "crop4d/core/hash.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/csv.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/io/geotiff.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 
@@ -229,7 +231,7 @@ json Trajectory(const fs::path& ws, const std::string& id, int max_points) {
 
 // Sites: position from the plants found in them (site_plants.csv), canopy height per date
 // (site_heights.csv), growth fit (growth.csv).
-json Sites(const fs::path& ws) {
+json Sites(const fs::path& ws, const std::vector<io::Site>& declared) {
   const fs::path plants_path = ws / "analysis" / "site_plants.csv";
   const fs::path heights_path = ws / "analysis" / "site_heights.csv";
   const fs::path growth_path = ws / "analysis" / "growth.csv";
@@ -248,6 +250,13 @@ json Sites(const fs::path& ws) {
   for (const auto& [id, s] : sums) {
     const Eigen::Vector2d c = s.first / s.second;
     sites[id] = {{"id", id}, {"x", c.x()}, {"y", c.y()}, {"heights", json::object()}};
+  }
+  for (const io::Site& site : declared) {
+    sites[site.id] = {{"id", site.id},
+                      {"x", site.center_enu.x()},
+                      {"y", site.center_enu.y()},
+                      {"radius", site.radius_m},
+                      {"heights", json::object()}};
   }
   const Table heights = ReadTable(heights_path);
   for (std::size_t r = 0; r < heights.rows.size(); ++r) {
@@ -401,6 +410,37 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
     terrain.swap(next);
     if (!hole) break;
   }
+  // The analysis terrain model where it has data, placed with the field's origin.
+  summary.terrain_source = "the earliest cloud";
+  std::vector<io::Site> declared_sites;
+  if (!options.field.empty()) {
+    const io::FieldInfo field = io::ReadFieldYaml((fs::path(options.field) / "field.yaml").string());
+    declared_sites = field.sites;
+    const fs::path dtm_path = ws / "analysis" / "dtm.tif";
+    if (fs::is_regular_file(dtm_path)) {
+      const io::FieldUtm utm(field.origin);
+      const io::GeoTiffRaster dtm = io::ReadGeoTiff(dtm_path.string());
+      if (dtm.grid.epsg != utm.epsg())
+        throw InputError(dtm_path.string(), 0,
+                         "in EPSG:" + std::to_string(dtm.grid.epsg) + ", the field's UTM zone is EPSG:" +
+                             std::to_string(utm.epsg()));
+      const double side = cell * factor;
+      for (int j = 0; j < gy; ++j)
+        for (int i = 0; i < gx; ++i) {
+          float& z = terrain[std::size_t(j) * gx + i];
+          const Eigen::Vector3d centre(double(x0) * cell + (i + 0.5) * side,
+                                       double(y0) * cell + (j + 0.5) * side, z);
+          const Eigen::Vector2d en = utm.UtmFromEnu(centre);
+          const double col = std::floor((en.x() - dtm.grid.min_easting) / dtm.grid.cell_m);
+          const double row = std::floor((dtm.grid.max_northing - en.y()) / dtm.grid.cell_m);
+          if (col < 0 || row < 0 || col >= dtm.grid.width || row >= dtm.grid.height) continue;
+          const float h = dtm.values[std::size_t(row) * dtm.grid.width + std::size_t(col)];
+          if (!std::isfinite(h) || (dtm.nodata && h == *dtm.nodata)) continue;
+          z = float(utm.EnuFromUtm(en.x(), en.y(), h).z());
+          summary.terrain_source = "analysis/dtm.tif";
+        }
+    }
+  }
   std::string grids = FloatBytes(terrain);
   json layers = json::array({"terrain"});
   for (const Entry& e : entries) {
@@ -418,7 +458,7 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
                         {"octree", "clouds/" + e.id + "/index.json"},
                         {"trajectory", Trajectory(ws, e.id, options.max_trajectory_points)}});
   }
-  const json sites = Sites(ws);
+  const json sites = Sites(ws, declared_sites);
   summary.sites = sites.size();
   const json scene = {
       {"format", kDataFormat},
@@ -431,6 +471,7 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
         {"file", "grids.bin"},
         {"layers", layers}}},
       {"sites", sites},
+      {"terrain", summary.terrain_source},
       {"report", fs::is_regular_file(ws / "report.html") ? json("report.html") : json(nullptr)}};
   io::WriteFileAtomic((dir / "scene.json").string(), scene.dump());
   // Sessions whose cloud is gone leave no tiles behind.

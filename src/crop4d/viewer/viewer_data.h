@@ -17,8 +17,14 @@
 // folder and renamed into place, so a reader never sees half a session.
 //
 // Terrain: the 10th percentile height per cell of the earliest session (plants are smallest
-// then), holes filled from their neighbours. Tops: the 95th percentile per cell of each
-// session; the viewer colours the change between two dates by the difference of their tops.
+// then), holes filled from their neighbours; with the field folder (ViewerDataOptions::field),
+// the analysis terrain model WS/analysis/dtm.tif instead where it has data (it is in the
+// field's UTM zone: the field's origin places it in the ENU frame). Tops: the 95th percentile
+// per cell of each session; the viewer colours the change between two dates by the difference
+// of their tops.
+//
+// Sites: at the centres declared in FIELD/field.yaml when the field is given, else at the mean
+// position of the plants found in them (WS/analysis/site_plants.csv).
 
 #include <cstddef>
 #include <string>
@@ -36,6 +42,8 @@ struct ViewerDataOptions {
   std::size_t max_grid_cells = 4'000'000;
   // At most this many trajectory points per session in scene.json (evenly subsampled).
   int max_trajectory_points = 2000;
+  // The field folder (optional): its origin places analysis/dtm.tif, its sites their markers.
+  std::string field;
 
   bool Check(std::string* why = nullptr) const;
 };
@@ -49,6 +57,8 @@ struct ViewerDataSummary {
   };
   std::vector<Session> sessions;
   std::size_t sites = 0;
+  // Where the terrain comes from: "analysis/dtm.tif" or "the earliest cloud".
+  std::string terrain_source;
 };
 
 // Writes the viewer data of `workspace` into `out`. Throws InputError naming the workspace when

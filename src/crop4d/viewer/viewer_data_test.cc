@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "crop4d/core/error.h"
+#include "crop4d/io/geotiff.h"
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/viewer/static_viewer.h"
 #include "crop4d/viewer/viewer_data_test_util.h"
@@ -95,6 +96,54 @@ TEST(ViewerDataTest, TerrainFollowsTheSoilAndTopsGrowWithThePlants) {
   const double growth = at(2, 1.0, 4.0) - at(1, 1.0, 4.0);
   EXPECT_GT(growth, 0.2);
   EXPECT_LT(growth, 0.35);
+}
+
+// With the field folder: the terrain is the analysis DTM (ellipsoidal heights in UTM, placed in
+// ENU with the field's origin) and the sites sit at their declared centres.
+TEST(ViewerDataTest, FieldGivesTheAnalysisTerrainAndTheDeclaredSites) {
+  TempDir dir;
+  const std::string ws = dir / "ws";
+  testing::WriteSmallWorkspace(ws, 20000);
+  const geometry::GeodeticPoint origin{31.47, -83.53, 100.0};
+  io::testing::WriteText(dir / "field/field.yaml",
+                         "name: t\norigin: {lat: 31.47, lon: -83.53, alt: 100}\n"
+                         "sites:\n  - {id: s1, x: 1.05, y: 2.5, radius: 0.4}\n");
+  // A terrain 0.25 + 0.01 y above the ENU plane (ellipsoidal heights chosen so).
+  const io::FieldUtm utm(origin);
+  const io::UtmGrid grid =
+      utm.GridCovering(Eigen::AlignedBox2d(Eigen::Vector2d(-1, -1), Eigen::Vector2d(4, 11)), 0.05);
+  std::vector<float> heights(grid.num_cells());
+  for (int row = 0; row < grid.height; ++row)
+    for (int col = 0; col < grid.width; ++col) {
+      const Eigen::Vector2d en = grid.CellCentre(col, row);
+      const Eigen::Vector3d at_alt = utm.EnuFromUtm(en.x(), en.y(), origin.alt_m);
+      const double target = 0.25 + 0.01 * at_alt.y();
+      heights[std::size_t(row) * grid.width + col] = float(origin.alt_m + target - at_alt.z());
+    }
+  io::WriteGeoTiff(ws + "/analysis/dtm.tif", grid, heights);
+  ViewerDataOptions options = SmallTiles();
+  options.field = dir / "field";
+  const ViewerDataSummary summary = WriteViewerData(ws, ws + "/viewer", options);
+  EXPECT_EQ(summary.terrain_source, "analysis/dtm.tif");
+  const json scene = json::parse(ReadText(ws + "/viewer/scene.json"));
+  const json& g = scene["grid"];
+  const int nx = g["nx"], ny = g["ny"];
+  std::vector<float> terrain(std::size_t(nx) * ny);
+  std::memcpy(terrain.data(), ReadText(ws + "/viewer/grids.bin").data(), terrain.size() * 4);
+  const double cell = g["cell"];
+  for (int j = 0; j < ny; j += 7)
+    for (int i = 0; i < nx; i += 5) {
+      const double y = g["min"][1].get<double>() + (j + 0.5) * cell;
+      // Within the DTM's 5 cm cells (0.5 mm of slope) and float precision.
+      EXPECT_NEAR(terrain[std::size_t(j) * nx + i], 0.25 + 0.01 * y, 1e-3) << i << "," << j;
+    }
+  ASSERT_FALSE(scene["sites"].empty());
+  EXPECT_EQ(scene["sites"][0]["id"], "s1");
+  EXPECT_DOUBLE_EQ(scene["sites"][0]["x"].get<double>(), 1.05);
+  EXPECT_DOUBLE_EQ(scene["sites"][0]["y"].get<double>(), 2.5);
+  EXPECT_NEAR(scene["sites"][0]["heights"]["2016-06-24"].get<double>(), 0.40, 1e-12);
+  // Without the field, the terrain comes from the earliest cloud.
+  EXPECT_EQ(WriteViewerData(ws, ws + "/viewer", SmallTiles()).terrain_source, "the earliest cloud");
 }
 
 TEST(ViewerDataTest, TilesAreRebuiltOnlyWhenTheCloudChanges) {

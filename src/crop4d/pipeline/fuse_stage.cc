@@ -35,6 +35,7 @@
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/reprojection_factor.h"
+#include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 
 namespace crop4d::pipeline {
@@ -145,10 +146,7 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     if (!(noise_factor > 0)) {
       throw InputError(where + ": an IMU noise factor that is not positive");
     }
-    input.imu_noise.gyro_noise_density = noise_factor * imu.sensor.gyroscope_noise_density;
-    input.imu_noise.accel_noise_density = noise_factor * imu.sensor.accelerometer_noise_density;
-    input.imu_noise.gyro_random_walk = noise_factor * imu.sensor.gyroscope_random_walk;
-    input.imu_noise.accel_random_walk = noise_factor * imu.sensor.accelerometer_random_walk;
+    input.imu_noise = slam::ImuNoise(imu.sensor, noise_factor);
     input.imu_rate_hz = imu.sensor.rate_hz;
   }
   const std::string gps_name = problem.value("gps", "");

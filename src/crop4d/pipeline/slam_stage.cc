@@ -24,6 +24,7 @@
 #include "crop4d/pipeline/pass_files.h"
 #include "crop4d/pipeline/pass_standstills.h"
 #include "crop4d/pipeline/stage_files.h"
+#include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 
 namespace crop4d::pipeline {
@@ -105,24 +106,6 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
 constexpr int kSlamStageRevision = 10;
-
-// Noise that fits the data (docs/slam.md, "IMU noise that fits the data"): a fit whose GPS
-// residuals are more than kNoiseMisfit times the fixes' sigmas (RMS over the axes) says that
-// the stated IMU noise is overconfident; with --imu-noise auto it is multiplied by 2, 4, 8, ...
-// (at most kMaxNoiseFactor) until the residuals are within kNoiseTarget of the sigmas.
-constexpr double kNoiseMisfit = 1.5;
-constexpr double kNoiseTarget = 1.2;
-constexpr double kMaxNoiseFactor = 32.0;
-
-// The IMU noise of imu0/sensor.yaml times `factor` (white noise and bias random walks).
-slam::ImuPreintegration::Options ImuNoise(const io::ImuSensor& sensor, double factor) {
-  slam::ImuPreintegration::Options noise;
-  noise.gyro_noise_density = factor * sensor.gyroscope_noise_density;
-  noise.accel_noise_density = factor * sensor.accelerometer_noise_density;
-  noise.gyro_random_walk = factor * sensor.gyroscope_random_walk;
-  noise.accel_random_walk = factor * sensor.accelerometer_random_walk;
-  return noise;
-}
 
 // The gauge prior's velocity sigma of a pass that starts moving without any GPS, m/s: a ground
 // vehicle's speed, i.e. no information.
@@ -301,7 +284,7 @@ struct SessionContext {
   std::unique_ptr<slam::StateInitialiser> initialiser;
   std::string data_stamp;
   // The factor on imu0/sensor.yaml's noise that the session's IMU + GPS fit asked for (1: the
-  // stated noise fits; ImuNoiseFit).
+  // stated noise fits; slam/session_solve.h).
   double imu_noise_factor = 1.0;
 };
 
@@ -372,97 +355,47 @@ Gaps FindGaps(const std::vector<Timestamp>& sorted, Timestamp begin, Timestamp e
   return gaps;
 }
 
-// The session solution at t (linear between its states; clamped at the ends).
-slam::RowState SessionStateAt(const std::vector<slam::RowState>& states, Timestamp t) {
-  auto it = std::lower_bound(states.begin(), states.end(), t,
-                             [](const slam::RowState& s, Timestamp x) { return s.t < x; });
-  if (it == states.begin() || it == states.end()) {
-    // Outside the session solve's span: its end state, at the asked time.
-    slam::RowState s = it == states.begin() ? states.front() : states.back();
-    s.t = t;
-    return s;
-  }
-  const slam::RowState& b = *it;
-  const slam::RowState& a = *(it - 1);
-  const double alpha = DurationSeconds(a.t, t) / DurationSeconds(a.t, b.t);
-  slam::RowState s;
-  s.t = t;
-  s.nav.world_from_body =
-      geometry::InterpolateSeparately(a.nav.world_from_body, b.nav.world_from_body, alpha);
-  s.nav.vel_world = (1 - alpha) * a.nav.vel_world + alpha * b.nav.vel_world;
-  s.nav.rate_body = (1 - alpha) * a.nav.rate_body + alpha * b.nav.rate_body;
-  s.bias = (1 - alpha) * a.bias + alpha * b.bias;
-  return s;
-}
-
-// One IMU + GPS solve over the whole session (SlamStageOptions::session_state_rate_hz) with the
-// receiver `gps`. Its attitudes in turns refine the forward axis (the IMU's mounting on the
-// vehicle); with keep_states, its states also become the passes' initial guess and bias prior.
+// One IMU + GPS solve over the whole session (slam/session_solve.h) with the receiver `gps`.
+// Its attitudes in turns refine the forward axis (the IMU's mounting on the vehicle); with
+// keep_states, its states also become the passes' initial guess and bias prior.
 void SolveSession(const SlamStageOptions& options, SessionContext* ctx, const slam::GpsStream& gps,
                   bool keep_states) {
   const auto start = Clock::now();
-  const std::vector<slam::ImuSample>& imu = ctx->streams.imu->samples;
-  const Timestamp begin = std::max(imu.front().timestamp, gps.fixes.front().t);
-  const Timestamp end = std::min(imu.back().timestamp, gps.fixes.back().t);
-  const Timestamp step = SecondsToTimestamp(1.0 / options.session_state_rate_hz);
-  std::vector<Timestamp> times;
-  for (Timestamp t = begin; t <= end; t += step) times.push_back(t);
-  if (times.size() < 2) return;
-  slam::StateInitialiser initialiser(options.initialisation, *ctx->streams.imu, &gps);
-  initialiser.set_forward_axis(ctx->initialiser->forward_axis());
-  slam::RowOptimiser::Input input;
-  input.initial_states = initialiser.Initialise(times, gps.sensor.antenna_in_body);
-  input.imu_samples = &imu;
-  const io::ImuSensor& sensor = ctx->streams.imu->sensor;
-  input.imu_noise = ImuNoise(sensor, 1.0);
-  input.imu_rate_hz = sensor.rate_hz;
-  input.gps_fixes = gps.fixes;
-  input.p_body_antenna = gps.sensor.antenna_in_body;
-  const slam::RowOptimiser optimiser(options.optimiser);
-  slam::RowOptimiser::Result result = optimiser.Solve(input);
-  // Noise that fits the data: the IMU + GPS fit over the whole session measures it best.
-  const double stated_misfit = result.summary.gps_normalised_rms;
-  if (stated_misfit > kNoiseMisfit) {
+  slam::SessionSolveOptions solve;
+  solve.state_rate_hz = options.session_state_rate_hz;
+  solve.imu_noise_auto = options.imu_noise_auto;
+  solve.initialisation = options.initialisation;
+  solve.optimiser = options.optimiser;
+  const slam::SessionSolveResult result =
+      slam::SolveSession(*ctx->streams.imu, gps, ctx->initialiser->forward_axis(), solve);
+  if (result.states.empty()) return;
+  if (result.stated_misfit > slam::kNoiseMisfit) {
     spdlog::warn(
         "session {}: the IMU + GPS fit misses the GPS fixes by {:.2f} times their sigmas: the "
         "IMU noise of {}/sensor.yaml is overconfident for this recording{}",
-        ctx->session->id(), stated_misfit, sensor.name,
+        ctx->session->id(), result.stated_misfit, ctx->streams.imu->sensor.name,
         options.imu_noise_auto ? "" : " (--imu-noise auto would inflate it)");
     if (options.imu_noise_auto) {
-      double factor = 1.0;
-      while (result.summary.gps_normalised_rms > kNoiseTarget && factor < kMaxNoiseFactor) {
-        factor *= 2.0;
-        input.imu_noise = ImuNoise(sensor, factor);
-        result = optimiser.Solve(input);
-      }
-      ctx->imu_noise_factor = factor;
+      ctx->imu_noise_factor = result.imu_noise_factor;
       spdlog::info(
           "session {}: IMU noise x{:g} (white noise and bias walks): the GPS residuals are "
           "{:.2f} times their sigmas (were {:.2f})",
-          ctx->session->id(), factor, result.summary.gps_normalised_rms, stated_misfit);
+          ctx->session->id(), result.imu_noise_factor, result.final_misfit, result.stated_misfit);
     }
   }
   if (keep_states) ctx->session_states = result.states;
-  // The forward axis from the attitudes in turns, where the heading is well observed.
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  int count = 0;
-  for (const slam::RowState& s : result.states) {
-    const Eigen::Vector3d v = s.nav.world_from_body.rotation().inverse() * s.nav.vel_world;
-    if (std::abs(s.nav.rate_body.z()) < 0.15 || v.norm() < 0.5) continue;
-    sum += v.normalized();
-    ++count;
-  }
-  if (count >= 10) {
-    const Eigen::Vector3d axis = sum.normalized();
+  if (result.forward_axis) {
+    const Eigen::Vector3d& axis = result.forward_axis->axis_body;
     ctx->initialiser->set_forward_axis(axis);
     ctx->forward_axis_estimated = true;
     spdlog::info(
         "session {}: IMU + GPS solve over {} states in {:.1f} s; forward axis ({:.3f}, "
         "{:.3f}, {:.3f}) from {} states in turns",
-        ctx->session->id(), times.size(), SecondsSince(start), axis.x(), axis.y(), axis.z(), count);
+        ctx->session->id(), result.states.size(), SecondsSince(start), axis.x(), axis.y(), axis.z(),
+        result.forward_axis->num_states);
   } else {
     spdlog::info("session {}: IMU + GPS solve over {} states in {:.1f} s", ctx->session->id(),
-                 times.size(), SecondsSince(start));
+                 result.states.size(), SecondsSince(start));
   }
 }
 
@@ -512,7 +445,7 @@ json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
         where, landmarks);
   }
   const double misfit = summary.at("back_end").value("gps_normalised_rms", 0.0);
-  if (misfit > kNoiseMisfit) {
+  if (misfit > slam::kNoiseMisfit) {
     flags.push_back("noise_misfit");
     spdlog::warn(
         "{}: the solve misses the GPS fixes by {:.2f} times their sigmas: the stated noise of "
@@ -606,7 +539,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   int anchor_state = 0;
   if (info.gps && !ctx.session_states.empty()) {
     // The session solution interpolated at the state times.
-    for (Timestamp t : times) initial.push_back(SessionStateAt(ctx.session_states, t));
+    for (Timestamp t : times) initial.push_back(slam::InterpolateState(ctx.session_states, t));
     init_summary.forward_axis_body = ctx.initialiser->forward_axis();
   } else if (info.gps) {
     initial = ctx.initialiser->Initialise(times, ctx.factor_antenna, &init_summary);
@@ -620,8 +553,8 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     // cam+imu: the best GPS only anchors the pass at one instant, its middle, where the motion
     // is steady (the gauge: position, heading and velocity from a ±2 s line fit); nothing else.
     anchor_state = static_cast<int>(times.size() / 2);
-    slam::StateInitialiser::Options anchor_options = options.initialisation;
-    anchor_options.gps_half_window_s = std::max(anchor_options.gps_half_window_s, 2.0);
+    const slam::StateInitialiser::Options anchor_options =
+        slam::AnchorInitialisation(options.initialisation);
     slam::StateInitialiser anchor_initialiser(anchor_options, *ctx.streams.imu, &ctx.best_gps);
     anchor_initialiser.set_forward_axis(ctx.initialiser->forward_axis());
     const std::vector<slam::RowState> anchor = anchor_initialiser.Initialise(
@@ -707,7 +640,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   const bool use_imu = !imu.samples.empty();
   if (use_imu) {
     input.imu_samples = &imu.samples;
-    input.imu_noise = ImuNoise(imu.sensor, ctx.imu_noise_factor);
+    input.imu_noise = slam::ImuNoise(imu.sensor, ctx.imu_noise_factor);
     input.imu_rate_hz = imu.sensor.rate_hz;
   } else {
     input.level_up_body = kLevelUpBody;
@@ -1072,11 +1005,9 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       ctx.init_gps = *ctx.streams.FindGps(info.gps_kind);
       ctx.init_gps.fixes = ctx.factor_fixes;
     }
-    slam::StateInitialiser::Options init_options = options.initialisation;
-    if (info.gps && info.gps_kind == io::GpsKind::kStandard) {
-      // A metre-level receiver needs a long fit for a usable course.
-      init_options.gps_half_window_s = std::max(init_options.gps_half_window_s, 3.0);
-    }
+    const slam::StateInitialiser::Options init_options =
+        info.gps ? slam::InitialisationFor(options.initialisation, info.gps_kind)
+                 : options.initialisation;
     if (!ctx.has_best_gps) {
       // No GPS: the body x axis is taken as forward (it only sets the heading convention).
       ctx.initialiser =

@@ -60,9 +60,22 @@ async function main() {
     expect(s.colorBy === 'change', 'colour by change not taken');
     // Measuring between two points: distance, horizontal distance, height difference.
     const m = await page.evaluate(() => window.crop4dViewer.measureBetween([0, 0, 0], [3, 4, 1]));
+    await page.evaluate(() => { window.crop4dViewer.state.measure = null; });
     expect(Math.abs(m.distance - Math.sqrt(26)) < 1e-9 && Math.abs(m.horizontal - 5) < 1e-9 &&
       Math.abs(m.height - 1) < 1e-9, 'measuring: ' + JSON.stringify(m));
     expect((await page.textContent('#panel')).includes('5.099 m'), 'the measurement is not shown');
+    // Measuring as a user does: the tool, then two clicks on the field (terrain shown, so both
+    // clicks hit something).
+    await page.check('#show-terrain');
+    await page.click('#measure');
+    const box = await page.locator('#view canvas').boundingBox();
+    await page.mouse.click(box.x + box.width * 0.45, box.y + box.height * 0.55);
+    await page.mouse.click(box.x + box.width * 0.55, box.y + box.height * 0.6);
+    const clicked = await page.evaluate(() => window.crop4dViewer.state.measure);
+    expect(clicked && clicked.distance > 0.05 && clicked.distance < 50 &&
+      Math.abs(Math.hypot(clicked.b[0] - clicked.a[0], clicked.b[1] - clicked.a[1], clicked.b[2] - clicked.a[2]) - clicked.distance) < 1e-9,
+      'two clicks did not measure: ' + JSON.stringify(clicked));
+    await page.click('#measure');
     // A site's growth curve (what a click on its marker opens).
     const curve = await page.evaluate(() => {
       const site = window.crop4dViewer.sites && window.crop4dViewer.sites()[0];

@@ -1,7 +1,6 @@
 #include "crop4d/sim/simulator.h"
 
 #include <fmt/format.h>
-#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
@@ -426,10 +425,17 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     y += "cam0:\n";
     y += "  true_intrinsics: " + FormatIntrinsics(cfg.camera.Intrinsics()) + "\n";
     y += "  written_intrinsics: " + FormatIntrinsics(written_intrinsics) + "\n";
-    const Eigen::Matrix4d tt = body_from_camera.Matrix(), tw = written_body_from_camera.Matrix();
-    y += fmt::format("  true_T_BS: [{}]\n", fmt::join(tt.data(), tt.data() + 16, ", "));
-    y += fmt::format("  written_T_BS: [{}]\n", fmt::join(tw.data(), tw.data() + 16, ", "));
-    y += "  # T_BS matrices column-major; written R = Exp(rotation_error) R_true\n";
+    auto matrix4 = [](const Eigen::Matrix4d& m) {
+      std::string rows;
+      for (int r = 0; r < 4; ++r) {
+        rows += fmt::format("{}[{:.12g}, {:.12g}, {:.12g}, {:.12g}]", r ? ", " : "", m(r, 0),
+                            m(r, 1), m(r, 2), m(r, 3));
+      }
+      return "[" + rows + "]";
+    };
+    y += "  true_T_BS: " + matrix4(body_from_camera.Matrix()) + "\n";
+    y += "  written_T_BS: " + matrix4(written_body_from_camera.Matrix()) + "\n";
+    y += "  # T_BS rows; written R = Exp(rotation_error_rad) R_true\n";
     y += "  rotation_error_rad: " + FormatVector(calib.camera_rotation) + "\n";
     y += "  translation_error_m: " + FormatVector(calib.camera_translation) + "\n";
     for (int g = 0; g < 2; ++g) {

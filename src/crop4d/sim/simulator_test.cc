@@ -14,6 +14,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/geometry/enu.h"
+#include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/sensor_models.h"
 
@@ -246,6 +247,31 @@ class SimulatorWriteTest : public testing::Test {
       Simulator sim(ShortTiny(5));
       summary_ = sim.Write((*root_ / name).string());
     }
+    // Every imperfection's magnitude explicitly zero, its other settings changed: the same
+    // field as "a".
+    SimConfig zero = ShortTiny(5);
+    ApplySimConfigYaml("zero.yaml",
+                       "realism: ideal\n"
+                       "recording: {wind_sway_m: 0, wind_period_s: 7}\n"
+                       "camera: {exposure_s: 0, electrons_per_dn: 0, read_noise_dn: 0, "
+                       "auto_exposure_jitter: 0, auto_exposure_period_s: 3, jpeg_quality: 0}\n"
+                       "drive: {standstill_start_s: 0, stop_probability_row_end: 0, "
+                       "stop_probability_in_row: 0, stop_duration_s: 9, stop_ramp_s: 2}\n"
+                       "imu: {scale_factor_sigma: 0, misalignment_sigma_rad: 0}\n"
+                       "gps0: {outlier_probability: 0, outlier_sigma_m: 3, float_rate_per_min: 0, "
+                       "float_duration_s: 4, dropout_rate_per_min: 0, dropout_duration_s: 9}\n"
+                       "soil_change: {fraction_per_session: 0, patch_m: 0.5, drying_per_session: 0}\n"
+                       "calibration_error: {focal_px: 0, principal_point_px: 0, "
+                       "radial_distortion: 0, tangential_distortion: 0, lever_arm_m: 0, "
+                       "rotation_deg: 0, camera_time_offset_s: 0, camera_clock_drift_ppm: 0}\n",
+                       &zero);
+    Simulator(zero).Write((*root_ / "zero").string());
+    // The real world, with JPEG images.
+    SimConfig real = ShortTiny(5);
+    ApplyRealism("real", &real);
+    real.image.jpeg_quality = 90;
+    real.drive.standstill_start_s = 1.5;  // (5 s in the real preset: shorter for a fast test)
+    Simulator(real).Write((*root_ / "real").string());
   }
   static void TearDownTestSuite() {
     fs::remove_all(*root_);
@@ -325,6 +351,95 @@ TEST_F(SimulatorWriteTest, SameSeedGivesByteIdenticalFiles) {
   const Simulator other(ShortTiny(6));
   const Simulator same(ShortTiny(5));
   EXPECT_NE(other.SimulateSession(0).imu[10].accel, same.SimulateSession(0).imu[10].accel);
+}
+
+TEST_F(SimulatorWriteTest, ZeroImperfectionsGiveTheIdealFieldByteForByte) {
+  std::map<std::string, fs::path> a, zero;
+  for (const auto& entry : fs::recursive_directory_iterator(*root_ / "a")) {
+    if (entry.is_regular_file()) a[fs::relative(entry.path(), *root_ / "a").string()] = entry;
+  }
+  for (const auto& entry : fs::recursive_directory_iterator(*root_ / "zero")) {
+    if (entry.is_regular_file()) zero[fs::relative(entry.path(), *root_ / "zero").string()] = entry;
+  }
+  ASSERT_EQ(a.size(), zero.size());
+  for (const auto& [name, path] : a) {
+    ASSERT_TRUE(zero.count(name)) << name;
+    // simulate.yaml records the configuration, whose unused settings differ.
+    if (name == "ground_truth/simulate.yaml") continue;
+    EXPECT_TRUE(ReadFile(path) == ReadFile(zero[name])) << name << " differs";
+  }
+}
+
+TEST_F(SimulatorWriteTest, TheRealWorldWritesItsErrorsAndTheirTruth) {
+  const fs::path field = *root_ / "real";
+  const fs::path ideal = *root_ / "a";
+  SimConfig real = ShortTiny(5);
+  ApplyRealism("real", &real);
+  EXPECT_TRUE(fs::is_regular_file(field / "ground_truth/calibration_truth.yaml"));
+  for (const char* session : {"2016-06-10", "2016-06-24"}) {
+    const fs::path s = field / "sessions" / session;
+    const fs::path t = field / "ground_truth" / session;
+    for (const char* file : {"standstills.csv", "cam0_exposure.csv", "gps0_faults.csv",
+                             "gps1_faults.csv"}) {
+      EXPECT_TRUE(fs::is_regular_file(t / file)) << session << "/" << file;
+    }
+    // The calibration crop4d reads is off the truth by the configured amounts.
+    const io::CameraSensor cam = io::ReadCameraSensorYaml((s / "cam0/sensor.yaml").string());
+    const io::CameraSensor true_cam =
+        io::ReadCameraSensorYaml((ideal / "sessions" / session / "cam0/sensor.yaml").string());
+    EXPECT_NEAR(std::abs(cam.camera.fx - true_cam.camera.fx), real.calibration_error.focal_px, 1e-6);
+    EXPECT_NEAR(std::hypot(cam.camera.cx - true_cam.camera.cx, cam.camera.cy - true_cam.camera.cy),
+                real.calibration_error.principal_point_px, 1e-6);
+    EXPECT_NEAR((cam.body_from_sensor.translation() - true_cam.body_from_sensor.translation()).norm(),
+                real.calibration_error.lever_arm_m, 1e-6);
+    EXPECT_NEAR(cam.body_from_sensor.rotation().angularDistance(true_cam.body_from_sensor.rotation()) *
+                    180.0 / M_PI,
+                real.calibration_error.rotation_deg, 1e-6);
+    const io::GpsSensor gps = io::ReadGpsSensorYaml((s / "gps0/sensor.yaml").string());
+    EXPECT_NEAR((gps.antenna_in_body - real.gps0.antenna_in_body).norm(),
+                real.calibration_error.lever_arm_m, 1e-6);
+    // JPEG images with sensor noise: a 3x3 neighbourhood varies more than in the ideal PNG.
+    const std::vector<fs::path> jpgs = [&] {
+      std::vector<fs::path> v;
+      for (const auto& e : fs::directory_iterator(s / "cam0/data")) v.push_back(e.path());
+      std::sort(v.begin(), v.end());
+      return v;
+    }();
+    ASSERT_GT(jpgs.size(), 20u);
+    EXPECT_EQ(jpgs[0].extension(), ".jpg");
+    const cv::Mat image = cv::imread(jpgs[0].string(), cv::IMREAD_COLOR);
+    ASSERT_EQ(image.cols, 320);
+    // The images stand still at the start: two images of the standstill differ only by noise
+    // and exposure, with a noise std-dev near the model's (JPEG smooths a little).
+    const cv::Mat second = cv::imread(jpgs[1].string(), cv::IMREAD_COLOR);
+    cv::Mat a, b;
+    image.convertTo(a, CV_32F);
+    second.convertTo(b, CV_32F);
+    cv::Scalar ma = cv::mean(a), mb = cv::mean(b);
+    b = b * ((ma[0] + ma[1] + ma[2]) / (mb[0] + mb[1] + mb[2]));
+    cv::Scalar mean, std;
+    const cv::Mat difference = a - b;
+    cv::meanStdDev(difference.reshape(1), mean, std);
+    const double grey = (ma[0] + ma[1] + ma[2]) / 3.0;
+    const double noise = std::sqrt(grey / real.image.electrons_per_dn +
+                                   real.image.read_noise_dn * real.image.read_noise_dn);
+    EXPECT_GT(std[0], 0.5 * std::sqrt(2.0) * noise);
+    EXPECT_LT(std[0], 1.5 * std::sqrt(2.0) * noise);
+    // Image stamps are the capture times plus the clock offset; cam0_poses.tum gives the pose
+    // at the capture time under the written stamp.
+    std::istringstream exposure(ReadFile(t / "cam0_exposure.csv"));
+    std::string line;
+    std::getline(exposure, line);
+    int rows = 0;
+    while (std::getline(exposure, line)) {
+      Timestamp stamp = 0, capture = 0;
+      ASSERT_EQ(std::sscanf(line.c_str(), "%ld,%ld", &stamp, &capture), 2);
+      EXPECT_NEAR(std::abs(DurationSeconds(capture, stamp)),
+                  real.calibration_error.camera_time_offset_s, 1e-3);
+      ++rows;
+    }
+    EXPECT_EQ(rows, static_cast<int>(jpgs.size()));
+  }
 }
 
 // Reads a TUM file: timestamp -> pose.

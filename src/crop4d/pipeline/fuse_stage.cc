@@ -1,7 +1,6 @@
 #include "crop4d/pipeline/fuse_stage.h"
 
 #include <spdlog/spdlog.h>
-#include <tbb/parallel_for.h>
 
 #include <chrono>
 #include <cmath>
@@ -37,6 +36,7 @@
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
+#include "crop4d/slam/track_cloud.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -244,23 +244,19 @@ std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams)
   return names;
 }
 
-// Every cloud track of a pass triangulated from the given cameras (one per image).
-std::vector<slam::TriangulationResult> TriangulateCloudTracks(
-    const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
-    const slam::TriangulationOptions& options) {
+// The cloud tracks of a pass (their keypoints and colours) triangulated from the given cameras
+// (one per image).
+slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
+                               const slam::TriangulationOptions& options) {
   const PassData& data = pass.data;
-  const std::vector<PassTrack>& tracks = data.tracks.cloud;
-  std::vector<slam::TriangulationResult> tri(tracks.size());
-  tbb::parallel_for(std::size_t{0}, tracks.size(), [&](std::size_t i) {
-    std::vector<geometry::Rigid3> views;
-    std::vector<Eigen::Vector2d> pixels;
-    for (const features::Observation& o : tracks[i].observations) {
-      views.push_back(cameras[o.image]);
-      pixels.push_back(data.features[o.image].Point(o.feature));
+  std::vector<slam::LandmarkTrack> tracks(data.tracks.cloud.size());
+  for (std::size_t i = 0; i < tracks.size(); ++i) {
+    for (const features::Observation& o : data.tracks.cloud[i].observations) {
+      tracks[i].observations.push_back({o.image, data.features[o.image].Point(o.feature)});
     }
-    tri[i] = slam::TriangulatePoint(*pass.input.camera, views, pixels, options);
-  });
-  return tri;
+    tracks[i].color = data.tracks.cloud[i].color;
+  }
+  return slam::TriangulateTrackCloud(*pass.input.camera, cameras, tracks, options);
 }
 
 // A pass as the ground ties see it: its row-SLAM cameras and cloud.
@@ -269,16 +265,14 @@ fusion::GroundTiePass TiePass(const LoadedPass& pass, const slam::TriangulationO
   for (const slam::RowState& state : pass.input.initial_states) {
     tie.cameras.push_back(state.nav.world_from_body * pass.input.body_from_camera);
   }
-  const std::vector<slam::TriangulationResult> tri =
-      TriangulateCloudTracks(pass, tie.cameras, options);
-  for (std::size_t i = 0; i < tri.size(); ++i) {
-    if (!tri[i].ok()) continue;
-    tie.points.push_back(tri[i].point_world);
-    tie.colors.push_back(pass.data.tracks.cloud[i].color);
-  }
+  const slam::TrackCloud cloud = CloudOfTracks(pass, tie.cameras, options);
+  tie.points = cloud.points_world;
+  tie.colors = cloud.colors;
   return tie;
 }
 
+// The clouds of a session's passes re-triangulated from the given cameras, with each point's
+// track length and reprojection error.
 io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
                                const std::vector<std::vector<geometry::Rigid3>>& cameras,
                                const slam::TriangulationOptions& options) {
@@ -286,16 +280,14 @@ io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
   io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
   io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
   for (std::size_t p = 0; p < passes.size(); ++p) {
-    const std::vector<PassTrack>& tracks = passes[p]->data.tracks.cloud;
-    const std::vector<slam::TriangulationResult> tri =
-        TriangulateCloudTracks(*passes[p], cameras[p], options);
-    for (std::size_t i = 0; i < tracks.size(); ++i) {
-      if (!tri[i].ok()) continue;
-      cloud.points.push_back(tri[i].point_world);
-      cloud.colors.push_back(tracks[i].color);
-      length.values.push_back(static_cast<double>(tracks[i].observations.size()));
-      error.values.push_back(tri[i].mean_reprojection_error_px);
-    }
+    const slam::TrackCloud pass_cloud = CloudOfTracks(*passes[p], cameras[p], options);
+    cloud.points.insert(cloud.points.end(), pass_cloud.points_world.begin(),
+                        pass_cloud.points_world.end());
+    cloud.colors.insert(cloud.colors.end(), pass_cloud.colors.begin(), pass_cloud.colors.end());
+    length.values.insert(length.values.end(), pass_cloud.track_lengths.begin(),
+                         pass_cloud.track_lengths.end());
+    error.values.insert(error.values.end(), pass_cloud.reprojection_errors_px.begin(),
+                        pass_cloud.reprojection_errors_px.end());
   }
   cloud.scalars = {length, error};
   return cloud;

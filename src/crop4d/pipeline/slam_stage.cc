@@ -1,7 +1,6 @@
 #include "crop4d/pipeline/slam_stage.h"
 
 #include <spdlog/spdlog.h>
-#include <tbb/parallel_for.h>
 
 #include <chrono>
 #include <cmath>
@@ -26,6 +25,7 @@
 #include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
+#include "crop4d/slam/track_cloud.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -310,6 +310,19 @@ slam::LandmarkTrack ToLandmarkTrack(const features::Track& track,
     t.color[c] = static_cast<std::uint8_t>(color_sum(c) / static_cast<int>(track.size()));
   }
   return t;
+}
+
+// A track cloud as a PLY cloud with the track length and reprojection error of each point.
+io::PlyPointCloud ToPly(const slam::TrackCloud& track_cloud) {
+  io::PlyPointCloud cloud;
+  cloud.points = track_cloud.points_world;
+  cloud.colors = track_cloud.colors;
+  io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
+  io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
+  length.values.assign(track_cloud.track_lengths.begin(), track_cloud.track_lengths.end());
+  error.values = track_cloud.reprojection_errors_px;
+  cloud.scalars = {length, error};
+  return cloud;
 }
 
 // The camera's height above the ground in effect: --camera-height, else the camera's sensor.yaml
@@ -776,38 +789,14 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   outcome.num_landmarks = s.num_landmarks_final;
   if (camera != nullptr) {
     // Every track of two or more images, triangulated from the final poses.
-    std::vector<slam::TriangulationResult> tri(all_tracks.size());
-    tbb::parallel_for(std::size_t{0}, all_tracks.size(), [&](std::size_t i) {
-      std::vector<geometry::Rigid3> views;
-      std::vector<Eigen::Vector2d> pixels;
-      for (const features::Observation& obs : all_tracks[i].observations) {
-        views.push_back(cameras[obs.image]);
-        const features::Keypoint& kp = front.features[obs.image].keypoints[obs.feature];
-        pixels.emplace_back(kp.x, kp.y);
-      }
-      tri[i] = slam::TriangulatePoint(camera->sensor.camera, views, pixels, options.cloud);
-    });
-    io::PlyPointCloud cloud;
-    io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
-    io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
-    for (std::size_t i = 0; i < all_tracks.size(); ++i) {
-      if (!tri[i].ok()) continue;
-      cloud.points.push_back(tri[i].point_world);
-      Eigen::Vector3i sum = Eigen::Vector3i::Zero();
-      for (const features::Observation& obs : all_tracks[i].observations) {
-        const features::FeatureSet& f = front.features[obs.image];
-        if (!f.colors.empty()) {
-          for (int c = 0; c < 3; ++c) sum(c) += f.colors[obs.feature][c];
-        }
-      }
-      const int n = static_cast<int>(all_tracks[i].size());
-      cloud.colors.push_back({static_cast<std::uint8_t>(sum(0) / n),
-                              static_cast<std::uint8_t>(sum(1) / n),
-                              static_cast<std::uint8_t>(sum(2) / n)});
-      length.values.push_back(n);
-      error.values.push_back(tri[i].mean_reprojection_error_px);
+    std::vector<slam::LandmarkTrack> cloud_tracks;
+    cloud_tracks.reserve(all_tracks.size());
+    for (const features::Track& t : all_tracks) {
+      cloud_tracks.push_back(ToLandmarkTrack(t, front.features));
     }
-    cloud.scalars = {length, error};
+    const slam::TrackCloud track_cloud =
+        slam::TriangulateTrackCloud(camera->sensor.camera, cameras, cloud_tracks, options.cloud);
+    const io::PlyPointCloud cloud = ToPly(track_cloud);
     // The observations behind the optimised landmarks and behind every cloud point, for
     // association and the joint 4D problem (pass_files.h).
     PassTracks pass_tracks;
@@ -822,11 +811,9 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
       }
       pass_tracks.landmarks.push_back(std::move(t));
     }
-    for (std::size_t i = 0, point = 0; i < all_tracks.size(); ++i) {
-      if (!tri[i].ok()) continue;
-      pass_tracks.cloud.push_back(
-          {cloud.points[point], cloud.colors[point], all_tracks[i].observations});
-      ++point;
+    for (std::size_t k = 0; k < track_cloud.size(); ++k) {
+      pass_tracks.cloud.push_back({track_cloud.points_world[k], track_cloud.colors[k],
+                                   all_tracks[track_cloud.track_indices[k]].observations});
     }
     WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
     io::PlyWriteOptions ply_options;

@@ -18,11 +18,13 @@
 #include <unordered_map>
 
 #include "crop4d/association/association_file.h"
+#include "crop4d/association/match_thinning.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/hash.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
 #include "crop4d/fusion/cross_pass_tracks.h"
+#include "crop4d/fusion/pass_subset.h"
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/colmap_text.h"
@@ -83,41 +85,6 @@ std::vector<fusion::JointLandmark> JoinLandmarks(
     }
   }
   return landmarks;
-}
-
-// The joint problem restricted to the passes with `keep[p]`, renumbered, with the index in the
-// whole problem of each pass kept. `landmarks` must see kept passes only (JoinLandmarks over
-// them); ties with another pass are left out.
-struct TrustedProblem {
-  std::vector<fusion::JointOptimiser::Pass> passes;
-  std::vector<fusion::JointLandmark> landmarks;
-  std::vector<fusion::JointGroundTie> ties;
-  std::vector<int> original_pass;
-};
-
-TrustedProblem RestrictToPasses(const std::vector<fusion::JointOptimiser::Pass>& passes,
-                                std::vector<fusion::JointLandmark> landmarks,
-                                const std::vector<fusion::JointGroundTie>& ties,
-                                const std::vector<bool>& keep) {
-  TrustedProblem out;
-  std::vector<int> index(passes.size(), -1);
-  for (std::size_t p = 0; p < passes.size(); ++p) {
-    if (!keep[p]) continue;
-    index[p] = static_cast<int>(out.passes.size());
-    out.passes.push_back(passes[p]);
-    out.original_pass.push_back(static_cast<int>(p));
-  }
-  for (fusion::JointLandmark& landmark : landmarks) {
-    for (fusion::JointObservation& obs : landmark.observations) obs.pass = index[obs.pass];
-    out.landmarks.push_back(std::move(landmark));
-  }
-  for (fusion::JointGroundTie tie : ties) {
-    if (!keep[tie.pass_a] || !keep[tie.pass_b]) continue;
-    tie.pass_a = index[tie.pass_a];
-    tie.pass_b = index[tie.pass_b];
-    out.ties.push_back(tie);
-  }
-  return out;
 }
 
 // The pass's row-SLAM problem rebuilt from the session's data and summary.json's "problem".
@@ -293,46 +260,6 @@ io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
   return cloud;
 }
 
-// The best `max_per_pair` matches of every image pair (0: all), by descriptor distance, taken
-// in turn from the cells of a 4×4 grid over image a so that they spread over the view.
-std::vector<association::CrossMatch> ThinMatches(const std::vector<association::CrossMatch>& all,
-                                                 const geometry::PinholeRadTan& camera_a,
-                                                 int max_per_pair) {
-  if (max_per_pair <= 0) return all;
-  std::map<std::pair<int, int>, std::vector<const association::CrossMatch*>> groups;
-  for (const association::CrossMatch& m : all) groups[{m.image_a, m.image_b}].push_back(&m);
-  std::vector<association::CrossMatch> kept;
-  for (auto& [key, group] : groups) {
-    if (static_cast<int>(group.size()) <= max_per_pair) {
-      for (const association::CrossMatch* m : group) kept.push_back(*m);
-      continue;
-    }
-    constexpr int kCells = 4;
-    std::vector<std::vector<const association::CrossMatch*>> cells(kCells * kCells);
-    for (const association::CrossMatch* m : group) {
-      const int cx = std::clamp(static_cast<int>(m->xa * kCells / camera_a.width), 0, kCells - 1);
-      const int cy = std::clamp(static_cast<int>(m->ya * kCells / camera_a.height), 0, kCells - 1);
-      cells[cy * kCells + cx].push_back(m);
-    }
-    for (auto& cell : cells) {
-      std::stable_sort(cell.begin(), cell.end(),
-                       [](const auto* a, const auto* b) { return a->distance < b->distance; });
-    }
-    int taken = 0;
-    for (std::size_t round = 0; taken < max_per_pair; ++round) {
-      bool any = false;
-      for (auto& cell : cells) {
-        if (round >= cell.size() || taken >= max_per_pair) continue;
-        kept.push_back(*cell[round]);
-        ++taken;
-        any = true;
-      }
-      if (!any) break;
-    }
-  }
-  return kept;
-}
-
 }  // namespace
 
 std::string FuseStageOptions::Check() const {
@@ -471,8 +398,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
     if (assoc.a.session != assoc.b.session) {
       session_pairs.emplace_back(pa, pb, static_cast<std::int64_t>(assoc.matches.size()));
     }
-    const std::vector<association::CrossMatch> matches =
-        ThinMatches(assoc.matches, *passes[pa]->input.camera, options.max_matches_per_image_pair);
+    const std::vector<association::CrossMatch> matches = association::ThinCrossMatches(
+        assoc.matches, passes[pa]->input.camera->width, passes[pa]->input.camera->height,
+        options.max_matches_per_image_pair);
     report.num_cross_matches += static_cast<std::int64_t>(assoc.matches.size());
     report.num_thinned_matches += static_cast<std::int64_t>(assoc.matches.size() - matches.size());
     for (const association::CrossMatch& m : matches) {
@@ -579,7 +507,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   const bool two_steps = std::find(protects.begin(), protects.end(), false) != protects.end();
   if (two_steps) {
     std::int64_t conflicting = 0;
-    const TrustedProblem trusted = RestrictToPasses(
+    const fusion::PassSubset trusted = fusion::RestrictToPasses(
         inputs, JoinLandmarks(graph, passes, protects, &conflicting), ties, protects);
     spdlog::info("fuse: the {} trusted passes first, alone", trusted.passes.size());
     const fusion::JointOptimiser::Result first =

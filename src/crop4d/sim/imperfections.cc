@@ -117,7 +117,7 @@ Timestamp CalibrationErrors::WrittenStamp(Timestamp start, Timestamp capture) co
 
 bool ImageEffectsOptions::Any() const {
   return exposure_s != 0.0 || electrons_per_dn != 0.0 || read_noise_dn != 0.0 ||
-         auto_exposure_jitter != 0.0 || jpeg_quality != 0;
+         auto_exposure_jitter != 0.0 || jpeg_quality != 0 || readout_s != 0.0;
 }
 
 void ImageEffectsOptions::Check() const {
@@ -129,6 +129,7 @@ void ImageEffectsOptions::Check() const {
           "must be in [0.1, 1e5]");
   Require(jpeg_quality >= 0 && jpeg_quality <= 100, "camera.jpeg_quality",
           "must be in [0, 100] (0 = PNG)");
+  Require(In(readout_s, 0.0, 0.5), "camera.readout_s", "must be in [0, 0.5]");
 }
 
 double AutoExposureGain(const ImageEffectsOptions& o, std::uint64_t seed, double seconds) {
@@ -144,8 +145,11 @@ double AutoExposureGain(const ImageEffectsOptions& o, std::uint64_t seed, double
 }
 
 cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::PinholeRadTan& camera,
-                   const geometry::Rigid3& begin_from_mid, const geometry::Rigid3& end_from_mid) {
+                   const std::vector<geometry::Rigid3>& begin_rows,
+                   const std::vector<geometry::Rigid3>& end_rows) {
   CROP4D_CHECK(bgr.size() == depth.size() && depth.type() == CV_32F);
+  CROP4D_CHECK(begin_rows.size() == end_rows.size() &&
+               (begin_rows.size() == 1 || static_cast<int>(begin_rows.size()) == bgr.rows));
   cv::Mat sharp;
   bgr.convertTo(sharp, CV_32FC3);
   cv::Mat out(sharp.size(), CV_32FC3);
@@ -154,6 +158,9 @@ cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::Pin
   for (int r = 0; r < sharp.rows; ++r) {
     const float* z = depth.ptr<float>(r);
     float* o = out.ptr<float>(r);
+    const size_t row = begin_rows.size() == 1 ? 0 : static_cast<size_t>(r);
+    const geometry::Rigid3& begin_from_mid = begin_rows[row];
+    const geometry::Rigid3& end_from_mid = end_rows[row];
     for (int c = 0; c < sharp.cols; ++c) {
       const Eigen::Vector2d pixel(c, r);
       Eigen::Vector3d ray;

@@ -89,6 +89,9 @@ struct ImageEffectsOptions {
   double auto_exposure_period_s = 20.0;
   // Write JPEG images of this quality (1-100); 0 writes PNG (lossless).
   int jpeg_quality = 0;
+  // Rolling shutter: the rows are exposed one after the other over this time, top first; the
+  // image's timestamp is the middle row's (0 = global shutter), s.
+  double readout_s = 0.0;
 
   bool Any() const;
   void Check() const;  // prefix "camera."
@@ -98,12 +101,22 @@ struct ImageEffectsOptions {
 // n a sum of three sinusoids with seeded phases in [-1, 1].
 double AutoExposureGain(const ImageEffectsOptions& options, std::uint64_t seed, double seconds);
 
-// Motion blur: every pixel averages the sharp image along the path its scene point travels
-// during the exposure. `depth` (CV_32F, camera z, 0 = sky = far away) and `bgr` are of the
-// same camera; `begin_from_mid` and `end_from_mid` map points of the mid-exposure camera frame
-// into the camera frames at the start and the end of the exposure. Returns CV_32FC3.
+// Motion blur and rolling shutter: every pixel averages the sharp image along the path its
+// scene point travels in the image while the pixel's row is exposed. `depth` (CV_32F, camera
+// z, 0 = sky = far away) and `bgr` are of the same camera, rendered at the reference instant;
+// `begin_from_mid[k]` and `end_from_mid[k]` map points of the reference camera frame into the
+// camera frames at the start and the end of the exposure of row k (one entry each: every row
+// at once, a global shutter). Returns CV_32FC3.
 cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::PinholeRadTan& camera,
-                   const geometry::Rigid3& begin_from_mid, const geometry::Rigid3& end_from_mid);
+                   const std::vector<geometry::Rigid3>& begin_from_mid,
+                   const std::vector<geometry::Rigid3>& end_from_mid);
+inline cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth,
+                          const geometry::PinholeRadTan& camera,
+                          const geometry::Rigid3& begin_from_mid,
+                          const geometry::Rigid3& end_from_mid) {
+  return MotionBlur(bgr, depth, camera, std::vector<geometry::Rigid3>{begin_from_mid},
+                    std::vector<geometry::Rigid3>{end_from_mid});
+}
 
 // Gain, shot and read noise and 8-bit quantisation: out = round(gain · in + n) with
 // n ~ N(0, gain · in / electrons_per_dn + read_noise²). `in` CV_8UC3 or CV_32FC3; out CV_8UC3.

@@ -200,6 +200,47 @@ TEST(ImperfectionsTest, MotionBlurGrowsWithSpeedTimesExposure) {
   EXPECT_LT(cv::norm(still, sharp_f, cv::NORM_INF), 1e-3);
 }
 
+// The sub-pixel column where row `r` of a dark-to-bright edge image crosses the middle grey.
+double EdgeColumn(const cv::Mat& image, int r) {
+  const float* row = image.ptr<float>(r);
+  const double lo = row[0], hi = row[3 * (image.cols - 1)], mid = 0.5 * (lo + hi);
+  for (int c = 1; c < image.cols; ++c) {
+    if (row[3 * c] >= mid && row[3 * (c - 1)] < mid) {
+      return c - 1 + (mid - row[3 * (c - 1)]) / (row[3 * c] - row[3 * (c - 1)]);
+    }
+  }
+  return -1.0;
+}
+
+TEST(ImperfectionsTest, RollingShutterSlantsWhatMovesSideways) {
+  // A camera moving sideways at v past a wall 2 m away, rows read out top to bottom over R:
+  // a vertical edge is slanted by fx · v · R / depth pixels from the top row to the bottom.
+  geometry::PinholeRadTan camera;
+  camera.width = 200;
+  camera.height = 41;
+  camera.fx = camera.fy = 150.0;
+  camera.cx = 100.0;
+  camera.cy = 20.0;
+  // A linear ramp from 40 to 200 over columns 90..110 (bilinear sampling keeps it exact).
+  cv::Mat sharp(41, 200, CV_32FC3, cv::Scalar::all(40));
+  for (int c = 90; c < 200; ++c) sharp.col(c).setTo(cv::Scalar::all(std::min(200.0, 40.0 + 8.0 * (c - 90))));
+  const cv::Mat depth(41, 200, CV_32F, cv::Scalar(2.0));
+  const double v = 1.5, readout = 0.03;
+  std::vector<geometry::Rigid3> rows;
+  for (int k = 0; k < 41; ++k) {
+    const double dt = (k / 40.0 - 0.5) * readout;  // row k's time after the middle row's
+    rows.emplace_back(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-v * dt, 0, 0));
+  }
+  const cv::Mat out = MotionBlur(sharp, depth, camera, rows, rows);  // no exposure blur
+  const double slant = EdgeColumn(out, 0) - EdgeColumn(out, 40);
+  EXPECT_NEAR(slant, camera.fx * v * readout / 2.0, 0.02);  // 3.4 px
+  // The middle row is the reference: its edge stays where it was.
+  EXPECT_NEAR(EdgeColumn(out, 20), EdgeColumn(MotionBlur(sharp, depth, camera, geometry::Rigid3(),
+                                                         geometry::Rigid3()),
+                                              20),
+              1e-3);
+}
+
 // ---- IMU and GPS ----------------------------------------------------------------------------
 
 TEST(ImperfectionsTest, ImuAxisErrorsFollowTheirSigmas) {

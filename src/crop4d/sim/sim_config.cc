@@ -161,6 +161,8 @@ std::vector<Key> Keys(SimConfig& c) {
        "time scale of those gain changes, s"},
       {"camera", "jpeg_quality", &c.image.jpeg_quality,
        "write JPEG images of this quality (1-100); 0 = PNG"},
+      {"camera", "readout_s", &c.image.readout_s,
+       "rolling shutter: rows exposed top to bottom over this time, s (0 = global shutter)"},
       {"drive", "lane", &d.lane,
        "\"row\": centred over each row (straddling it); \"furrow\": between rows"},
       {"drive", "speed_mps", &d.speed_mps, "cruise speed along the rows, m/s"},

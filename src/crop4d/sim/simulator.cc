@@ -531,7 +531,8 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
                    "# t[s] tx ty tz qx qy qz qw\n");
     const ImageEffectsOptions& effects = cfg.image;
     const bool image_effects = effects.Any();
-    const bool blur = effects.exposure_s > 0.0;
+    // Motion blur and rolling shutter both warp the rendered image along the motion.
+    const bool blur = effects.exposure_s > 0.0 || effects.readout_s > 0.0;
     const std::string image_extension = effects.jpeg_quality > 0 ? "jpg" : "png";
     const std::uint64_t exposure_seed =
         HashCombine(cfg.seed, kTagExposure, static_cast<std::uint64_t>(i));
@@ -565,13 +566,21 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
         const std::string depth_path =
             Join(depth_dir, fmt::format("{}.png", t));
         // The camera at the start and the end of the exposure, seen from its mid-exposure frame.
-        geometry::Rigid3 begin_from_mid, end_from_mid;
+        // With a rolling shutter, row k is exposed around capture + (k / (H − 1) − ½) readout.
+        std::vector<geometry::Rigid3> begin_from_mid, end_from_mid;
         if (blur) {
-          auto camera_at = [&](double s) {
-            return traj.WorldFromBody(std::clamp(s, 0.0, traj.Duration())) * body_from_camera;
+          auto from_mid = [&](double s) {
+            return (traj.WorldFromBody(std::clamp(s, 0.0, traj.Duration())) * body_from_camera)
+                       .Inverse() *
+                   world_from_camera;
           };
-          begin_from_mid = camera_at(capture - 0.5 * effects.exposure_s).Inverse() * world_from_camera;
-          end_from_mid = camera_at(capture + 0.5 * effects.exposure_s).Inverse() * world_from_camera;
+          const int rows = effects.readout_s > 0.0 ? cfg.camera.height : 1;
+          for (int k = 0; k < rows; ++k) {
+            const double row_time =
+                rows == 1 ? capture : capture + (k / (rows - 1.0) - 0.5) * effects.readout_s;
+            begin_from_mid.push_back(from_mid(row_time - 0.5 * effects.exposure_s));
+            end_from_mid.push_back(from_mid(row_time + 0.5 * effects.exposure_s));
+          }
         }
         const double gain = AutoExposureGain(effects, exposure_seed, capture);
         if (image_effects) {

@@ -260,6 +260,402 @@ io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
   return cloud;
 }
 
+// The landmark graph (fusion/cross_pass_tracks.h): each pass's landmarks, then the cross
+// matches of the association files (thinned, stale ones counted and left out) with the cloud
+// tracks they join. The pairs of passes of two sessions, with their number of cross matches, go
+// to `session_pairs`.
+fusion::CrossPassTracks BuildLandmarkGraph(
+    const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const std::map<association::PassRef, int>& pass_index,
+    const std::vector<fs::path>& association_files, const FuseStageOptions& options,
+    FuseReport* report, std::vector<std::tuple<int, int, std::int64_t>>* session_pairs) {
+  fusion::CrossPassTracks graph;
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    for (const PassTrack& t : passes[p]->data.tracks.landmarks) {
+      graph.AddPassLandmark(static_cast<int>(p), t.observations);
+    }
+  }
+  for (const fs::path& path : association_files) {
+    association::PassAssociation assoc;
+    std::string detail;
+    const association::AssociationFileStatus status =
+        association::ReadAssociationFile(path.string(), &assoc, &detail);
+    if (status != association::AssociationFileStatus::kOk) {
+      throw InputError(path.string() + ": " + std::string(association::ToString(status)) + " (" +
+                       detail + "); rerun `crop4d associate`");
+    }
+    ++report->num_association_files;
+    const auto ia = pass_index.find(assoc.a), ib = pass_index.find(assoc.b);
+    if (ia == pass_index.end() || ib == pass_index.end()) {
+      spdlog::warn("{}: its passes are not in the workspace; ignored", path.string());
+      continue;
+    }
+    const int pa = ia->second, pb = ib->second;
+    if (assoc.a.session != assoc.b.session) {
+      session_pairs->emplace_back(pa, pb, static_cast<std::int64_t>(assoc.matches.size()));
+    }
+    const std::vector<association::CrossMatch> matches = association::ThinCrossMatches(
+        assoc.matches, passes[pa]->input.camera->width, passes[pa]->input.camera->height,
+        options.max_matches_per_image_pair);
+    report->num_cross_matches += static_cast<std::int64_t>(assoc.matches.size());
+    report->num_thinned_matches += static_cast<std::int64_t>(assoc.matches.size() - matches.size());
+    for (const association::CrossMatch& m : matches) {
+      const PassData& a = passes[pa]->data;
+      const PassData& b = passes[pb]->data;
+      const bool valid =
+          m.image_a >= 0 && m.image_a < static_cast<int>(a.times.size()) && m.image_b >= 0 &&
+          m.image_b < static_cast<int>(b.times.size()) && a.times[m.image_a] == m.t_a &&
+          b.times[m.image_b] == m.t_b && m.feature_a >= 0 &&
+          m.feature_a < static_cast<int>(a.features[m.image_a].size()) && m.feature_b >= 0 &&
+          m.feature_b < static_cast<int>(b.features[m.image_b].size());
+      if (!valid) {
+        ++report->num_invalid_matches;
+        continue;
+      }
+      // The tracks of the pass each feature belongs to (none: no cloud track).
+      const auto track_of = [&](int p, int image,
+                                int feature) -> const std::vector<features::Observation>& {
+        static const std::vector<features::Observation> kNone;
+        const auto it = passes[p]->cloud_of.find(ImageFeatureKey(image, feature));
+        return it == passes[p]->cloud_of.end()
+                   ? kNone
+                   : passes[p]->data.tracks.cloud[it->second].observations;
+      };
+      graph.AddCrossMatch({pa, m.image_a, m.feature_a}, {pb, m.image_b, m.feature_b}, m.distance,
+                          track_of(pa, m.image_a, m.feature_a),
+                          track_of(pb, m.image_b, m.feature_b));
+    }
+    if (report->num_invalid_matches > 0) {
+      spdlog::warn(
+          "{}: matches that do not fit the passes' images (stale; rerun `crop4d associate`)",
+          path.string());
+    }
+  }
+  return graph;
+}
+
+// Ground ties (fusion/ground_ties.h) where appearance left two dates of a row without cross
+// matches, unless both passes have a precise GPS.
+std::vector<fusion::JointGroundTie> GroundTies(
+    const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const std::vector<std::tuple<int, int, std::int64_t>>& session_pairs,
+    const FuseStageOptions& options, FuseReport* report) {
+  std::vector<fusion::JointGroundTie> ties;
+  if (options.ground_ties) {
+    std::map<int, fusion::GroundTiePass> tie_passes;
+    const auto precise = [&](int p) {
+      return fusion::MedianGpsSigma(passes[p]->input) <= options.optimiser.precise_gps_sigma_m;
+    };
+    for (const auto& [pa, pb, matches] : session_pairs) {
+      // Two precise receivers register the passes better than the ground can.
+      if (matches >= options.ground_tie_max_matches || (precise(pa) && precise(pb))) continue;
+      for (int p : {pa, pb}) {
+        if (!tie_passes.count(p)) tie_passes[p] = TiePass(*passes[p], options.cloud);
+      }
+      FuseTiePairReport pair{passes[pa]->data.label(), passes[pb]->data.label(), matches, {}};
+      const std::vector<fusion::GroundTie> found =
+          fusion::ComputeGroundTies(tie_passes[pa], tie_passes[pb], options.ground_tie, &pair.ties);
+      for (const fusion::GroundTie& tie : found) ties.push_back({pa, pb, tie});
+      if (found.empty()) {
+        spdlog::warn(
+            "fuse: {} ~ {}: {} cross matches and no ground tie (tracks not parallel or no common "
+            "soil): nothing but the GPS relates them",
+            pair.a, pair.b, matches);
+      } else {
+        spdlog::info(
+            "fuse: {} ~ {}: {} cross matches; {} ground ties (b lies {:+.2f} m across, {:+.2f} m "
+            "up; spread {:.1f} cm)",
+            pair.a, pair.b, matches, pair.ties.ties, pair.ties.median_across_m,
+            pair.ties.median_vertical_m, 100 * pair.ties.median_spread_m);
+      }
+      report->tie_pairs.push_back(std::move(pair));
+    }
+  }
+  return ties;
+}
+
+// The grades of the sessions (season_quality.h, into report->quality), and whether each pass
+// belongs to a session that the others must not move.
+std::vector<bool> GradeSessions(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                                const FuseStageOptions& options, FuseReport* report) {
+  std::vector<PassFacts> facts;
+  for (const auto& pass : passes) {
+    facts.push_back(PassFactsFromSummary(json::parse(pass->data.summary_json)));
+    facts.back().session = pass->data.session;
+    facts.back().pass = pass->data.pass.id;
+  }
+  report->quality = GradeSeason(facts, options.quality);
+  std::vector<bool> protects(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    protects[p] = report->quality.Protects(passes[p]->data.session);
+  }
+  for (const SessionGrade* g : report->quality.Degraded()) {
+    std::string reasons;
+    for (const std::string& r : g->reasons) reasons += (reasons.empty() ? "" : "; ") + r;
+    spdlog::warn("fuse: {} is degraded ({}){}", g->session, reasons,
+                 report->quality.any_trusted
+                     ? ": registered onto the trusted sessions, which it does not move"
+                     : "; no session is trusted: all are fused together");
+  }
+  return protects;
+}
+
+// WS/fused/landmarks.ply: the joint landmarks, with how many passes and sessions see each.
+void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                         const std::vector<fusion::JointLandmark>& landmarks,
+                         const fusion::JointOptimiser::Result& result, const fs::path& out_dir) {
+  io::PlyPointCloud cloud;
+  io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
+  io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
+  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
+    std::set<int> seen_passes;
+    std::set<std::string> seen_sessions;
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (!result.observations_kept[l][o]) continue;
+      seen_passes.insert(landmark.observations[o].pass);
+      seen_sessions.insert(passes[landmark.observations[o].pass]->data.session);
+    }
+    cloud.points.push_back(result.landmarks_world[l]);
+    cloud.colors.push_back(landmark.color);
+    num_passes.values.push_back(static_cast<double>(seen_passes.size()));
+    num_sessions.values.push_back(static_cast<double>(seen_sessions.size()));
+  }
+  cloud.scalars = {num_passes, num_sessions};
+  io::PlyWriteOptions ply;
+  ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
+  io::WritePly((out_dir / "landmarks.ply").string(), cloud, ply);
+}
+
+// WS/fused/colmap: the whole 4D reconstruction as a COLMAP text model (one camera per session,
+// images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
+void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                 const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                 const std::vector<fusion::JointLandmark>& landmarks,
+                 const fusion::JointOptimiser::Result& result, const fs::path& out_dir) {
+  io::ColmapModel model;
+  std::map<std::string, std::uint32_t> camera_of_session;
+  std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const std::string& session = passes[p]->data.session;
+    if (!camera_of_session.count(session)) {
+      const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
+      camera_of_session[session] = id;
+      model.cameras.push_back({id, *passes[p]->input.camera});
+    }
+    const std::map<Timestamp, std::string> names = ImageNames(*passes[p]->streams);
+    for (std::size_t k = 0; k < cameras[p].size(); ++k) {
+      io::ColmapImage image;
+      image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
+      image.camera_id = camera_of_session[session];
+      const auto it = names.find(passes[p]->data.times[k]);
+      const std::string file =
+          it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
+      image.name = io::ColmapImageName(session + "/" + passes[p]->data.pass.id + "/" + file);
+      image.world_from_camera = cameras[p][k];
+      image_ids[p].push_back(image.image_id);
+      model.images.push_back(std::move(image));
+    }
+  }
+  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
+    io::ColmapPoint3D point;
+    point.point3d_id = static_cast<std::int64_t>(l);
+    point.xyz = result.landmarks_world[l];
+    point.rgb = landmark.color;
+    double error_sum = 0;
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (!result.observations_kept[l][o]) continue;
+      const fusion::JointObservation& obs = landmark.observations[o];
+      io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
+      point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
+      image.points2d.push_back({obs.pixel, point.point3d_id});
+      const double e = slam::ReprojectionError(
+          *passes[obs.pass]->input.camera, passes[obs.pass]->input.body_from_camera,
+          result.states[obs.pass][obs.state].nav.world_from_body, point.xyz, obs.pixel);
+      error_sum += std::isfinite(e) ? e : 0.0;
+    }
+    point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
+    model.points.push_back(std::move(point));
+  }
+  io::WriteColmapText((out_dir / "colmap").string(), model);
+}
+
+// The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
+// the joint solve, the ground ties and the per-pass corrections.
+json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Result& result,
+                     const std::string& stamp, const FuseStageOptions& options,
+                     const std::vector<std::string>& sessions) {
+  const fusion::JointOptimiser::Summary& s = result.summary;
+  json summary;
+  summary["fingerprint"] = stamp;
+  summary["options"] = OptionsJson(options);
+  summary["sessions"] = sessions;
+  summary["associations"] = {{"files", report.num_association_files},
+                             {"cross_matches", report.num_cross_matches},
+                             {"thinned_matches", report.num_thinned_matches},
+                             {"conflicting_matches", report.num_conflicting_matches},
+                             {"invalid_matches", report.num_invalid_matches}};
+  summary["joint"] = {{"passes", s.num_passes},
+                      {"states", s.num_states},
+                      {"landmarks_given", s.num_landmarks_given},
+                      {"landmarks", s.num_landmarks},
+                      {"shared_landmarks", s.num_shared_landmarks},
+                      {"observations", s.num_observations},
+                      {"cross_observations", s.num_cross_observations},
+                      {"rejected_observations", s.num_rejected_observations},
+                      {"rejected_cross_observations", s.num_rejected_cross_observations},
+                      {"initial_cost", s.initial_cost},
+                      {"final_cost", s.final_cost},
+                      {"iterations", s.iterations},
+                      {"reprojection_rms_px", s.reprojection_rms_px},
+                      {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
+                      {"ground_ties", s.num_ground_ties},
+                      {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
+                      {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
+                      {"converged", s.converged}};
+  json tie_list = json::array();
+  for (const FuseTiePairReport& t : report.tie_pairs) {
+    tie_list.push_back({{"a", t.a},
+                        {"b", t.b},
+                        {"cross_matches", t.cross_matches},
+                        {"soil_points_a", t.ties.soil_points_a},
+                        {"soil_points_b", t.ties.soil_points_b},
+                        {"segments", t.ties.segments},
+                        {"ties", t.ties.ties},
+                        {"median_across_m", t.ties.median_across_m},
+                        {"median_vertical_m", t.ties.median_vertical_m},
+                        {"median_spread_m", t.ties.median_spread_m}});
+  }
+  summary["ground_ties"] = tie_list;
+  json pass_list = json::array();
+  for (const FusePassReport& pr : report.passes) {
+    pass_list.push_back(
+        {{"session", pr.session},
+         {"pass", pr.pass},
+         {"images", pr.images},
+         {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
+         {"rotation_change_deg", pr.rotation_change_deg}});
+  }
+  summary["passes"] = pass_list;
+  summary["seconds"] = {{"triangulation", s.triangulation_seconds},
+                        {"solve", s.solve_seconds},
+                        {"final_solve", s.final_solve_seconds},
+                        {"total", report.seconds}};
+  return summary;
+}
+
+// Loads each pass's features, tracks and states and rebuilds its row-SLAM problem from the
+// session's streams (opened once per session into `streams`, which the passes point into).
+void LoadPassProblems(const io::Field& field, const std::string& workspace,
+                      const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                      std::map<std::string, std::unique_ptr<slam::SessionStreams>>* streams,
+                      std::map<std::string, std::unique_ptr<io::Session>>* session_objects) {
+  for (auto& pass : passes) {
+    const std::string& session = pass->data.session;
+    pass->data = LoadPassData(workspace, session, pass->data.pass,
+                              {.features = true, .tracks = true, .states = true});
+    if (!streams->count(session)) {
+      (*session_objects)[session] = std::make_unique<io::Session>(field.OpenSession(session));
+      const json summary = json::parse(pass->data.summary_json);
+      (*streams)[session] = std::make_unique<slam::SessionStreams>(
+          slam::LoadSessionStreams(field, *(*session_objects)[session], pass->data.camera,
+                                   summary.at("problem").value("imu", "")));
+    }
+    pass->streams = (*streams)[session].get();
+    BuildInput(*pass->streams, pass.get());
+    for (std::size_t c = 0; c < pass->data.tracks.cloud.size(); ++c) {
+      for (const features::Observation& o : pass->data.tracks.cloud[c].observations) {
+        pass->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);
+      }
+    }
+  }
+}
+
+// The joint problem: with degraded sessions (some pass not protected), first the trusted
+// passes alone, then every pass with the trusted ones held where that solve put them.
+fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
+                                          const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                                          const std::vector<fusion::JointLandmark>& landmarks,
+                                          const std::vector<fusion::JointGroundTie>& ties,
+                                          const std::vector<bool>& protects,
+                                          const FuseStageOptions& options) {
+  std::vector<fusion::JointOptimiser::Pass> inputs;
+  for (const auto& pass : passes) inputs.push_back(pass->input);
+  const fusion::JointOptimiser optimiser(options.optimiser);
+  const bool two_steps = std::find(protects.begin(), protects.end(), false) != protects.end();
+  if (two_steps) {
+    std::int64_t conflicting = 0;
+    const fusion::PassSubset trusted = fusion::RestrictToPasses(
+        inputs, JoinLandmarks(graph, passes, protects, &conflicting), ties, protects);
+    spdlog::info("fuse: the {} trusted passes first, alone", trusted.passes.size());
+    const fusion::JointOptimiser::Result first =
+        optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties);
+    for (std::size_t k = 0; k < trusted.original_pass.size(); ++k) {
+      inputs[trusted.original_pass[k]].initial_states = first.states[k];
+    }
+  }
+  return optimiser.Solve(inputs, landmarks, ties, two_steps ? protects : std::vector<bool>{});
+}
+
+// The fused world_from_camera of every image of every pass, and each pass's correction against
+// row SLAM (report->passes).
+std::vector<std::vector<geometry::Rigid3>> FusedCameras(
+    const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const fusion::JointOptimiser::Result& result, FuseReport* report) {
+  std::vector<std::vector<geometry::Rigid3>> cameras(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    FusePassReport pr;
+    pr.session = passes[p]->data.session;
+    pr.pass = passes[p]->data.pass.id;
+    pr.images = static_cast<int>(result.states[p].size());
+    double rot_sq = 0;
+    for (std::size_t k = 0; k < result.states[p].size(); ++k) {
+      const geometry::Rigid3 pose =
+          result.states[p][k].nav.world_from_body * passes[p]->input.body_from_camera;
+      cameras[p].push_back(pose);
+      pr.mean_shift += pose.translation() - passes[p]->data.poses[k].translation();
+      const double a =
+          geometry::AngleBetween(pose.rotation(), passes[p]->data.poses[k].rotation()) * 180 / M_PI;
+      rot_sq += a * a;
+    }
+    pr.mean_shift /= std::max<std::size_t>(1, result.states[p].size());
+    pr.rotation_change_deg = std::sqrt(rot_sq / std::max<std::size_t>(1, result.states[p].size()));
+    report->passes.push_back(pr);
+  }
+  return cameras;
+}
+
+// WS/fused/<session>/poses.tum and sparse.ply: the session's fused cameras (all passes, in time
+// order) and its passes' clouds re-triangulated from them.
+void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                         const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                         const std::vector<std::string>& sessions, const FuseStageOptions& options,
+                         const fs::path& out_dir) {
+  for (const std::string& session : sessions) {
+    std::vector<io::StampedPose> poses;
+    std::vector<const LoadedPass*> session_passes;
+    std::vector<std::vector<geometry::Rigid3>> session_cameras;
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      if (passes[p]->data.session != session) continue;
+      session_passes.push_back(passes[p].get());
+      session_cameras.push_back(cameras[p]);
+      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
+        poses.push_back({passes[p]->data.times[k], cameras[p][k]});
+      }
+    }
+    std::sort(poses.begin(), poses.end(),
+              [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
+    io::WriteTum((out_dir / session / "poses.tum").string(), poses,
+                 "world_from_camera of session " + session +
+                     " after 4D fusion (all passes), field ENU frame");
+    io::PlyWriteOptions ply;
+    ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
+    io::WritePly((out_dir / session / "sparse.ply").string(),
+                 SessionCloud(session_passes, session_cameras, options.cloud), ply);
+  }
+}
+
 }  // namespace
 
 std::string FuseStageOptions::Check() const {
@@ -347,94 +743,13 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   // Load the passes and rebuild their problems.
   std::map<std::string, std::unique_ptr<slam::SessionStreams>> streams;
   std::map<std::string, std::unique_ptr<io::Session>> session_objects;
-  for (auto& pass : passes) {
-    const std::string& session = pass->data.session;
-    pass->data = LoadPassData(workspace, session, pass->data.pass,
-                              {.features = true, .tracks = true, .states = true});
-    if (!streams.count(session)) {
-      session_objects[session] = std::make_unique<io::Session>(field.OpenSession(session));
-      const json summary = json::parse(pass->data.summary_json);
-      streams[session] = std::make_unique<slam::SessionStreams>(
-          slam::LoadSessionStreams(field, *session_objects[session], pass->data.camera,
-                                   summary.at("problem").value("imu", "")));
-    }
-    pass->streams = streams[session].get();
-    BuildInput(*pass->streams, pass.get());
-    for (std::size_t c = 0; c < pass->data.tracks.cloud.size(); ++c) {
-      for (const features::Observation& o : pass->data.tracks.cloud[c].observations) {
-        pass->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);
-      }
-    }
-  }
+  LoadPassProblems(field, workspace, passes, &streams, &session_objects);
   report.num_sessions = static_cast<int>(sessions.size());
   report.num_passes = static_cast<int>(passes.size());
 
-  // The landmark graph: each pass's landmarks, then the cross matches with the cloud tracks
-  // they join.
-  fusion::CrossPassTracks graph;
-  for (std::size_t p = 0; p < passes.size(); ++p) {
-    for (const PassTrack& t : passes[p]->data.tracks.landmarks) {
-      graph.AddPassLandmark(static_cast<int>(p), t.observations);
-    }
-  }
-  // Pairs of passes of two sessions, with their number of cross matches.
   std::vector<std::tuple<int, int, std::int64_t>> session_pairs;
-  for (const fs::path& path : association_files) {
-    association::PassAssociation assoc;
-    std::string detail;
-    const association::AssociationFileStatus status =
-        association::ReadAssociationFile(path.string(), &assoc, &detail);
-    if (status != association::AssociationFileStatus::kOk) {
-      throw InputError(path.string() + ": " + std::string(association::ToString(status)) + " (" +
-                       detail + "); rerun `crop4d associate`");
-    }
-    ++report.num_association_files;
-    const auto ia = pass_index.find(assoc.a), ib = pass_index.find(assoc.b);
-    if (ia == pass_index.end() || ib == pass_index.end()) {
-      spdlog::warn("{}: its passes are not in the workspace; ignored", path.string());
-      continue;
-    }
-    const int pa = ia->second, pb = ib->second;
-    if (assoc.a.session != assoc.b.session) {
-      session_pairs.emplace_back(pa, pb, static_cast<std::int64_t>(assoc.matches.size()));
-    }
-    const std::vector<association::CrossMatch> matches = association::ThinCrossMatches(
-        assoc.matches, passes[pa]->input.camera->width, passes[pa]->input.camera->height,
-        options.max_matches_per_image_pair);
-    report.num_cross_matches += static_cast<std::int64_t>(assoc.matches.size());
-    report.num_thinned_matches += static_cast<std::int64_t>(assoc.matches.size() - matches.size());
-    for (const association::CrossMatch& m : matches) {
-      const PassData& a = passes[pa]->data;
-      const PassData& b = passes[pb]->data;
-      const bool valid =
-          m.image_a >= 0 && m.image_a < static_cast<int>(a.times.size()) && m.image_b >= 0 &&
-          m.image_b < static_cast<int>(b.times.size()) && a.times[m.image_a] == m.t_a &&
-          b.times[m.image_b] == m.t_b && m.feature_a >= 0 &&
-          m.feature_a < static_cast<int>(a.features[m.image_a].size()) && m.feature_b >= 0 &&
-          m.feature_b < static_cast<int>(b.features[m.image_b].size());
-      if (!valid) {
-        ++report.num_invalid_matches;
-        continue;
-      }
-      // The tracks of the pass each feature belongs to (none: no cloud track).
-      const auto track_of = [&](int p, int image,
-                                int feature) -> const std::vector<features::Observation>& {
-        static const std::vector<features::Observation> kNone;
-        const auto it = passes[p]->cloud_of.find(ImageFeatureKey(image, feature));
-        return it == passes[p]->cloud_of.end()
-                   ? kNone
-                   : passes[p]->data.tracks.cloud[it->second].observations;
-      };
-      graph.AddCrossMatch({pa, m.image_a, m.feature_a}, {pb, m.image_b, m.feature_b}, m.distance,
-                          track_of(pa, m.image_a, m.feature_a),
-                          track_of(pb, m.image_b, m.feature_b));
-    }
-    if (report.num_invalid_matches > 0) {
-      spdlog::warn(
-          "{}: matches that do not fit the passes' images (stale; rerun `crop4d associate`)",
-          path.string());
-    }
-  }
+  const fusion::CrossPassTracks graph =
+      BuildLandmarkGraph(passes, pass_index, association_files, options, &report, &session_pairs);
 
   const std::vector<bool> every_pass(passes.size(), true);
   std::vector<fusion::JointLandmark> landmarks =
@@ -445,254 +760,24 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       passes.size(), sessions.size(), landmarks.size(), report.num_cross_matches,
       report.num_association_files, report.num_conflicting_matches);
 
-  // Ground ties where appearance left two dates of a row without cross matches.
-  std::vector<fusion::JointGroundTie> ties;
-  if (options.ground_ties) {
-    std::map<int, fusion::GroundTiePass> tie_passes;
-    const auto precise = [&](int p) {
-      return fusion::MedianGpsSigma(passes[p]->input) <= options.optimiser.precise_gps_sigma_m;
-    };
-    for (const auto& [pa, pb, matches] : session_pairs) {
-      // Two precise receivers register the passes better than the ground can.
-      if (matches >= options.ground_tie_max_matches || (precise(pa) && precise(pb))) continue;
-      for (int p : {pa, pb}) {
-        if (!tie_passes.count(p)) tie_passes[p] = TiePass(*passes[p], options.cloud);
-      }
-      FuseTiePairReport pair{passes[pa]->data.label(), passes[pb]->data.label(), matches, {}};
-      const std::vector<fusion::GroundTie> found =
-          fusion::ComputeGroundTies(tie_passes[pa], tie_passes[pb], options.ground_tie, &pair.ties);
-      for (const fusion::GroundTie& tie : found) ties.push_back({pa, pb, tie});
-      if (found.empty()) {
-        spdlog::warn(
-            "fuse: {} ~ {}: {} cross matches and no ground tie (tracks not parallel or no common "
-            "soil): nothing but the GPS relates them",
-            pair.a, pair.b, matches);
-      } else {
-        spdlog::info(
-            "fuse: {} ~ {}: {} cross matches; {} ground ties (b lies {:+.2f} m across, {:+.2f} m "
-            "up; spread {:.1f} cm)",
-            pair.a, pair.b, matches, pair.ties.ties, pair.ties.median_across_m,
-            pair.ties.median_vertical_m, 100 * pair.ties.median_spread_m);
-      }
-      report.tie_pairs.push_back(std::move(pair));
-    }
-  }
+  const std::vector<fusion::JointGroundTie> ties =
+      GroundTies(passes, session_pairs, options, &report);
 
-  // The grades of the sessions (season_quality.h): a degraded session must not move the others.
-  std::vector<PassFacts> facts;
-  for (const auto& pass : passes) {
-    facts.push_back(PassFactsFromSummary(json::parse(pass->data.summary_json)));
-    facts.back().session = pass->data.session;
-    facts.back().pass = pass->data.pass.id;
-  }
-  report.quality = GradeSeason(facts, options.quality);
-  std::vector<bool> protects(passes.size());
-  for (std::size_t p = 0; p < passes.size(); ++p) {
-    protects[p] = report.quality.Protects(passes[p]->data.session);
-  }
-  for (const SessionGrade* g : report.quality.Degraded()) {
-    std::string reasons;
-    for (const std::string& r : g->reasons) reasons += (reasons.empty() ? "" : "; ") + r;
-    spdlog::warn("fuse: {} is degraded ({}){}", g->session, reasons,
-                 report.quality.any_trusted
-                     ? ": registered onto the trusted sessions, which it does not move"
-                     : "; no session is trusted: all are fused together");
-  }
+  // The grades of the sessions: a degraded session must not move the others.
+  const std::vector<bool> protects = GradeSessions(passes, options, &report);
 
-  // The joint problem: with degraded sessions, first the trusted passes alone, then every pass
-  // with the trusted ones held where that solve put them.
-  std::vector<fusion::JointOptimiser::Pass> inputs;
-  for (const auto& pass : passes) inputs.push_back(pass->input);
-  const fusion::JointOptimiser optimiser(options.optimiser);
-  const bool two_steps = std::find(protects.begin(), protects.end(), false) != protects.end();
-  if (two_steps) {
-    std::int64_t conflicting = 0;
-    const fusion::PassSubset trusted = fusion::RestrictToPasses(
-        inputs, JoinLandmarks(graph, passes, protects, &conflicting), ties, protects);
-    spdlog::info("fuse: the {} trusted passes first, alone", trusted.passes.size());
-    const fusion::JointOptimiser::Result first =
-        optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties);
-    for (std::size_t k = 0; k < trusted.original_pass.size(); ++k) {
-      inputs[trusted.original_pass[k]].initial_states = first.states[k];
-    }
-  }
   const fusion::JointOptimiser::Result result =
-      optimiser.Solve(inputs, landmarks, ties, two_steps ? protects : std::vector<bool>{});
+      SolveJoint(graph, passes, landmarks, ties, protects, options);
   report.joint = result.summary;
 
   // Outputs.
-  std::vector<std::vector<geometry::Rigid3>> cameras(passes.size());
-  for (std::size_t p = 0; p < passes.size(); ++p) {
-    FusePassReport pr;
-    pr.session = passes[p]->data.session;
-    pr.pass = passes[p]->data.pass.id;
-    pr.images = static_cast<int>(result.states[p].size());
-    double rot_sq = 0;
-    for (std::size_t k = 0; k < result.states[p].size(); ++k) {
-      const geometry::Rigid3 pose =
-          result.states[p][k].nav.world_from_body * passes[p]->input.body_from_camera;
-      cameras[p].push_back(pose);
-      pr.mean_shift += pose.translation() - passes[p]->data.poses[k].translation();
-      const double a =
-          geometry::AngleBetween(pose.rotation(), passes[p]->data.poses[k].rotation()) * 180 / M_PI;
-      rot_sq += a * a;
-    }
-    pr.mean_shift /= std::max<std::size_t>(1, result.states[p].size());
-    pr.rotation_change_deg = std::sqrt(rot_sq / std::max<std::size_t>(1, result.states[p].size()));
-    report.passes.push_back(pr);
-  }
-  for (const std::string& session : sessions) {
-    std::vector<io::StampedPose> poses;
-    std::vector<const LoadedPass*> session_passes;
-    std::vector<std::vector<geometry::Rigid3>> session_cameras;
-    for (std::size_t p = 0; p < passes.size(); ++p) {
-      if (passes[p]->data.session != session) continue;
-      session_passes.push_back(passes[p].get());
-      session_cameras.push_back(cameras[p]);
-      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
-        poses.push_back({passes[p]->data.times[k], cameras[p][k]});
-      }
-    }
-    std::sort(poses.begin(), poses.end(),
-              [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
-    io::WriteTum((out_dir / session / "poses.tum").string(), poses,
-                 "world_from_camera of session " + session +
-                     " after 4D fusion (all passes), field ENU frame");
-    io::PlyWriteOptions ply;
-    ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
-    io::WritePly((out_dir / session / "sparse.ply").string(),
-                 SessionCloud(session_passes, session_cameras, options.cloud), ply);
-  }
-  {
-    // The joint landmarks, with how many passes and sessions see each.
-    io::PlyPointCloud cloud;
-    io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
-    io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
-    for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-      const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
-      std::set<int> seen_passes;
-      std::set<std::string> seen_sessions;
-      for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-        if (!result.observations_kept[l][o]) continue;
-        seen_passes.insert(landmark.observations[o].pass);
-        seen_sessions.insert(passes[landmark.observations[o].pass]->data.session);
-      }
-      cloud.points.push_back(result.landmarks_world[l]);
-      cloud.colors.push_back(landmark.color);
-      num_passes.values.push_back(static_cast<double>(seen_passes.size()));
-      num_sessions.values.push_back(static_cast<double>(seen_sessions.size()));
-    }
-    cloud.scalars = {num_passes, num_sessions};
-    io::PlyWriteOptions ply;
-    ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
-    io::WritePly((out_dir / "landmarks.ply").string(), cloud, ply);
-  }
-  if (options.write_colmap) {
-    io::ColmapModel model;
-    std::map<std::string, std::uint32_t> camera_of_session;
-    std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
-    for (std::size_t p = 0; p < passes.size(); ++p) {
-      const std::string& session = passes[p]->data.session;
-      if (!camera_of_session.count(session)) {
-        const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
-        camera_of_session[session] = id;
-        model.cameras.push_back({id, *passes[p]->input.camera});
-      }
-      const std::map<Timestamp, std::string> names = ImageNames(*passes[p]->streams);
-      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
-        io::ColmapImage image;
-        image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
-        image.camera_id = camera_of_session[session];
-        const auto it = names.find(passes[p]->data.times[k]);
-        const std::string file =
-            it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
-        image.name = io::ColmapImageName(session + "/" + passes[p]->data.pass.id + "/" + file);
-        image.world_from_camera = cameras[p][k];
-        image_ids[p].push_back(image.image_id);
-        model.images.push_back(std::move(image));
-      }
-    }
-    for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-      const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
-      io::ColmapPoint3D point;
-      point.point3d_id = static_cast<std::int64_t>(l);
-      point.xyz = result.landmarks_world[l];
-      point.rgb = landmark.color;
-      double error_sum = 0;
-      for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-        if (!result.observations_kept[l][o]) continue;
-        const fusion::JointObservation& obs = landmark.observations[o];
-        io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
-        point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
-        image.points2d.push_back({obs.pixel, point.point3d_id});
-        const double e = slam::ReprojectionError(
-            *passes[obs.pass]->input.camera, passes[obs.pass]->input.body_from_camera,
-            result.states[obs.pass][obs.state].nav.world_from_body, point.xyz, obs.pixel);
-        error_sum += std::isfinite(e) ? e : 0.0;
-      }
-      point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
-      model.points.push_back(std::move(point));
-    }
-    io::WriteColmapText((out_dir / "colmap").string(), model);
-  }
+  const std::vector<std::vector<geometry::Rigid3>> cameras = FusedCameras(passes, result, &report);
+  WriteSessionOutputs(passes, cameras, sessions, options, out_dir);
+  WriteJointLandmarks(passes, landmarks, result, out_dir);
+  if (options.write_colmap) WriteColmap(passes, cameras, landmarks, result, out_dir);
   report.seconds = SecondsSince(start);
 
-  const fusion::JointOptimiser::Summary& s = result.summary;
-  json summary;
-  summary["fingerprint"] = stamp;
-  summary["options"] = OptionsJson(options);
-  summary["sessions"] = sessions;
-  summary["associations"] = {{"files", report.num_association_files},
-                             {"cross_matches", report.num_cross_matches},
-                             {"thinned_matches", report.num_thinned_matches},
-                             {"conflicting_matches", report.num_conflicting_matches},
-                             {"invalid_matches", report.num_invalid_matches}};
-  summary["joint"] = {{"passes", s.num_passes},
-                      {"states", s.num_states},
-                      {"landmarks_given", s.num_landmarks_given},
-                      {"landmarks", s.num_landmarks},
-                      {"shared_landmarks", s.num_shared_landmarks},
-                      {"observations", s.num_observations},
-                      {"cross_observations", s.num_cross_observations},
-                      {"rejected_observations", s.num_rejected_observations},
-                      {"rejected_cross_observations", s.num_rejected_cross_observations},
-                      {"initial_cost", s.initial_cost},
-                      {"final_cost", s.final_cost},
-                      {"iterations", s.iterations},
-                      {"reprojection_rms_px", s.reprojection_rms_px},
-                      {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
-                      {"ground_ties", s.num_ground_ties},
-                      {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
-                      {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
-                      {"converged", s.converged}};
-  json tie_list = json::array();
-  for (const FuseTiePairReport& t : report.tie_pairs) {
-    tie_list.push_back({{"a", t.a},
-                        {"b", t.b},
-                        {"cross_matches", t.cross_matches},
-                        {"soil_points_a", t.ties.soil_points_a},
-                        {"soil_points_b", t.ties.soil_points_b},
-                        {"segments", t.ties.segments},
-                        {"ties", t.ties.ties},
-                        {"median_across_m", t.ties.median_across_m},
-                        {"median_vertical_m", t.ties.median_vertical_m},
-                        {"median_spread_m", t.ties.median_spread_m}});
-  }
-  summary["ground_ties"] = tie_list;
-  json pass_list = json::array();
-  for (const FusePassReport& pr : report.passes) {
-    pass_list.push_back(
-        {{"session", pr.session},
-         {"pass", pr.pass},
-         {"images", pr.images},
-         {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
-         {"rotation_change_deg", pr.rotation_change_deg}});
-  }
-  summary["passes"] = pass_list;
-  summary["seconds"] = {{"triangulation", s.triangulation_seconds},
-                        {"solve", s.solve_seconds},
-                        {"final_solve", s.final_solve_seconds},
-                        {"total", report.seconds}};
+  json summary = FuseSummaryJson(report, result, stamp, options, sessions);
   io::WriteFileAtomic(SeasonQualityPath(workspace),
                       SeasonQualityToJson(report.quality).dump(2) + "\n");
   // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.

@@ -468,6 +468,182 @@ json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
   return flags;
 }
 
+// The pass's images through the front end (features, matches, tracks; features.bin caches
+// them), the tracks as the back end takes them, and the front end's part of summary.json.
+struct PassFrontEnd {
+  features::FrontEnd::Result front;
+  std::vector<slam::LandmarkTrack> tracks;
+  double seconds = 0;
+};
+PassFrontEnd RunFrontEnd(const SlamStageOptions& options, const SessionContext& ctx,
+                         const slam::CameraStream& camera_stream, const slam::RowPass& pass,
+                         const std::string& folder, const std::vector<Timestamp>& times,
+                         json* summary) {
+  PassFrontEnd out;
+  const slam::CameraStream* camera = &camera_stream;
+  auto start = Clock::now();
+  features::FrontEnd::Options fe = options.front_end;
+  fe.cache_path = (fs::path(folder) / "features.bin").string();
+  fe.show_progress = options.show_progress;
+  const features::FrontEnd front_end(fe, &camera->sensor.camera);
+  std::vector<std::string> keys;
+  std::vector<std::string> paths;
+  for (const io::ImageEntry& e : camera->images) {
+    if (e.t < times.front() || e.t > times.back()) continue;
+    keys.push_back(std::to_string(e.t));
+    paths.push_back(ctx.session->ImagePath(camera->sensor.name, e.filename));
+  }
+  out.front =
+      front_end.Run(keys, [&](std::size_t i) { return cv::imread(paths[i], cv::IMREAD_COLOR); });
+  if (out.front.summary.num_images_unreadable > 0) {
+    spdlog::warn(
+        "{}/{}: {} images could not be read (no features; the IMU and GPS carry the "
+        "states there)",
+        ctx.session->id(), pass.id, out.front.summary.num_images_unreadable);
+  }
+  for (const features::Track& track : out.front.tracks) {
+    out.tracks.push_back(ToLandmarkTrack(track, out.front.features));
+  }
+  out.seconds = SecondsSince(start);
+  (*summary)["front_end"] = {{"images", out.front.summary.num_images},
+                             {"images_from_cache", out.front.summary.num_images_from_cache},
+                             {"images_unreadable", out.front.summary.num_images_unreadable},
+                             {"features", out.front.summary.num_features},
+                             {"pairs", out.front.summary.num_pairs},
+                             {"verified_pairs", out.front.summary.num_verified_pairs},
+                             {"inlier_matches", out.front.summary.num_inlier_matches},
+                             {"tracks", out.front.summary.tracks.num_tracks},
+                             {"landmarks", out.front.summary.num_landmarks},
+                             {"seconds", out.seconds}};
+  return out;
+}
+
+// The pass's initial states (docs/slam.md, initialisation): the session solve interpolated, or
+// the GPS track and the IMU, or dead reckoning from the local level frame (no GPS) or from one
+// anchor (cam+imu: `anchor_state`); without an IMU the images then give its rotations.
+std::vector<slam::RowState> InitialStates(const SlamStageOptions& options,
+                                          const SessionContext& ctx, const slam::RowPass& pass,
+                                          const std::vector<Timestamp>& times,
+                                          const slam::CameraStream* camera,
+                                          const std::vector<slam::LandmarkTrack>& pair_tracks,
+                                          slam::StateInitialiser::Summary* init_summary,
+                                          int* anchor_state,
+                                          slam::VisualInitialisationSummary* visual_init) {
+  const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
+  std::vector<slam::RowState> initial;
+  if (info.gps && !ctx.session_states.empty()) {
+    // The session solution interpolated at the state times.
+    for (Timestamp t : times) initial.push_back(slam::InterpolateState(ctx.session_states, t));
+    init_summary->forward_axis_body = ctx.initialiser->forward_axis();
+  } else if (info.gps) {
+    initial = ctx.initialiser->Initialise(times, ctx.factor_antenna, init_summary);
+  } else if (!ctx.has_best_gps) {
+    // No GPS at all: the local level frame of the first state (docs/slam.md, "Without GPS"), at
+    // rest when the pass starts with a standstill; else its velocity is left to the camera and
+    // the IMU.
+    initial =
+        ctx.initialiser->InitialiseFromAnchor(ctx.initialiser->LocalLevelState(times[0]), times);
+  } else {
+    // cam+imu: the best GPS only anchors the pass at one instant, its middle, where the motion
+    // is steady (the gauge: position, heading and velocity from a ±2 s line fit); nothing else.
+    *anchor_state = static_cast<int>(times.size() / 2);
+    const slam::StateInitialiser::Options anchor_options =
+        slam::AnchorInitialisation(options.initialisation);
+    slam::StateInitialiser anchor_initialiser(anchor_options, *ctx.streams.imu, &ctx.best_gps);
+    anchor_initialiser.set_forward_axis(ctx.initialiser->forward_axis());
+    const std::vector<slam::RowState> anchor = anchor_initialiser.Initialise(
+        {times[*anchor_state]}, ctx.best_gps.sensor.antenna_in_body, init_summary);
+    initial = anchor_initialiser.InitialiseFromAnchor(anchor.front(), times);
+  }
+  if (info.gps && ctx.streams.imu->samples.empty() && camera != nullptr) {
+    // Without an IMU the GPS track alone gave the guess: the images give its rotations and shape
+    // (slam/visual_initialisation.h), from every track of two or more images.
+    initial = slam::VisualInitialGuess(initial, camera->sensor.camera,
+                                       camera->sensor.body_from_sensor, pair_tracks, kLevelUpBody,
+                                       options.visual_initialisation, visual_init);
+    if (!visual_init->applied) {
+      spdlog::warn(
+          "{}/{}: only {} of {} image pairs give their relative motion: the initial guess is "
+          "the GPS track's alone",
+          ctx.session->id(), pass.id, visual_init->visual_steps, visual_init->steps);
+    }
+  }
+  return initial;
+}
+
+// summary.json's "problem": what the joint 4D problem needs to rebuild this pass's graph from
+// the session's data (fuse_stage.h): the sensors, the GPS receiver and outages, and the priors.
+json ProblemJson(const SlamStageOptions& options, const SessionContext& ctx,
+                 const slam::CameraStream* camera, bool use_imu,
+                 const slam::RowOptimiser::Input& input, const std::vector<bool>& still,
+                 const slam::RowOptimiser::Summary& s) {
+  const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
+  const slam::ImuStream& imu = *ctx.streams.imu;
+  json problem;
+  problem["camera"] = camera != nullptr ? camera->sensor.name : "";
+  problem["imu"] = use_imu ? imu.sensor.name : "";
+  problem["use_imu"] = use_imu;
+  problem["level_up_body"] = input.level_up_body
+                                 ? json::array({input.level_up_body->x(), input.level_up_body->y(),
+                                                input.level_up_body->z()})
+                                 : json();
+  problem["gps"] = info.gps ? ctx.factor_gps_name : "";
+  json outages = json::array();
+  for (const GpsOutage& g : options.gps_outages) outages.push_back({g.start_s, g.duration_s});
+  problem["gps_outages"] = outages;
+  problem["imu_noise_factor"] = ctx.imu_noise_factor;
+  problem["anchor_state"] = input.anchor_state;
+  problem["anchor_sigma_velocity"] =
+      input.anchor_sigma_velocity ? json(*input.anchor_sigma_velocity) : json();
+  // The standstills as [first, last) state index ranges.
+  json still_ranges = json::array();
+  for (std::size_t k = 0; k < still.size(); ++k) {
+    if (!still[k]) continue;
+    if (!still_ranges.empty() && still_ranges.back()[1].get<std::size_t>() == k) {
+      still_ranges.back()[1] = k + 1;
+    } else {
+      still_ranges.push_back({k, k + 1});
+    }
+  }
+  problem["still_intervals"] = still_ranges;
+  problem["forward_axis_body"] =
+      input.forward_axis_body
+          ? json::array({input.forward_axis_body->x(), input.forward_axis_body->y(),
+                         input.forward_axis_body->z()})
+          : json();
+  problem["bias_prior_mean"] = std::vector<double>(
+      input.bias_prior_mean.data(), input.bias_prior_mean.data() + input.bias_prior_mean.size());
+  problem["bias_prior_sigma"] = input.bias_prior_sigma
+                                    ? json(std::vector<double>(input.bias_prior_sigma->data(),
+                                                               input.bias_prior_sigma->data() + 6))
+                                    : json();
+  // The length the camera-height step held the pass at (null: none).
+  problem["length_prior"] = s.length_prior_m > 0 ? json{{"length_m", s.length_prior_m},
+                                                        {"sigma_m", s.length_prior_sigma_m}}
+                                                 : json();
+  return problem;
+}
+
+// summary.json's "back_end": the row optimiser's counts, fit and cost.
+json BackEndJson(const slam::RowOptimiser::Summary& s) {
+  return {{"imu_factors", s.num_imu_factors},
+          {"imu_gaps", s.num_imu_gaps},
+          {"gps_factors", s.num_gps_factors},
+          {"still_intervals", s.num_still_intervals},
+          {"gps_normalised_rms", s.gps_normalised_rms},
+          {"gps_normalised_rms_horizontal", s.gps_normalised_rms_horizontal},
+          {"tracks", s.num_tracks},
+          {"landmarks_triangulated", s.num_landmarks_triangulated},
+          {"landmarks", s.num_landmarks_final},
+          {"observations", s.num_observations},
+          {"rejected_observations", s.num_rejected_observations},
+          {"reprojection_rms_px", s.reprojection_rms_px},
+          {"initial_cost", s.initial_cost},
+          {"final_cost", s.final_cost},
+          {"iterations", s.iterations},
+          {"converged", s.converged}};
+}
+
 PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const slam::RowPass& pass,
                     const std::string& folder, const std::string& fingerprint,
                     const json& options_json, const std::vector<Timestamp>& times) {
@@ -486,46 +662,14 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   summary["options"] = options_json;
 
   // Front end.
-  features::FrontEnd::Result front;
-  std::vector<slam::LandmarkTrack> tracks;
   const slam::CameraStream* camera = info.camera ? &*ctx.streams.camera : nullptr;
-  double front_end_seconds = 0;
+  PassFrontEnd front_end;
   if (camera != nullptr) {
-    auto start = Clock::now();
-    features::FrontEnd::Options fe = options.front_end;
-    fe.cache_path = (fs::path(folder) / "features.bin").string();
-    fe.show_progress = options.show_progress;
-    const features::FrontEnd front_end(fe, &camera->sensor.camera);
-    std::vector<std::string> keys;
-    std::vector<std::string> paths;
-    for (const io::ImageEntry& e : camera->images) {
-      if (e.t < times.front() || e.t > times.back()) continue;
-      keys.push_back(std::to_string(e.t));
-      paths.push_back(ctx.session->ImagePath(camera->sensor.name, e.filename));
-    }
-    front =
-        front_end.Run(keys, [&](std::size_t i) { return cv::imread(paths[i], cv::IMREAD_COLOR); });
-    if (front.summary.num_images_unreadable > 0) {
-      spdlog::warn(
-          "{}/{}: {} images could not be read (no features; the IMU and GPS carry the "
-          "states there)",
-          ctx.session->id(), pass.id, front.summary.num_images_unreadable);
-    }
-    for (const features::Track& track : front.tracks) {
-      tracks.push_back(ToLandmarkTrack(track, front.features));
-    }
-    front_end_seconds = SecondsSince(start);
-    summary["front_end"] = {{"images", front.summary.num_images},
-                            {"images_from_cache", front.summary.num_images_from_cache},
-                            {"images_unreadable", front.summary.num_images_unreadable},
-                            {"features", front.summary.num_features},
-                            {"pairs", front.summary.num_pairs},
-                            {"verified_pairs", front.summary.num_verified_pairs},
-                            {"inlier_matches", front.summary.num_inlier_matches},
-                            {"tracks", front.summary.tracks.num_tracks},
-                            {"landmarks", front.summary.num_landmarks},
-                            {"seconds", front_end_seconds}};
+    front_end = RunFrontEnd(options, ctx, *camera, pass, folder, times, &summary);
   }
+  const features::FrontEnd::Result& front = front_end.front;
+  const std::vector<slam::LandmarkTrack>& tracks = front_end.tracks;
+  const double front_end_seconds = front_end.seconds;
 
   // Every track of two or more images: the output cloud, and the soil's depth for the camera
   // height.
@@ -548,46 +692,10 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   // Initial states.
   auto start = Clock::now();
   slam::StateInitialiser::Summary init_summary;
-  std::vector<slam::RowState> initial;
   int anchor_state = 0;
-  if (info.gps && !ctx.session_states.empty()) {
-    // The session solution interpolated at the state times.
-    for (Timestamp t : times) initial.push_back(slam::InterpolateState(ctx.session_states, t));
-    init_summary.forward_axis_body = ctx.initialiser->forward_axis();
-  } else if (info.gps) {
-    initial = ctx.initialiser->Initialise(times, ctx.factor_antenna, &init_summary);
-  } else if (!ctx.has_best_gps) {
-    // No GPS at all: the local level frame of the first state (docs/slam.md, "Without GPS"), at
-    // rest when the pass starts with a standstill; else its velocity is left to the camera and
-    // the IMU.
-    initial =
-        ctx.initialiser->InitialiseFromAnchor(ctx.initialiser->LocalLevelState(times[0]), times);
-  } else {
-    // cam+imu: the best GPS only anchors the pass at one instant, its middle, where the motion
-    // is steady (the gauge: position, heading and velocity from a ±2 s line fit); nothing else.
-    anchor_state = static_cast<int>(times.size() / 2);
-    const slam::StateInitialiser::Options anchor_options =
-        slam::AnchorInitialisation(options.initialisation);
-    slam::StateInitialiser anchor_initialiser(anchor_options, *ctx.streams.imu, &ctx.best_gps);
-    anchor_initialiser.set_forward_axis(ctx.initialiser->forward_axis());
-    const std::vector<slam::RowState> anchor = anchor_initialiser.Initialise(
-        {times[anchor_state]}, ctx.best_gps.sensor.antenna_in_body, &init_summary);
-    initial = anchor_initialiser.InitialiseFromAnchor(anchor.front(), times);
-  }
   slam::VisualInitialisationSummary visual_init;
-  if (info.gps && ctx.streams.imu->samples.empty() && camera != nullptr) {
-    // Without an IMU the GPS track alone gave the guess: the images give its rotations and shape
-    // (slam/visual_initialisation.h), from every track of two or more images.
-    initial = slam::VisualInitialGuess(initial, camera->sensor.camera,
-                                       camera->sensor.body_from_sensor, pair_tracks, kLevelUpBody,
-                                       options.visual_initialisation, &visual_init);
-    if (!visual_init.applied) {
-      spdlog::warn(
-          "{}/{}: only {} of {} image pairs give their relative motion: the initial guess is "
-          "the GPS track's alone",
-          ctx.session->id(), pass.id, visual_init.visual_steps, visual_init.steps);
-    }
-  }
+  const std::vector<slam::RowState> initial = InitialStates(
+      options, ctx, pass, times, camera, pair_tracks, &init_summary, &anchor_state, &visual_init);
   const double init_seconds = SecondsSince(start);
   {
     // The initial guess, for diagnosis (same frame as poses.tum).
@@ -717,53 +825,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   }
   const slam::RowOptimiser::Result result = optimiser.Solve(input);
   const slam::RowOptimiser::Summary& s = result.summary;
-  {
-    // What the joint 4D problem needs to rebuild this pass's graph from the session's data
-    // (fuse_stage.h): the sensors, the GPS receiver and outages, and the priors.
-    json problem;
-    problem["camera"] = camera != nullptr ? camera->sensor.name : "";
-    problem["imu"] = use_imu ? imu.sensor.name : "";
-    problem["use_imu"] = use_imu;
-    problem["level_up_body"] =
-        input.level_up_body ? json::array({input.level_up_body->x(), input.level_up_body->y(),
-                                           input.level_up_body->z()})
-                            : json();
-    problem["gps"] = info.gps ? ctx.factor_gps_name : "";
-    json outages = json::array();
-    for (const GpsOutage& g : options.gps_outages) outages.push_back({g.start_s, g.duration_s});
-    problem["gps_outages"] = outages;
-    problem["imu_noise_factor"] = ctx.imu_noise_factor;
-    problem["anchor_state"] = input.anchor_state;
-    problem["anchor_sigma_velocity"] =
-        input.anchor_sigma_velocity ? json(*input.anchor_sigma_velocity) : json();
-    // The standstills as [first, last) state index ranges.
-    json still_ranges = json::array();
-    for (std::size_t k = 0; k < still.size(); ++k) {
-      if (!still[k]) continue;
-      if (!still_ranges.empty() && still_ranges.back()[1].get<std::size_t>() == k) {
-        still_ranges.back()[1] = k + 1;
-      } else {
-        still_ranges.push_back({k, k + 1});
-      }
-    }
-    problem["still_intervals"] = still_ranges;
-    problem["forward_axis_body"] =
-        input.forward_axis_body
-            ? json::array({input.forward_axis_body->x(), input.forward_axis_body->y(),
-                           input.forward_axis_body->z()})
-            : json();
-    problem["bias_prior_mean"] = std::vector<double>(
-        input.bias_prior_mean.data(), input.bias_prior_mean.data() + input.bias_prior_mean.size());
-    problem["bias_prior_sigma"] =
-        input.bias_prior_sigma ? json(std::vector<double>(input.bias_prior_sigma->data(),
-                                                          input.bias_prior_sigma->data() + 6))
-                               : json();
-    // The length the camera-height step held the pass at (null: none).
-    problem["length_prior"] = s.length_prior_m > 0 ? json{{"length_m", s.length_prior_m},
-                                                          {"sigma_m", s.length_prior_sigma_m}}
-                                                   : json();
-    summary["problem"] = problem;
-  }
+  summary["problem"] = ProblemJson(options, ctx, camera, use_imu, input, still, s);
 
   // Outputs: poses, cloud, summary.
   start = Clock::now();
@@ -836,22 +898,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
       {"from_images", visual_init.applied},
       {"image_pairs_used", visual_init.visual_steps},
       {"heading_change_deg", visual_init.heading_change_deg}};
-  summary["back_end"] = {{"imu_factors", s.num_imu_factors},
-                         {"imu_gaps", s.num_imu_gaps},
-                         {"gps_factors", s.num_gps_factors},
-                         {"still_intervals", s.num_still_intervals},
-                         {"gps_normalised_rms", s.gps_normalised_rms},
-                         {"gps_normalised_rms_horizontal", s.gps_normalised_rms_horizontal},
-                         {"tracks", s.num_tracks},
-                         {"landmarks_triangulated", s.num_landmarks_triangulated},
-                         {"landmarks", s.num_landmarks_final},
-                         {"observations", s.num_observations},
-                         {"rejected_observations", s.num_rejected_observations},
-                         {"reprojection_rms_px", s.reprojection_rms_px},
-                         {"initial_cost", s.initial_cost},
-                         {"final_cost", s.final_cost},
-                         {"iterations", s.iterations},
-                         {"converged", s.converged}};
+  summary["back_end"] = BackEndJson(s);
   if (input.camera_height_m) {
     // The soil's depth below the camera before the rescale, and the scale it set (1: too few
     // soil landmarks to measure it).

@@ -15,6 +15,7 @@
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/standstill.h"
 #include "crop4d/slam/tilt_prior_factor.h"
+#include "crop4d/slam/time_offset_reprojection_factor.h"
 
 namespace crop4d::slam {
 namespace {
@@ -254,20 +255,55 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
                                      std::vector<Eigen::Vector3d>* landmarks,
                                      const std::vector<int>& tracks,
                                      const std::vector<std::vector<bool>>& keep) const {
+  const bool time_offset = estimates_time_offset() && !landmarks->empty();
+  if (time_offset) {
+    problem->AddParameterBlock(&time_offset_s_, 1);
+    problem->SetParameterLowerBound(&time_offset_s_, 0, -options_.max_abs_time_offset_s);
+    problem->SetParameterUpperBound(&time_offset_s_, 0, options_.max_abs_time_offset_s);
+    problem->AddResidualBlock(
+        new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / options_.time_offset_prior_sigma_s),
+                               Eigen::Matrix<double, 1, 1>::Zero()),
+        nullptr, &time_offset_s_);
+  }
   std::int64_t count = 0;
   for (std::size_t l = 0; l < landmarks->size(); ++l) {
     const LandmarkTrack& track = input_.tracks[tracks[l]];
     for (std::size_t o = 0; o < track.observations.size(); ++o) {
       if (!keep[l][o]) continue;
       const LandmarkObservation& obs = track.observations[o];
-      problem->AddResidualBlock(
-          ReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,
-                                     options_.reprojection_sigma_px),
-          reprojection_loss_.get(), blocks_[obs.state].pose, (*landmarks)[l].data());
+      StateBlocks& b = blocks_[obs.state];
+      if (time_offset) {
+        problem->AddResidualBlock(
+            TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera,
+                                                 obs.pixel, options_.reprojection_sigma_px),
+            reprojection_loss_.get(), b.pose, b.vel, b.rate, (*landmarks)[l].data(),
+            &time_offset_s_);
+      } else {
+        problem->AddResidualBlock(
+            ReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,
+                                       options_.reprojection_sigma_px),
+            reprojection_loss_.get(), b.pose, (*landmarks)[l].data());
+      }
       ++count;
     }
   }
   return count;
+}
+
+geometry::Rigid3 PassGraph::BodyAtCapture(std::size_t k) const {
+  const StateBlocks& b = blocks_[k];
+  if (!estimates_time_offset()) return BlockToPose(b.pose);
+  return slam::BodyAtCapture(BlockToPose(b.pose), Eigen::Map<const Eigen::Vector3d>(b.vel),
+                             Eigen::Map<const Eigen::Vector3d>(b.rate), time_offset_s_);
+}
+
+std::vector<geometry::Rigid3> PassGraph::CapturePoses() const {
+  std::vector<geometry::Rigid3> poses;
+  poses.reserve(blocks_.size());
+  for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    poses.push_back(BodyAtCapture(k) * input_.body_from_camera);
+  }
+  return poses;
 }
 
 ceres::Problem::Options ProblemOptions() {

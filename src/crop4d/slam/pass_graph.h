@@ -46,13 +46,28 @@ class PassGraph {
   // States, motion factors (IMU, bias walk, rate, GP prior), GPS and the priors.
   void AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summary) const;
   // Reprojection factors of the landmarks (landmark l is Input::tracks[tracks[l]]; observations
-  // with keep[l][o] true); returns their number.
+  // with keep[l][o] true); returns their number. With estimates_time_offset(): the factors of
+  // time_offset_reprojection_factor.h on the pass's time offset, its prior and its bounds.
   std::int64_t AddLandmarks(ceres::Problem* problem, std::vector<Eigen::Vector3d>* landmarks,
                             const std::vector<int>& tracks,
                             const std::vector<std::vector<bool>>& keep) const;
   // The GPS residuals at the current states, whitened (error / σ: east, north, up), one per fix
   // inside the states' span: how well the solve fits the fixes' stated sigmas.
   std::vector<Eigen::Vector3d> GpsNormalisedResiduals() const;
+  // True when the reprojection factors estimate the camera–IMU time offset
+  // (Options::estimate_time_offset, with a camera).
+  bool estimates_time_offset() const {
+    return options_.estimate_time_offset && input_.camera != nullptr;
+  }
+  // The pass's time offset td (capture instant = image stamp + td), s: its parameter block (one
+  // double, owned by the graph) and its value; 0 unless estimates_time_offset().
+  double* time_offset_block() const { return &time_offset_s_; }
+  double time_offset_s() const { return time_offset_s_; }
+  // world_from_body of state k at its capture instant (time_offset_reprojection_factor.h), and
+  // world_from_camera of every state there: the poses the reprojection factors use. Without
+  // the time offset: the states' poses.
+  geometry::Rigid3 BodyAtCapture(std::size_t k) const;
+  std::vector<geometry::Rigid3> CapturePoses() const;
   // The robust loss of the reprojection factors (owned by the graph).
   ceres::LossFunction* reprojection_loss() const { return reprojection_loss_.get(); }
 
@@ -70,6 +85,8 @@ class PassGraph {
   std::vector<std::optional<ImuPreintegration>> preintegrations_;
   std::unique_ptr<ceres::LossFunction> reprojection_loss_, gps_loss_;
   mutable PoseManifold pose_manifold_;
+  // Ceres writes the estimate here (a parameter block, as the state blocks are).
+  mutable double time_offset_s_ = 0.0;
 };
 
 // Problem options for graphs whose manifolds and losses the PassGraph owns.

@@ -1,6 +1,7 @@
 #include "crop4d/slam/row_optimiser.h"
 
 #include <ceres/ceres.h>
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
 
@@ -29,7 +30,7 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
                        const std::vector<int>& tracks, const std::vector<std::vector<bool>>& masks,
                        PassGraph* builder, std::vector<StateBlocks>* blocks,
                        std::vector<Eigen::Vector3d>* landmarks, RowOptimiser::Summary* summary) {
-  const std::vector<geometry::Rigid3> cameras = CameraPoses(*blocks, input.body_from_camera);
+  const std::vector<geometry::Rigid3> cameras = builder->CapturePoses();
   std::vector<Eigen::Vector3d> centres;
   for (const geometry::Rigid3& c : cameras) centres.push_back(c.translation());
   std::vector<TriangulationResult> tri(input.depth_tracks.size());
@@ -96,21 +97,49 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
   summary->converged = s.termination_type == ceres::CONVERGENCE;
 }
 
-}  // namespace
-
-bool RowOptimiser::Options::Check() const {
-  return reprojection_sigma_px > 0 && reprojection_loss_scale > 0 &&
-         max_reprojection_error_px > 0 && min_observations >= 2 && max_outliers_per_track >= 0 &&
-         triangulation.Check() && gps_loss_scale > 0 && gp.Check() && bias_prior_sigma_gyro > 0 &&
-         bias_prior_sigma_accel > 0 && level_prior_sigma_rad > 0 && anchor_sigma_position > 0 &&
-         anchor_sigma_rotation > 0 && anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 &&
-         max_imu_gap_s > 0 && max_iterations > 0 && max_linear_iterations > 0 &&
-         function_tolerance > 0 && function_tolerance < 1 && num_threads >= 0 &&
-         camera_height.Check() && standstill.Check();
+// The standard deviation of the pass's time offset from the covariance of the solved problem
+// (ceres::Covariance of its one-dimensional block); 0 when the covariance is not defined.
+double TimeOffsetSigma(const RowOptimiser::Options& options, ceres::Problem* problem,
+                       const PassGraph& builder) {
+  ceres::Covariance::Options co;
+  co.num_threads = options.num_threads > 0 ? options.num_threads
+                                           : static_cast<int>(std::thread::hardware_concurrency());
+  ceres::Covariance covariance(co);
+  const double* td = builder.time_offset_block();
+  if (!covariance.Compute({{td, td}}, problem)) return 0.0;
+  double variance = 0;
+  if (!covariance.GetCovarianceBlock(td, td, &variance) || !(variance >= 0)) return 0.0;
+  return std::sqrt(variance);
 }
 
+}  // namespace
+
+std::string RowOptimiser::Options::Error() const {
+  if (!(time_offset_prior_sigma_s > 0)) {
+    return fmt::format("time_offset_prior_sigma_s must be > 0 s (got {})",
+                       time_offset_prior_sigma_s);
+  }
+  // Beyond a second the first-order prediction of the pose from its state is meaningless.
+  if (!(max_abs_time_offset_s > 0 && max_abs_time_offset_s <= 1.0)) {
+    return fmt::format("max_abs_time_offset_s must be in (0, 1] s (got {})",
+                       max_abs_time_offset_s);
+  }
+  const bool ok =
+      reprojection_sigma_px > 0 && reprojection_loss_scale > 0 && max_reprojection_error_px > 0 &&
+      min_observations >= 2 && max_outliers_per_track >= 0 && triangulation.Check() &&
+      gps_loss_scale > 0 && gp.Check() && bias_prior_sigma_gyro > 0 && bias_prior_sigma_accel > 0 &&
+      level_prior_sigma_rad > 0 && anchor_sigma_position > 0 && anchor_sigma_rotation > 0 &&
+      anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 && max_imu_gap_s > 0 &&
+      max_iterations > 0 && max_linear_iterations > 0 && function_tolerance > 0 &&
+      function_tolerance < 1 && num_threads >= 0 && camera_height.Check() && standstill.Check();
+  return ok ? std::string() : std::string("invalid options");
+}
+
+bool RowOptimiser::Options::Check() const { return Error().empty(); }
+
 RowOptimiser::RowOptimiser(Options options) : options_(std::move(options)) {
-  if (!options_.Check()) throw std::invalid_argument("RowOptimiser: invalid options");
+  const std::string error = options_.Error();
+  if (!error.empty()) throw std::invalid_argument("RowOptimiser: " + error);
 }
 
 RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
@@ -166,7 +195,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
   if (use_camera) {
     // Phase 2: landmarks from the current poses, then the full problem.
     start = Clock::now();
-    std::vector<geometry::Rigid3> cameras = CameraPoses(blocks, input.body_from_camera);
+    std::vector<geometry::Rigid3> cameras = builder.CapturePoses();
     std::vector<Eigen::Vector3d> landmarks;
     std::vector<int> tracks;
     std::vector<std::vector<bool>> keep;
@@ -207,7 +236,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
 
     // Phase 3: reject, re-preintegrate, final solve.
     start = Clock::now();
-    cameras = CameraPoses(blocks, input.body_from_camera);
+    cameras = builder.CapturePoses();
     std::vector<Eigen::Vector3d> kept_landmarks;
     std::vector<int> kept_tracks;
     std::vector<std::vector<bool>> kept_masks;
@@ -220,7 +249,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
         const LandmarkObservation& obs = track.observations[o];
         const double error =
             ReprojectionError(*input.camera, input.body_from_camera,
-                              BlockToPose(blocks[obs.state].pose), landmarks[l], obs.pixel);
+                              builder.BodyAtCapture(obs.state), landmarks[l], obs.pixel);
         mask[o] = error <= options_.max_reprojection_error_px;
         good += mask[o] ? 1 : 0;
         summary.num_rejected_observations += mask[o] ? 0 : 1;
@@ -243,6 +272,9 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
       summary.final_cost = s.final_cost;
       summary.iterations += static_cast<int>(s.iterations.size());
       summary.converged = s.termination_type == ceres::CONVERGENCE;
+      if (builder.estimates_time_offset() && problem.HasParameterBlock(builder.time_offset_block())) {
+        summary.time_offset_sigma_s = TimeOffsetSigma(options_, &problem, builder);
+      }
     }
     if (input.camera_height_m) {
       ApplyCameraHeight(options_, input, kept_tracks, kept_masks, &builder, &blocks,
@@ -257,7 +289,7 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
         const LandmarkObservation& obs = track.observations[o];
         const double e =
             ReprojectionError(*input.camera, input.body_from_camera,
-                              BlockToPose(blocks[obs.state].pose), kept_landmarks[l], obs.pixel);
+                              builder.BodyAtCapture(obs.state), kept_landmarks[l], obs.pixel);
         if (std::isfinite(e)) {
           sum_sq += e * e;
           ++count;
@@ -272,6 +304,10 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
     result.landmark_observations_kept = std::move(kept_masks);
   }
 
+  if (builder.estimates_time_offset() && summary.num_observations > 0) {
+    summary.time_offset_estimated = true;
+    summary.time_offset_s = builder.time_offset_s();
+  }
   if (builder.has_gps()) {
     double all = 0, horizontal = 0;
     const std::vector<Eigen::Vector3d> residuals = builder.GpsNormalisedResiduals();

@@ -113,8 +113,20 @@ class RowOptimiser {
     int num_threads = 0;
     // How the soil's depth below the camera is measured and trusted (Input::camera_height_m).
     CameraHeightOptions camera_height;
+    // Estimate the camera–IMU time offset td of the pass (capture instant = image stamp + td, s):
+    // one parameter per pass, each reprojection predicted from its state to the capture instant
+    // (time_offset_reprojection_factor.h). Off: the stamps are taken as the capture instants.
+    bool estimate_time_offset = false;
+    // Zero-mean prior on td, s: keeps it defined when nothing observes it (a standstill, a
+    // straight pass at constant speed).
+    double time_offset_prior_sigma_s = 0.05;
+    // td is bounded to [−max, +max], s: the first-order prediction from the state at the stamp
+    // holds only over a short time.
+    double max_abs_time_offset_s = 0.2;
 
     bool Check() const;
+    // Empty when the options are valid, otherwise the first invalid option and why.
+    std::string Error() const;
   };
 
   struct Input {
@@ -210,6 +222,12 @@ class RowOptimiser {
     // The length the pass was held at after the rescale and its standard deviation, m (0: none).
     double length_prior_m = 0;
     double length_prior_sigma_m = 0;
+    // With Options::estimate_time_offset and a camera: the estimated camera–IMU time offset td
+    // (capture instant = image stamp + td) and its standard deviation from the final solve's
+    // covariance (0 when it could not be computed), s.
+    bool time_offset_estimated = false;
+    double time_offset_s = 0;
+    double time_offset_sigma_s = 0;
   };
 
   struct Result {

@@ -1,0 +1,95 @@
+#include "crop4d/slam/time_offset_reprojection_factor.h"
+
+#include <Eigen/Geometry>
+#include <stdexcept>
+
+#include "crop4d/geometry/rotation.h"
+#include "crop4d/slam/state_layout.h"
+
+namespace crop4d::slam {
+namespace {
+constexpr double kMinDepth = 1e-6;
+}  // namespace
+
+TimeOffsetReprojectionFactor::TimeOffsetReprojectionFactor(
+    const geometry::PinholeRadTan& camera, const geometry::Rigid3& body_from_camera,
+    const Eigen::Vector2d& pixel, double sigma_px)
+    : camera_(camera), pixel_(pixel) {
+  if (!camera.Check() || !(sigma_px > 0.0)) {
+    throw std::invalid_argument("TimeOffsetReprojectionFactor: invalid camera or sigma");
+  }
+  const geometry::Rigid3 camera_from_body = body_from_camera.Inverse();
+  camera_from_body_rotation_ = camera_from_body.RotationMatrix();
+  camera_from_body_translation_ = camera_from_body.translation();
+  inv_sigma_ = 1.0 / sigma_px;
+}
+
+ceres::CostFunction* TimeOffsetReprojectionFactor::Create(const geometry::PinholeRadTan& camera,
+                                                          const geometry::Rigid3& body_from_camera,
+                                                          const Eigen::Vector2d& pixel,
+                                                          double sigma_px) {
+  return new TimeOffsetReprojectionFactor(camera, body_from_camera, pixel, sigma_px);
+}
+
+bool TimeOffsetReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
+                                            double** jacobians) const {
+  const Eigen::Map<const Eigen::Vector3d> p(parameters[0]);
+  const Eigen::Map<const Eigen::Quaterniond> q(parameters[0] + 3);
+  const Eigen::Map<const Eigen::Vector3d> v(parameters[1]);
+  const Eigen::Map<const Eigen::Vector3d> w(parameters[2]);
+  const Eigen::Map<const Eigen::Vector3d> point_world(parameters[3]);
+  const double td = parameters[4][0];
+  const Eigen::Matrix3d Rt = q.normalized().toRotationMatrix().transpose();
+  const Eigen::Matrix3d Et = geometry::ExpSO3(w * td).transpose();
+  const Eigen::Vector3d a = Rt * (point_world - p - v * td);
+  const Eigen::Vector3d point_body = Et * a;
+  const Eigen::Vector3d point_camera =
+      camera_from_body_rotation_ * point_body + camera_from_body_translation_;
+  const double z = point_camera.z();
+  if (!(z > kMinDepth)) return false;
+  const Eigen::Vector2d xy(point_camera.x() / z, point_camera.y() / z);
+  const Eigen::Vector2d xy_d = camera_.Distort(xy);
+  const Eigen::Vector2d uv(camera_.fx * xy_d.x() + camera_.cx, camera_.fy * xy_d.y() + camera_.cy);
+  (Eigen::Map<Eigen::Vector2d>(residuals)) = inv_sigma_ * (uv - pixel_);
+  if (jacobians == nullptr) return true;
+
+  Eigen::Matrix<double, 2, 3> d_xy_d_pc;
+  d_xy_d_pc << 1.0 / z, 0.0, -xy.x() / z, 0.0, 1.0 / z, -xy.y() / z;
+  // ∂r/∂X_b (X_c = R_cb X_b + t_cb).
+  const Eigen::Matrix<double, 2, 3> d_r_d_pb =
+      inv_sigma_ * Eigen::Vector2d(camera_.fx, camera_.fy).asDiagonal() *
+      camera_.DistortJacobian(xy) * d_xy_d_pc * camera_from_body_rotation_;
+  const Eigen::Matrix3d EtRt = Et * Rt;
+  const Eigen::Matrix3d Et_hat_a = Et * geometry::Hat(a);
+  if (jacobians[0] != nullptr) {
+    Eigen::Matrix<double, 3, 6> d_pb_d_pose;
+    d_pb_d_pose.leftCols<3>() = -EtRt;
+    d_pb_d_pose.rightCols<3>() = Et_hat_a;
+    const Eigen::Matrix<double, 2, 6> J = d_r_d_pb * d_pb_d_pose;
+    WritePoseJacobian<2>(J, parameters[0], jacobians[0]);
+  }
+  if (jacobians[1] != nullptr) {
+    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[1])) =
+        -td * d_r_d_pb * EtRt;
+  }
+  if (jacobians[2] != nullptr) {
+    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[2])) =
+        td * d_r_d_pb * Et_hat_a * geometry::RightJacobianSO3(-w * td);
+  }
+  if (jacobians[3] != nullptr) {
+    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[3])) = d_r_d_pb * EtRt;
+  }
+  if (jacobians[4] != nullptr) {
+    (Eigen::Map<Eigen::Vector2d>(jacobians[4])) = d_r_d_pb * (Et_hat_a * w - EtRt * v);
+  }
+  return true;
+}
+
+geometry::Rigid3 BodyAtCapture(const geometry::Rigid3& world_from_body,
+                               const Eigen::Vector3d& vel_world, const Eigen::Vector3d& rate_body,
+                               double td) {
+  return geometry::Rigid3(world_from_body.rotation() * geometry::ExpQuat(rate_body * td),
+                          world_from_body.translation() + vel_world * td);
+}
+
+}  // namespace crop4d::slam

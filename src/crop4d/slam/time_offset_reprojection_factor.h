@@ -1,0 +1,52 @@
+#pragma once
+
+// Reprojection factor with the camera–IMU time offset td (seconds; capture instant = image stamp
+// + td, the convention of VINS-Mono and OpenVINS): the landmark is projected from the body pose
+// at the capture instant, predicted to first order from the state at the stamp (state_layout.h:
+// velocity in the world frame, angular rate in the body frame):
+//   R' = R Exp(ω td),   p' = p + v td.
+// Parameter blocks: pose[7], vel[3], rate[3] of the state, point_world[3], td[1]. Camera model
+// and residual as ReprojectionFactor (reprojection_factor.h); with td = 0 the two agree.
+//
+//   a    = Rᵀ (X − p − v td)                     (point in the body frame of the stamp)
+//   X_b  = Eᵀ a,  E = Exp(ω td)                   (point in the body frame of the capture)
+//   X_c  = R_cb X_b + t_cb
+// Jacobians of X_b (R ← R Exp(δφ), p ← p + δp; J = Jr(−ω td)):
+//   ∂/∂δp = −Eᵀ Rᵀ,   ∂/∂δφ = Eᵀ [a]×,   ∂/∂v = −td Eᵀ Rᵀ,   ∂/∂X = Eᵀ Rᵀ,
+//   ∂/∂ω = td Eᵀ [a]× J,   ∂/∂td = Eᵀ ([a]× ω − Rᵀ v)   (J ω = ω since ω ∥ ω td).
+
+#include <ceres/sized_cost_function.h>
+
+#include <Eigen/Core>
+
+#include "crop4d/geometry/camera.h"
+#include "crop4d/geometry/rigid.h"
+
+namespace crop4d::slam {
+
+class TimeOffsetReprojectionFactor final : public ceres::SizedCostFunction<2, 7, 3, 3, 3, 1> {
+ public:
+  TimeOffsetReprojectionFactor(const geometry::PinholeRadTan& camera,
+                               const geometry::Rigid3& body_from_camera,
+                               const Eigen::Vector2d& pixel, double sigma_px);
+  static ceres::CostFunction* Create(const geometry::PinholeRadTan& camera,
+                                     const geometry::Rigid3& body_from_camera,
+                                     const Eigen::Vector2d& pixel, double sigma_px = 1.0);
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  geometry::PinholeRadTan camera_;
+  Eigen::Matrix3d camera_from_body_rotation_;
+  Eigen::Vector3d camera_from_body_translation_;
+  Eigen::Vector2d pixel_;
+  double inv_sigma_;
+};
+
+// world_from_body at stamp + td, predicted from the state at the stamp as above.
+geometry::Rigid3 BodyAtCapture(const geometry::Rigid3& world_from_body,
+                               const Eigen::Vector3d& vel_world, const Eigen::Vector3d& rate_body,
+                               double td);
+
+}  // namespace crop4d::slam

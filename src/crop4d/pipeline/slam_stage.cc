@@ -111,6 +111,9 @@ constexpr int kSlamStageRevision = 10;
 // vehicle's speed, i.e. no information.
 constexpr double kUnknownVelocitySigma = 2.0;
 
+// An IMU gap longer than this inside a pass is warned about, s: far longer than the sample
+// spacing (6 ms at 167 Hz), an outage rather than timing jitter.
+constexpr double kImuGapWarnSeconds = 0.5;
 // A pass with a GPS outage longer than this is flagged (its drift over the gap is the IMU's and
 // the camera's), s.
 constexpr double kGpsGapFlagSeconds = 2.0;
@@ -644,6 +647,186 @@ json BackEndJson(const slam::RowOptimiser::Summary& s) {
           {"converged", s.converged}};
 }
 
+// A camera pass's cloud (landmarks.ply: every track of two or more images triangulated from the
+// final poses) and the observations behind its landmarks and cloud points (tracks.bin, for
+// association and the joint 4D problem, pass_files.h). Returns the number of cloud points.
+int WritePassCloud(const SlamStageOptions& options, const SessionContext& ctx,
+                   const slam::RowPass& pass, const std::string& folder,
+                   const slam::CameraStream* camera, const features::FrontEnd::Result& front,
+                   const std::vector<slam::LandmarkTrack>& tracks,
+                   const std::vector<features::Track>& all_tracks,
+                   const std::vector<geometry::Rigid3>& cameras,
+                   const slam::RowOptimiser::Result& result, json* summary) {
+  // Every track of two or more images, triangulated from the final poses.
+  std::vector<slam::LandmarkTrack> cloud_tracks;
+  cloud_tracks.reserve(all_tracks.size());
+  for (const features::Track& t : all_tracks) {
+    cloud_tracks.push_back(ToLandmarkTrack(t, front.features));
+  }
+  const slam::TrackCloud track_cloud =
+      slam::TriangulateTrackCloud(camera->sensor.camera, cameras, cloud_tracks, options.cloud);
+  const io::PlyPointCloud cloud = ToPly(track_cloud);
+  // The observations behind the optimised landmarks and behind every cloud point, for
+  // association and the joint 4D problem (pass_files.h).
+  PassTracks pass_tracks;
+  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+    const features::Track& track = front.tracks[result.landmark_tracks[l]];
+    PassTrack t;
+    t.position_world = result.landmarks_world[l];
+    t.color = tracks[result.landmark_tracks[l]].color;
+    for (std::size_t o = 0; o < track.observations.size(); ++o) {
+      if (result.landmark_observations_kept[l][o]) t.observations.push_back(track.observations[o]);
+    }
+    pass_tracks.landmarks.push_back(std::move(t));
+  }
+  for (std::size_t k = 0; k < track_cloud.size(); ++k) {
+    pass_tracks.cloud.push_back({track_cloud.points_world[k], track_cloud.colors[k],
+                                 all_tracks[track_cloud.track_indices[k]].observations});
+  }
+  WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
+  io::PlyWriteOptions ply_options;
+  ply_options.comment =
+      "crop4d sparse cloud of " + ctx.session->id() + "/" + pass.id + ", field ENU frame (metres)";
+  io::WritePly((fs::path(folder) / "landmarks.ply").string(), cloud, ply_options);
+  (*summary)["cloud"] = {{"tracks", all_tracks.size()}, {"points", cloud.size()}};
+  return static_cast<int>(cloud.size());
+}
+
+// Gaps in the IMU samples (over 0.5 s) and in the GPS fixes (over kGpsGapFlagSeconds) inside
+// the pass: warnings, and the longest of each in summary.json (the session's grade reads them,
+// season_quality.h).
+void RecordSensorGaps(const SessionContext& ctx, const slam::RowPass& pass,
+                      const std::vector<Timestamp>& times, const slam::CameraStream* camera,
+                      bool use_imu, json* summary) {
+  const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
+  const slam::ImuStream& imu = *ctx.streams.imu;
+  if (use_imu) {
+    // An IMU outage inside the pass is bridged by the camera and the GP prior only: recorded
+    // for the session's grade (season_quality.h).
+    std::vector<Timestamp> imu_times;
+    imu_times.reserve(imu.samples.size());
+    for (const slam::ImuSample& sample : imu.samples) imu_times.push_back(sample.timestamp);
+    const Gaps gaps = FindGaps(imu_times, times.front(), times.back(), kImuGapWarnSeconds);
+    if (gaps.count_over > 0) {
+      spdlog::warn(
+          "{}/{}: {} gap(s) without IMU samples longer than {:.1f} s inside the pass, the "
+          "longest {:.1f} s",
+          ctx.session->id(), pass.id, gaps.count_over, kImuGapWarnSeconds, gaps.longest_s);
+    }
+    (*summary)["longest_imu_gap_s"] = gaps.longest_s;
+  }
+  if (info.gps) {
+    // Warn about GPS outages inside the pass (the IMU and the camera bridge them).
+    std::vector<Timestamp> fix_times;
+    fix_times.reserve(ctx.factor_fixes.size());
+    for (const slam::GpsFixWorld& fix : ctx.factor_fixes) fix_times.push_back(fix.t);
+    const Gaps gaps = FindGaps(fix_times, times.front(), times.back(), kGpsGapFlagSeconds);
+    if (gaps.count_over > 0) {
+      const char* bridge = !use_imu            ? "the camera and the GP prior bridge them"
+                           : camera != nullptr ? "the IMU and the camera bridge them"
+                                               : "the IMU bridges them";
+      spdlog::warn(
+          "{}/{}: {} gap(s) without a GPS fix longer than {:.0f} s inside the pass, the "
+          "longest {:.1f} s; {}",
+          ctx.session->id(), pass.id, gaps.count_over, kGpsGapFlagSeconds, gaps.longest_s, bridge);
+    }
+    (*summary)["longest_gps_gap_s"] = gaps.longest_s;
+    (*summary)["gps_gaps"] = gaps.count_over;
+  }
+}
+
+// The pass's standstills, one flag per interval between states (empty: detection off): from
+// the IMU, the image motion (a camera pass's front end, else null) and a precise GPS track;
+// their spans go to summary.json.
+std::vector<bool> PassStandstills(const SlamStageOptions& options, const SessionContext& ctx,
+                                  const slam::RowPass& pass, const std::vector<Timestamp>& times,
+                                  const features::FrontEnd::Result* front, json* summary) {
+  const bool precise_gps =
+      ctx.has_best_gps && MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m;
+  std::vector<bool> still = options.standstills
+                                ? DetectPassStandstills(times, *ctx.streams.imu, front,
+                                                        precise_gps ? &ctx.best_gps.fixes : nullptr,
+                                                        options.optimiser.standstill)
+                                : std::vector<bool>();
+  const std::vector<slam::TimeInterval> still_spans = slam::StillSpans(times, still);
+  {
+    json spans = json::array();
+    for (const slam::TimeInterval& span : still_spans) {
+      spans.push_back(
+          {DurationSeconds(times.front(), span.begin), DurationSeconds(times.front(), span.end)});
+    }
+    (*summary)["standstills_s"] = spans;
+    if (!still_spans.empty()) {
+      double total = 0;
+      for (const slam::TimeInterval& span : still_spans) total += span.seconds();
+      spdlog::info("{}/{}: standing still for {:.1f} s in {} standstill{}", ctx.session->id(),
+                   pass.id, total, still_spans.size(), still_spans.size() == 1 ? "" : "s");
+    }
+  }
+  return still;
+}
+
+// The pass's row-SLAM problem: the initial states and gauge, standstills, the camera's tracks,
+// the IMU (with the session's noise factor) or a level rig, the session's bias prior, the
+// camera height where nothing precise sets the scale, the motion constraint, the GPS fixes.
+slam::RowOptimiser::Input PassInput(const SlamStageOptions& options, const SessionContext& ctx,
+                                    const slam::RowPass& pass, const slam::CameraStream* camera,
+                                    const std::vector<slam::RowState>& initial, int anchor_state,
+                                    const std::vector<bool>& still,
+                                    const std::vector<slam::LandmarkTrack>& tracks,
+                                    std::vector<slam::LandmarkTrack> pair_tracks) {
+  const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
+  slam::RowOptimiser::Input input;
+  input.initial_states = initial;
+  input.anchor_state = anchor_state;
+  input.still_intervals = still;
+  if (!ctx.has_best_gps && !(still.empty() ? false : still.front())) {
+    // Without GPS a pass that starts moving has an unknown velocity.
+    input.anchor_sigma_velocity = kUnknownVelocitySigma;
+  }
+  if (camera != nullptr) {
+    input.camera = &camera->sensor.camera;
+    input.body_from_camera = camera->sensor.body_from_sensor;
+    input.tracks = tracks;
+  }
+  const slam::ImuStream& imu = *ctx.streams.imu;
+  const bool use_imu = !imu.samples.empty();
+  if (use_imu) {
+    input.imu_samples = &imu.samples;
+    input.imu_noise = slam::ImuNoise(imu.sensor, ctx.imu_noise_factor);
+    input.imu_rate_hz = imu.sensor.rate_hz;
+  } else {
+    input.level_up_body = kLevelUpBody;
+  }
+  if (!ctx.session_states.empty()) {
+    input.bias_prior_mean = initial.front().bias;
+    slam::Vector6d sigma;
+    sigma << Eigen::Vector3d::Constant(options.session_bias_sigma_gyro),
+        Eigen::Vector3d::Constant(options.session_bias_sigma_accel);
+    input.bias_prior_sigma = sigma;
+  }
+  // The camera height sets the scale only where nothing precise does: not with RTK factors, nor
+  // for `cam+imu` anchored by an RTK velocity (measured on the demo field: RPE 0.50 % without,
+  // 0.65 % with).
+  const bool precise_scale =
+      info.gps ? info.gps_kind == io::GpsKind::kRtk
+               : MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m;
+  const double camera_height = CameraHeight(options, ctx.streams);
+  if (camera_height > 0 && camera != nullptr && !precise_scale) {
+    input.camera_height_m = camera_height;
+    input.depth_tracks = std::move(pair_tracks);
+  }
+  if (options.motion_constraint && pass.row >= 0 && ctx.forward_axis_estimated) {
+    // A row pass is driven by a vehicle: the non-holonomic constraint holds.
+    input.forward_axis_body = ctx.initialiser->forward_axis();
+  }
+  if (info.gps) {
+    input.gps_fixes = ctx.factor_fixes;
+    input.p_body_antenna = ctx.factor_antenna;
+  }
+  return input;
+}
+
 PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const slam::RowPass& pass,
                     const std::string& folder, const std::string& fingerprint,
                     const json& options_json, const std::vector<Timestamp>& times) {
@@ -710,29 +893,8 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   }
 
   // Standstills: from the IMU, the image motion and a precise GPS track.
-  const bool precise_gps =
-      ctx.has_best_gps && MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m;
   const std::vector<bool> still =
-      options.standstills
-          ? DetectPassStandstills(times, *ctx.streams.imu, camera != nullptr ? &front : nullptr,
-                                  precise_gps ? &ctx.best_gps.fixes : nullptr,
-                                  options.optimiser.standstill)
-          : std::vector<bool>();
-  const std::vector<slam::TimeInterval> still_spans = slam::StillSpans(times, still);
-  {
-    json spans = json::array();
-    for (const slam::TimeInterval& span : still_spans) {
-      spans.push_back(
-          {DurationSeconds(times.front(), span.begin), DurationSeconds(times.front(), span.end)});
-    }
-    summary["standstills_s"] = spans;
-    if (!still_spans.empty()) {
-      double total = 0;
-      for (const slam::TimeInterval& span : still_spans) total += span.seconds();
-      spdlog::info("{}/{}: standing still for {:.1f} s in {} standstill{}", ctx.session->id(),
-                   pass.id, total, still_spans.size(), still_spans.size() == 1 ? "" : "s");
-    }
-  }
+      PassStandstills(options, ctx, pass, times, camera != nullptr ? &front : nullptr, &summary);
 
   // Back end.
   slam::RowOptimiser::Options op = options.optimiser;
@@ -744,85 +906,10 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
         std::max(op.camera_height.max_scale_change, kMaxScaleChangeWithoutImu);
   }
   const slam::RowOptimiser optimiser(op);
-  slam::RowOptimiser::Input input;
-  input.initial_states = initial;
-  input.anchor_state = anchor_state;
-  input.still_intervals = still;
-  if (!ctx.has_best_gps && !(still.empty() ? false : still.front())) {
-    // Without GPS a pass that starts moving has an unknown velocity.
-    input.anchor_sigma_velocity = kUnknownVelocitySigma;
-  }
-  if (camera != nullptr) {
-    input.camera = &camera->sensor.camera;
-    input.body_from_camera = camera->sensor.body_from_sensor;
-    input.tracks = tracks;
-  }
-  const slam::ImuStream& imu = *ctx.streams.imu;
-  const bool use_imu = !imu.samples.empty();
-  if (use_imu) {
-    input.imu_samples = &imu.samples;
-    input.imu_noise = slam::ImuNoise(imu.sensor, ctx.imu_noise_factor);
-    input.imu_rate_hz = imu.sensor.rate_hz;
-  } else {
-    input.level_up_body = kLevelUpBody;
-  }
-  if (!ctx.session_states.empty()) {
-    input.bias_prior_mean = initial.front().bias;
-    slam::Vector6d sigma;
-    sigma << Eigen::Vector3d::Constant(options.session_bias_sigma_gyro),
-        Eigen::Vector3d::Constant(options.session_bias_sigma_accel);
-    input.bias_prior_sigma = sigma;
-  }
-  // The camera height sets the scale only where nothing precise does: not with RTK factors, nor
-  // for `cam+imu` anchored by an RTK velocity (measured on the demo field: RPE 0.50 % without,
-  // 0.65 % with).
-  const bool precise_scale =
-      info.gps ? info.gps_kind == io::GpsKind::kRtk
-               : MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m;
-  const double camera_height = CameraHeight(options, ctx.streams);
-  if (camera_height > 0 && camera != nullptr && !precise_scale) {
-    input.camera_height_m = camera_height;
-    input.depth_tracks = std::move(pair_tracks);
-  }
-  if (options.motion_constraint && pass.row >= 0 && ctx.forward_axis_estimated) {
-    // A row pass is driven by a vehicle: the non-holonomic constraint holds.
-    input.forward_axis_body = ctx.initialiser->forward_axis();
-  }
-  if (use_imu) {
-    // An IMU outage inside the pass is bridged by the camera and the GP prior only: recorded
-    // for the session's grade (season_quality.h).
-    std::vector<Timestamp> imu_times;
-    imu_times.reserve(imu.samples.size());
-    for (const slam::ImuSample& sample : imu.samples) imu_times.push_back(sample.timestamp);
-    const Gaps gaps = FindGaps(imu_times, times.front(), times.back(), 0.5);
-    if (gaps.count_over > 0) {
-      spdlog::warn(
-          "{}/{}: {} gap(s) without IMU samples longer than 0.5 s inside the pass, the "
-          "longest {:.1f} s",
-          ctx.session->id(), pass.id, gaps.count_over, gaps.longest_s);
-    }
-    summary["longest_imu_gap_s"] = gaps.longest_s;
-  }
-  if (info.gps) {
-    // Warn about GPS outages inside the pass (the IMU and the camera bridge them).
-    std::vector<Timestamp> fix_times;
-    fix_times.reserve(ctx.factor_fixes.size());
-    for (const slam::GpsFixWorld& fix : ctx.factor_fixes) fix_times.push_back(fix.t);
-    const Gaps gaps = FindGaps(fix_times, times.front(), times.back(), kGpsGapFlagSeconds);
-    if (gaps.count_over > 0) {
-      const char* bridge = !use_imu            ? "the camera and the GP prior bridge them"
-                           : camera != nullptr ? "the IMU and the camera bridge them"
-                                               : "the IMU bridges them";
-      spdlog::warn(
-          "{}/{}: {} gap(s) without a GPS fix longer than {:.0f} s inside the pass, the "
-          "longest {:.1f} s; {}",
-          ctx.session->id(), pass.id, gaps.count_over, kGpsGapFlagSeconds, gaps.longest_s, bridge);
-    }
-    summary["longest_gps_gap_s"] = gaps.longest_s;
-    summary["gps_gaps"] = gaps.count_over;
-    input.gps_fixes = ctx.factor_fixes;
-    input.p_body_antenna = ctx.factor_antenna;
-  }
+  slam::RowOptimiser::Input input = PassInput(options, ctx, pass, camera, initial, anchor_state,
+                                              still, tracks, std::move(pair_tracks));
+  const bool use_imu = !ctx.streams.imu->samples.empty();
+  RecordSensorGaps(ctx, pass, times, camera, use_imu, &summary);
   const slam::RowOptimiser::Result result = optimiser.Solve(input);
   const slam::RowOptimiser::Summary& s = result.summary;
   summary["problem"] = ProblemJson(options, ctx, camera, use_imu, input, still, s);
@@ -850,40 +937,8 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   outcome.num_images = camera != nullptr ? front.summary.num_images : 0;
   outcome.num_landmarks = s.num_landmarks_final;
   if (camera != nullptr) {
-    // Every track of two or more images, triangulated from the final poses.
-    std::vector<slam::LandmarkTrack> cloud_tracks;
-    cloud_tracks.reserve(all_tracks.size());
-    for (const features::Track& t : all_tracks) {
-      cloud_tracks.push_back(ToLandmarkTrack(t, front.features));
-    }
-    const slam::TrackCloud track_cloud =
-        slam::TriangulateTrackCloud(camera->sensor.camera, cameras, cloud_tracks, options.cloud);
-    const io::PlyPointCloud cloud = ToPly(track_cloud);
-    // The observations behind the optimised landmarks and behind every cloud point, for
-    // association and the joint 4D problem (pass_files.h).
-    PassTracks pass_tracks;
-    for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-      const features::Track& track = front.tracks[result.landmark_tracks[l]];
-      PassTrack t;
-      t.position_world = result.landmarks_world[l];
-      t.color = tracks[result.landmark_tracks[l]].color;
-      for (std::size_t o = 0; o < track.observations.size(); ++o) {
-        if (result.landmark_observations_kept[l][o])
-          t.observations.push_back(track.observations[o]);
-      }
-      pass_tracks.landmarks.push_back(std::move(t));
-    }
-    for (std::size_t k = 0; k < track_cloud.size(); ++k) {
-      pass_tracks.cloud.push_back({track_cloud.points_world[k], track_cloud.colors[k],
-                                   all_tracks[track_cloud.track_indices[k]].observations});
-    }
-    WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
-    io::PlyWriteOptions ply_options;
-    ply_options.comment = "crop4d sparse cloud of " + ctx.session->id() + "/" + pass.id +
-                          ", field ENU frame (metres)";
-    io::WritePly((fs::path(folder) / "landmarks.ply").string(), cloud, ply_options);
-    outcome.num_cloud_points = static_cast<int>(cloud.size());
-    summary["cloud"] = {{"tracks", all_tracks.size()}, {"points", cloud.size()}};
+    outcome.num_cloud_points = WritePassCloud(options, ctx, pass, folder, camera, front, tracks,
+                                              all_tracks, cameras, result, &summary);
   }
   const double output_seconds = SecondsSince(start);
 

@@ -21,9 +21,9 @@ std::uint64_t ImageGroup(const PassFeature& f) {
 }  // namespace
 
 int CrossPassTracks::Node(int pass, int image, int feature) {
-  CROP4D_CHECK_MSG(pass >= 0 && image >= 0 && feature >= 0 && image < kFieldLimit &&
-                       feature < kFieldLimit,
-                   "CrossPassTracks: a pass, image or feature index out of range");
+  CROP4D_CHECK_MSG(
+      pass >= 0 && image >= 0 && feature >= 0 && image < kFieldLimit && feature < kFieldLimit,
+      "CrossPassTracks: a pass, image or feature index out of range");
   const std::uint64_t key = (static_cast<std::uint64_t>(pass) << (2 * kFieldBits)) |
                             (static_cast<std::uint64_t>(image) << kFieldBits) |
                             static_cast<std::uint64_t>(feature);

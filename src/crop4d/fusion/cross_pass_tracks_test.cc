@@ -90,8 +90,8 @@ TEST(CrossPassTracksTest, RandomGraphsGiveConsistentOrderFreeLandmarks) {
     for (int m = 0; m < 40; ++m) {
       const int pa = pass(rng);
       const int pb = (pa + 1 + pass(rng) % (kPasses - 1)) % kPasses;
-      matches.push_back({{pa, image(rng), feature(rng)}, {pb, image(rng), feature(rng)},
-                         static_cast<float>(m)});
+      matches.push_back(
+          {{pa, image(rng), feature(rng)}, {pb, image(rng), feature(rng)}, static_cast<float>(m)});
     }
     for (const M& m : matches) forward.AddCrossMatch(m.a, m.b, m.distance, {}, {});
     for (auto it = matches.rbegin(); it != matches.rend(); ++it) {

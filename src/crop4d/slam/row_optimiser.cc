@@ -97,21 +97,6 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
   summary->converged = s.termination_type == ceres::CONVERGENCE;
 }
 
-// The standard deviation of the pass's time offset from the covariance of the solved problem
-// (ceres::Covariance of its one-dimensional block); 0 when the covariance is not defined.
-double TimeOffsetSigma(const RowOptimiser::Options& options, ceres::Problem* problem,
-                       const PassGraph& builder) {
-  ceres::Covariance::Options co;
-  co.num_threads = options.num_threads > 0 ? options.num_threads
-                                           : static_cast<int>(std::thread::hardware_concurrency());
-  ceres::Covariance covariance(co);
-  const double* td = builder.time_offset_block();
-  if (!covariance.Compute({{td, td}}, problem)) return 0.0;
-  double variance = 0;
-  if (!covariance.GetCovarianceBlock(td, td, &variance) || !(variance >= 0)) return 0.0;
-  return std::sqrt(variance);
-}
-
 }  // namespace
 
 std::string RowOptimiser::Options::Error() const {
@@ -272,9 +257,6 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
       summary.final_cost = s.final_cost;
       summary.iterations += static_cast<int>(s.iterations.size());
       summary.converged = s.termination_type == ceres::CONVERGENCE;
-      if (builder.estimates_time_offset() && problem.HasParameterBlock(builder.time_offset_block())) {
-        summary.time_offset_sigma_s = TimeOffsetSigma(options_, &problem, builder);
-      }
     }
     if (input.camera_height_m) {
       ApplyCameraHeight(options_, input, kept_tracks, kept_masks, &builder, &blocks,

@@ -222,12 +222,10 @@ class RowOptimiser {
     // The length the pass was held at after the rescale and its standard deviation, m (0: none).
     double length_prior_m = 0;
     double length_prior_sigma_m = 0;
-    // With Options::estimate_time_offset and a camera: the estimated camera–IMU time offset td
-    // (capture instant = image stamp + td) and its standard deviation from the final solve's
-    // covariance (0 when it could not be computed), s.
+    // With Options::estimate_time_offset, a camera and landmarks: the estimated camera–IMU time
+    // offset td of the pass (capture instant = image stamp + td), s.
     bool time_offset_estimated = false;
     double time_offset_s = 0;
-    double time_offset_sigma_s = 0;
   };
 
   struct Result {

@@ -260,10 +260,10 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
     problem->AddParameterBlock(&time_offset_s_, 1);
     problem->SetParameterLowerBound(&time_offset_s_, 0, -options_.max_abs_time_offset_s);
     problem->SetParameterUpperBound(&time_offset_s_, 0, options_.max_abs_time_offset_s);
+    const Eigen::Matrix<double, 1, 1> information(1.0 / options_.time_offset_prior_sigma_s);
     problem->AddResidualBlock(
-        new ceres::NormalPrior(Eigen::Matrix<double, 1, 1>(1.0 / options_.time_offset_prior_sigma_s),
-                               Eigen::Matrix<double, 1, 1>::Zero()),
-        nullptr, &time_offset_s_);
+        new ceres::NormalPrior(information, Eigen::Matrix<double, 1, 1>::Zero()), nullptr,
+        &time_offset_s_);
   }
   std::int64_t count = 0;
   for (std::size_t l = 0; l < landmarks->size(); ++l) {
@@ -273,11 +273,16 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
       const LandmarkObservation& obs = track.observations[o];
       StateBlocks& b = blocks_[obs.state];
       if (time_offset) {
+        // The state's velocity and rate as they are when the problem is built: a factor on them
+        // too would couple them all through the landmarks' Schur complement, for an effect of
+        // order td · (their change) (time_offset_reprojection_factor.h).
+        TimeOffsetReprojectionFactor::FixedMotion motion;
+        motion.vel_world = Eigen::Map<const Eigen::Vector3d>(b.vel);
+        motion.rate_body = Eigen::Map<const Eigen::Vector3d>(b.rate);
         problem->AddResidualBlock(
             TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera,
-                                                 obs.pixel, options_.reprojection_sigma_px),
-            reprojection_loss_.get(), b.pose, b.vel, b.rate, (*landmarks)[l].data(),
-            &time_offset_s_);
+                                                 obs.pixel, options_.reprojection_sigma_px, motion),
+            reprojection_loss_.get(), b.pose, (*landmarks)[l].data(), &time_offset_s_);
       } else {
         problem->AddResidualBlock(
             ReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,

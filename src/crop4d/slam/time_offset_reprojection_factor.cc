@@ -1,7 +1,10 @@
 #include "crop4d/slam/time_offset_reprojection_factor.h"
 
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/slam/state_layout.h"
@@ -11,10 +14,12 @@ namespace {
 constexpr double kMinDepth = 1e-6;
 }  // namespace
 
-TimeOffsetReprojectionFactor::TimeOffsetReprojectionFactor(
-    const geometry::PinholeRadTan& camera, const geometry::Rigid3& body_from_camera,
-    const Eigen::Vector2d& pixel, double sigma_px)
-    : camera_(camera), pixel_(pixel) {
+TimeOffsetReprojectionFactor::TimeOffsetReprojectionFactor(const geometry::PinholeRadTan& camera,
+                                                           const geometry::Rigid3& body_from_camera,
+                                                           const Eigen::Vector2d& pixel,
+                                                           double sigma_px,
+                                                           std::optional<FixedMotion> motion)
+    : camera_(camera), pixel_(pixel), motion_(std::move(motion)) {
   if (!camera.Check() || !(sigma_px > 0.0)) {
     throw std::invalid_argument("TimeOffsetReprojectionFactor: invalid camera or sigma");
   }
@@ -22,23 +27,31 @@ TimeOffsetReprojectionFactor::TimeOffsetReprojectionFactor(
   camera_from_body_rotation_ = camera_from_body.RotationMatrix();
   camera_from_body_translation_ = camera_from_body.translation();
   inv_sigma_ = 1.0 / sigma_px;
+  set_num_residuals(2);
+  *mutable_parameter_block_sizes() =
+      motion_ ? std::vector<std::int32_t>{7, 3, 1} : std::vector<std::int32_t>{7, 3, 3, 3, 1};
 }
 
 ceres::CostFunction* TimeOffsetReprojectionFactor::Create(const geometry::PinholeRadTan& camera,
                                                           const geometry::Rigid3& body_from_camera,
                                                           const Eigen::Vector2d& pixel,
-                                                          double sigma_px) {
-  return new TimeOffsetReprojectionFactor(camera, body_from_camera, pixel, sigma_px);
+                                                          double sigma_px,
+                                                          std::optional<FixedMotion> motion) {
+  return new TimeOffsetReprojectionFactor(camera, body_from_camera, pixel, sigma_px,
+                                          std::move(motion));
 }
 
 bool TimeOffsetReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                             double** jacobians) const {
   const Eigen::Map<const Eigen::Vector3d> p(parameters[0]);
   const Eigen::Map<const Eigen::Quaterniond> q(parameters[0] + 3);
-  const Eigen::Map<const Eigen::Vector3d> v(parameters[1]);
-  const Eigen::Map<const Eigen::Vector3d> w(parameters[2]);
-  const Eigen::Map<const Eigen::Vector3d> point_world(parameters[3]);
-  const double td = parameters[4][0];
+  // Block indices: pose, [vel, rate,] point, td.
+  const int point_index = motion_ ? 1 : 3;
+  const int td_index = point_index + 1;
+  const Eigen::Vector3d v = motion_ ? motion_->vel_world : Eigen::Vector3d(parameters[1]);
+  const Eigen::Vector3d w = motion_ ? motion_->rate_body : Eigen::Vector3d(parameters[2]);
+  const Eigen::Map<const Eigen::Vector3d> point_world(parameters[point_index]);
+  const double td = parameters[td_index][0];
   const Eigen::Matrix3d Rt = q.normalized().toRotationMatrix().transpose();
   const Eigen::Matrix3d Et = geometry::ExpSO3(w * td).transpose();
   const Eigen::Vector3d a = Rt * (point_world - p - v * td);
@@ -68,19 +81,20 @@ bool TimeOffsetReprojectionFactor::Evaluate(double const* const* parameters, dou
     const Eigen::Matrix<double, 2, 6> J = d_r_d_pb * d_pb_d_pose;
     WritePoseJacobian<2>(J, parameters[0], jacobians[0]);
   }
-  if (jacobians[1] != nullptr) {
+  if (!motion_ && jacobians[1] != nullptr) {
     (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[1])) =
         -td * d_r_d_pb * EtRt;
   }
-  if (jacobians[2] != nullptr) {
+  if (!motion_ && jacobians[2] != nullptr) {
     (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[2])) =
         td * d_r_d_pb * Et_hat_a * geometry::RightJacobianSO3(-w * td);
   }
-  if (jacobians[3] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[3])) = d_r_d_pb * EtRt;
+  if (jacobians[point_index] != nullptr) {
+    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[point_index])) =
+        d_r_d_pb * EtRt;
   }
-  if (jacobians[4] != nullptr) {
-    (Eigen::Map<Eigen::Vector2d>(jacobians[4])) = d_r_d_pb * (Et_hat_a * w - EtRt * v);
+  if (jacobians[td_index] != nullptr) {
+    (Eigen::Map<Eigen::Vector2d>(jacobians[td_index])) = d_r_d_pb * (Et_hat_a * w - EtRt * v);
   }
   return true;
 }

@@ -976,6 +976,60 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   return outcome;
 }
 
+// The session's initialiser: its forward axis from the best GPS track (the body x axis without
+// GPS or without turns), refined by the session-wide IMU + GPS solve where a precise receiver
+// allows one (whose states, with the factors' receiver, become the passes' initial guess).
+void InitialiseSession(const SlamStageOptions& options, SessionContext* ctx) {
+  const slam::SensorSetInfo info = slam::Describe(ctx->sensors);
+  const slam::StateInitialiser::Options init_options =
+      info.gps ? slam::InitialisationFor(options.initialisation, info.gps_kind)
+               : options.initialisation;
+  if (!ctx->has_best_gps) {
+    // No GPS: the body x axis is taken as forward (it only sets the heading convention).
+    ctx->initialiser =
+        std::make_unique<slam::StateInitialiser>(init_options, *ctx->streams.imu, nullptr);
+    spdlog::info(
+        "session {}: no GPS: one pass in the local level frame of its first image (z up, x "
+        "along the body x axis, origin at the body)",
+        ctx->session->id());
+  } else {
+    // The forward axis from the best track (RTK when there is one).
+    slam::StateInitialiser best(options.initialisation, *ctx->streams.imu, &ctx->best_gps);
+    slam::StateInitialiser::Summary s;
+    const Eigen::Vector3d axis = best.EstimateForwardAxis(ctx->best_gps.sensor.antenna_in_body, &s);
+    if (!info.imu) {
+      spdlog::info("session {}: no IMU: the body x axis is taken as forward, body z as up",
+                   ctx->session->id());
+    } else if (s.forward_axis_fallback) {
+      spdlog::warn(
+          "session {}: the motion has no turns to align the IMU with the GPS track; "
+          "assuming the body x axis points forward",
+          ctx->session->id());
+    } else {
+      spdlog::info(
+          "session {}: forward axis in the body frame ({:.3f}, {:.3f}, {:.3f}) from "
+          "{} windows",
+          ctx->session->id(), axis.x(), axis.y(), axis.z(), s.num_alignment_windows);
+    }
+    ctx->initialiser =
+        std::make_unique<slam::StateInitialiser>(init_options, *ctx->streams.imu, &ctx->init_gps);
+    ctx->initialiser->set_forward_axis(axis);
+    ctx->forward_axis_estimated = !s.forward_axis_fallback;
+  }
+  // The session solve needs a precise receiver: with a metre-level one the turns do not make
+  // the accelerometer bias observable, and a wrong tight bias prior does more harm than the
+  // weak zero-mean one.
+  if (options.session_state_rate_hz > 0 && ctx->has_best_gps && info.imu) {
+    if (info.gps && MedianSigmaH(ctx->factor_fixes) <= options.session_solve_max_sigma_m) {
+      SolveSession(options, ctx, ctx->init_gps, /*keep_states=*/true);
+    } else if (MedianSigmaH(ctx->best_gps.fixes) <= options.session_solve_max_sigma_m) {
+      // Only the mounting calibration (forward axis) from the precise receiver; the passes
+      // use nothing else of it.
+      SolveSession(options, ctx, ctx->best_gps, /*keep_states=*/false);
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<slam::GpsFixWorld> ApplyGpsOutages(const std::vector<slam::GpsFixWorld>& fixes,
@@ -1094,53 +1148,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       ctx.init_gps = *ctx.streams.FindGps(info.gps_kind);
       ctx.init_gps.fixes = ctx.factor_fixes;
     }
-    const slam::StateInitialiser::Options init_options =
-        info.gps ? slam::InitialisationFor(options.initialisation, info.gps_kind)
-                 : options.initialisation;
-    if (!ctx.has_best_gps) {
-      // No GPS: the body x axis is taken as forward (it only sets the heading convention).
-      ctx.initialiser =
-          std::make_unique<slam::StateInitialiser>(init_options, *ctx.streams.imu, nullptr);
-      spdlog::info(
-          "session {}: no GPS: one pass in the local level frame of its first image (z up, x "
-          "along the body x axis, origin at the body)",
-          id);
-    } else {
-      // The forward axis from the best track (RTK when there is one).
-      slam::StateInitialiser best(options.initialisation, *ctx.streams.imu, &ctx.best_gps);
-      slam::StateInitialiser::Summary s;
-      const Eigen::Vector3d axis =
-          best.EstimateForwardAxis(ctx.best_gps.sensor.antenna_in_body, &s);
-      if (!info.imu) {
-        spdlog::info("session {}: no IMU: the body x axis is taken as forward, body z as up", id);
-      } else if (s.forward_axis_fallback) {
-        spdlog::warn(
-            "session {}: the motion has no turns to align the IMU with the GPS track; "
-            "assuming the body x axis points forward",
-            id);
-      } else {
-        spdlog::info(
-            "session {}: forward axis in the body frame ({:.3f}, {:.3f}, {:.3f}) from "
-            "{} windows",
-            id, axis.x(), axis.y(), axis.z(), s.num_alignment_windows);
-      }
-      ctx.initialiser =
-          std::make_unique<slam::StateInitialiser>(init_options, *ctx.streams.imu, &ctx.init_gps);
-      ctx.initialiser->set_forward_axis(axis);
-      ctx.forward_axis_estimated = !s.forward_axis_fallback;
-    }
-    // The session solve needs a precise receiver: with a metre-level one the turns do not make
-    // the accelerometer bias observable, and a wrong tight bias prior does more harm than the
-    // weak zero-mean one.
-    if (options.session_state_rate_hz > 0 && ctx.has_best_gps && info.imu) {
-      if (info.gps && MedianSigmaH(ctx.factor_fixes) <= options.session_solve_max_sigma_m) {
-        SolveSession(options, &ctx, ctx.init_gps, /*keep_states=*/true);
-      } else if (MedianSigmaH(ctx.best_gps.fixes) <= options.session_solve_max_sigma_m) {
-        // Only the mounting calibration (forward axis) from the precise receiver; the passes
-        // use nothing else of it.
-        SolveSession(options, &ctx, ctx.best_gps, /*keep_states=*/false);
-      }
-    }
+    InitialiseSession(options, &ctx);
 
     // Row passes from the best track (without GPS, one pass over the camera's images).
     std::vector<slam::TrackPoint> track;

@@ -238,6 +238,75 @@ std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::st
   }
 }
 
+// The matches of every image pair as cross matches of the pass pair (association_file.h), and
+// their counts in `report`.
+association::PassAssociation CollectCrossMatches(
+    const PassPair& pair, const std::string& method, const PassContext& a, const PassContext& b,
+    const std::vector<association::ImagePair>& image_pairs,
+    const std::vector<association::AssociationResult>& results,
+    const std::vector<std::int64_t>& surface_counts, PassPairReport* report) {
+  association::PassAssociation assoc;
+  assoc.a = pair.a;
+  assoc.b = pair.b;
+  assoc.method = method;
+  for (std::size_t k = 0; k < image_pairs.size(); ++k) {
+    const int ia = image_pairs[k].image_a, ib = image_pairs[k].image_b;
+    const association::AssociationStats& s = results[k].stats;
+    report->landmarks += s.num_landmarks;
+    report->projected += s.num_projected;
+    report->surface_points += surface_counts[k];
+    report->candidates += s.num_candidates;
+    report->warped += s.num_warped;
+    report->upright_b += s.num_upright_b;
+    report->putative += s.num_putative;
+    for (const association::LandmarkMatch& m : results[k].matches) {
+      association::CrossMatch c;
+      c.image_a = ia;
+      c.feature_a = m.feature_a;
+      c.image_b = ib;
+      c.feature_b = m.feature_b;
+      c.t_a = a.data.times[ia];
+      c.t_b = b.data.times[ib];
+      const features::Keypoint& ka = a.data.features[ia].keypoints[m.feature_a];
+      const features::Keypoint& kb = b.data.features[ib].keypoints[m.feature_b];
+      c.xa = ka.x;
+      c.ya = ka.y;
+      c.xb = kb.x;
+      c.yb = kb.y;
+      c.distance = m.distance;
+      c.landmark_a = m.landmark;
+      assoc.matches.push_back(c);
+    }
+  }
+  return assoc;
+}
+
+// The pair's summary (WS/associations/<method>/<pair>.json, before its outputs are recorded).
+json PairSummaryJson(const PassPair& pair, const std::string& method, const PassPairReport& report,
+                     const json& options_json, const std::string& fingerprint) {
+  return {{"a", {{"session", pair.a.session}, {"pass", pair.a.pass}}},
+          {"b", {{"session", pair.b.session}, {"pass", pair.b.pass}}},
+          {"type", ToString(pair.type)},
+          {"method", method},
+          {"image_pairs", report.image_pairs},
+          {"landmarks", report.landmarks},
+          {"surface_points", report.surface_points},
+          {"projected", report.projected},
+          {"candidates", report.candidates},
+          {"warped", report.warped},
+          {"upright_b", report.upright_b},
+          {"putative", report.putative},
+          {"matches", report.matches},
+          {"prealigned", report.prealigned},
+          {"alignment_inliers", report.alignment_inliers},
+          {"alignment_shift_m", report.alignment_shift_m},
+          {"seconds", report.seconds},
+          {"seconds_per_image_pair",
+           report.image_pairs > 0 ? report.seconds / report.image_pairs : 0.0},
+          {"options", options_json},
+          {"fingerprint", fingerprint}};
+}
+
 PassPairReport AssociatePair(const PassPair& pair, const std::string& method, PassContext& a,
                              PassContext& b, const AssociateStageOptions& options,
                              const std::string& fingerprint, const fs::path& out_dir) {
@@ -345,64 +414,13 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
     });
   });
 
-  association::PassAssociation assoc;
-  assoc.a = pair.a;
-  assoc.b = pair.b;
-  assoc.method = method;
-  for (std::size_t k = 0; k < image_pairs.size(); ++k) {
-    const int ia = image_pairs[k].image_a, ib = image_pairs[k].image_b;
-    const association::AssociationStats& s = results[k].stats;
-    report.landmarks += s.num_landmarks;
-    report.projected += s.num_projected;
-    report.surface_points += surface_counts[k];
-    report.candidates += s.num_candidates;
-    report.warped += s.num_warped;
-    report.upright_b += s.num_upright_b;
-    report.putative += s.num_putative;
-    for (const association::LandmarkMatch& m : results[k].matches) {
-      association::CrossMatch c;
-      c.image_a = ia;
-      c.feature_a = m.feature_a;
-      c.image_b = ib;
-      c.feature_b = m.feature_b;
-      c.t_a = a.data.times[ia];
-      c.t_b = b.data.times[ib];
-      const features::Keypoint& ka = a.data.features[ia].keypoints[m.feature_a];
-      const features::Keypoint& kb = b.data.features[ib].keypoints[m.feature_b];
-      c.xa = ka.x;
-      c.ya = ka.y;
-      c.xb = kb.x;
-      c.yb = kb.y;
-      c.distance = m.distance;
-      c.landmark_a = m.landmark;
-      assoc.matches.push_back(c);
-    }
-  }
+  const association::PassAssociation assoc =
+      CollectCrossMatches(pair, method, a, b, image_pairs, results, surface_counts, &report);
   report.image_pairs = static_cast<int>(image_pairs.size());
   report.matches = static_cast<std::int64_t>(assoc.matches.size());
   report.seconds = SecondsSince(start);
   association::WriteAssociationFile(bin.string(), assoc);
-  json summary = {{"a", {{"session", pair.a.session}, {"pass", pair.a.pass}}},
-                  {"b", {{"session", pair.b.session}, {"pass", pair.b.pass}}},
-                  {"type", ToString(pair.type)},
-                  {"method", method},
-                  {"image_pairs", report.image_pairs},
-                  {"landmarks", report.landmarks},
-                  {"surface_points", report.surface_points},
-                  {"projected", report.projected},
-                  {"candidates", report.candidates},
-                  {"warped", report.warped},
-                  {"upright_b", report.upright_b},
-                  {"putative", report.putative},
-                  {"matches", report.matches},
-                  {"prealigned", report.prealigned},
-                  {"alignment_inliers", report.alignment_inliers},
-                  {"alignment_shift_m", report.alignment_shift_m},
-                  {"seconds", report.seconds},
-                  {"seconds_per_image_pair",
-                   report.image_pairs > 0 ? report.seconds / report.image_pairs : 0.0},
-                  {"options", options_json},
-                  {"fingerprint", fingerprint}};
+  json summary = PairSummaryJson(pair, method, report, options_json, fingerprint);
   RecordOutputs(&summary, out_dir, {bin.filename().string()});
   io::WriteFileAtomic(summary_path.string(), summary.dump(2) + "\n");
   return report;

@@ -18,6 +18,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/version.h"
 #include "crop4d/eval/natural_order.h"
+#include "crop4d/eval/time_offset_eval.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/tum.h"
@@ -93,11 +94,35 @@ void ReadPassSummary(const fs::path& path, PassEval* pass) {
       }
     }
   }
+  if (j.contains("back_end") && j["back_end"].is_object() &&
+      j["back_end"].contains("time_offset_s") && j["back_end"]["time_offset_s"].is_number()) {
+    pass->time_offset_s = j["back_end"]["time_offset_s"].get<double>();
+  }
   if (pass->pose_frame != "camera" && pass->pose_frame != "body") {
     throw InputError(
         file, 0,
         fmt::format("'pose_frame' is '{}', expected \"camera\" or \"body\"", pass->pose_frame));
   }
+}
+
+// The true time offset over `estimate`'s stamps (time_offset_eval.h), from the session's capture
+// instants (read once per session into `captures`); nullopt when the field has none.
+std::optional<double> PassTrueTimeOffset(
+    const std::string& field, const std::string& session,
+    const std::vector<io::StampedPose>& estimate,
+    std::map<std::string, std::map<Timestamp, Timestamp>>* captures) {
+  auto it = captures->find(session);
+  if (it == captures->end()) {
+    const fs::path path = fs::path(field) / "ground_truth" / session / "cam0_exposure.csv";
+    std::error_code ec;
+    it = captures
+             ->emplace(session, fs::exists(path, ec) ? ReadCaptureInstants(path.string())
+                                                     : std::map<Timestamp, Timestamp>())
+             .first;
+  }
+  std::vector<Timestamp> stamps;
+  for (const io::StampedPose& pose : estimate) stamps.push_back(pose.t);
+  return TrueTimeOffset(stamps, it->second);
 }
 
 json StatsJson(const ErrorStats& s) {
@@ -664,6 +689,7 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
 
   // Truth files, read once per session and frame (body_poses.tum is at the IMU rate).
   std::map<std::string, std::vector<io::StampedPose>> truth_cache;
+  std::map<std::string, std::map<Timestamp, Timestamp>> captures;  // per session
   const Timestamp max_dt = SecondsToTimestamp(options.max_dt_s);
   for (PassEval& pass : eval.passes) {
     try {
@@ -707,6 +733,9 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
         for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
       }
       pass.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options.metrics);
+      if (pass.time_offset_s && pass.pose_frame == "camera") {
+        pass.true_time_offset_s = PassTrueTimeOffset(field, pass.session, estimate, &captures);
+      }
     } catch (const InputError& e) {
       pass.error = e.what();
     }
@@ -798,6 +827,16 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
                         {"dropped_out_of_span", pass.dropped_out_of_span},
                         {"dropped_gap", pass.dropped_gap}};
     p["metrics"] = pass.ok() ? MetricsJson(pass.metrics) : json(nullptr);
+    if (pass.time_offset_s) {
+      const auto optional_json = [](const std::optional<double>& v) {
+        return v ? json(*v) : json(nullptr);
+      };
+      std::optional<double> error;
+      if (pass.true_time_offset_s) error = *pass.time_offset_s - *pass.true_time_offset_s;
+      p["time_offset_s"] = {{"estimate", *pass.time_offset_s},
+                            {"truth", optional_json(pass.true_time_offset_s)},
+                            {"error", optional_json(error)}};
+    }
     passes.push_back(std::move(p));
   }
   root["passes"] = std::move(passes);
@@ -1064,6 +1103,16 @@ std::string FormatPassTable(const WorkspaceEval& eval) {
         "* no GPS: the pass's frame is set by convention; its raw ATE and rot are after the "
         "rotation about the vertical and the shift that fit it to the truth (heading from the "
         "orientations, shift from the centroids)\n";
+  }
+  for (const PassEval& p : eval.passes) {
+    if (!p.time_offset_s) continue;
+    out += fmt::format("{} {}: camera-IMU time offset {:+.1f} ms", p.session, p.pass,
+                       1e3 * *p.time_offset_s);
+    if (p.true_time_offset_s) {
+      out += fmt::format(" (truth {:+.1f} ms, error {:+.1f} ms)", 1e3 * *p.true_time_offset_s,
+                         1e3 * (*p.time_offset_s - *p.true_time_offset_s));
+    }
+    out += "\n";
   }
   if (o.worst_pass >= 0) {
     const PassEval& w = eval.passes[o.worst_pass];

@@ -97,6 +97,10 @@ struct PassEval {
   int estimate_poses = 0;                                                     // poses in poses.tum
   int exact = 0, interpolated = 0, dropped_out_of_span = 0, dropped_gap = 0;  // association
   TrajectoryMetrics metrics;
+  // Row SLAM's camera–IMU time offset (summary.json back_end.time_offset_s: capture instant −
+  // image stamp, s) when it was estimated, and the truth over the pass's images when the field
+  // records the capture instants (ground_truth/<session>/cam0_exposure.csv).
+  std::optional<double> time_offset_s, true_time_offset_s;
 
   bool ok() const { return error.empty(); }
 };

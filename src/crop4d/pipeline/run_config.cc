@@ -190,6 +190,10 @@ const std::vector<Key>& Keys() {
         "slam", "max_window_s",
         "a session processed as one trajectory is cut into windows of at most this many seconds",
         [](RunConfig& c) -> double& { return c.slam.max_window_s; }, 30, 1e6));
+    k.push_back(Bool("slam", "estimate_time_offset",
+                     "estimate the camera-IMU time offset of each pass (capture instant - image "
+                     "stamp; for rigs whose camera and IMU clocks are not synchronised)",
+                     [](RunConfig& c) -> bool& { return c.slam.optimiser.estimate_time_offset; }));
     k.push_back(Bool("slam", "standstills",
                      "detect standstills (zero velocity, one pose while the rig stands still)",
                      [](RunConfig& c) -> bool& { return c.slam.standstills; }));

@@ -25,6 +25,7 @@
 #include "crop4d/pipeline/stage_files.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
+#include "crop4d/slam/time_offset_reprojection_factor.h"
 #include "crop4d/slam/track_cloud.h"
 
 namespace crop4d::pipeline {
@@ -77,7 +78,10 @@ json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
         {"gps_loss_scale", op.gps_loss_scale},
         {"gp_qc_translation", op.gp.qc_translation},
         {"gp_qc_rotation", op.gp.qc_rotation},
-        {"max_iterations", op.max_iterations}}},
+        {"max_iterations", op.max_iterations},
+        {"estimate_time_offset", op.estimate_time_offset},
+        {"time_offset_prior_sigma_s", op.time_offset_prior_sigma_s},
+        {"max_abs_time_offset_s", op.max_abs_time_offset_s}}},
       {"standstill",
        {{"window_s", op.standstill.window_s},
         {"mean_change_sigmas", op.standstill.mean_change_sigmas},
@@ -644,7 +648,9 @@ json BackEndJson(const slam::RowOptimiser::Summary& s) {
           {"initial_cost", s.initial_cost},
           {"final_cost", s.final_cost},
           {"iterations", s.iterations},
-          {"converged", s.converged}};
+          {"converged", s.converged},
+          // Capture instant − image stamp, s (null: not estimated).
+          {"time_offset_s", s.time_offset_estimated ? json(s.time_offset_s) : json()}};
 }
 
 // A camera pass's cloud (landmarks.ply: every track of two or more images triangulated from the
@@ -919,9 +925,15 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   std::vector<io::StampedPose> poses;
   std::vector<geometry::Rigid3> cameras;
   for (const slam::RowState& state : result.states) {
-    const geometry::Rigid3 pose = camera != nullptr
-                                      ? state.nav.world_from_body * camera->sensor.body_from_sensor
-                                      : state.nav.world_from_body;
+    // An image's pose is the camera's at its capture instant: its stamp plus the estimated
+    // camera–IMU time offset, when there is one (slam/time_offset_reprojection_factor.h).
+    const geometry::Rigid3 body =
+        s.time_offset_estimated
+            ? slam::BodyAtCapture(state.nav.world_from_body, state.nav.vel_world,
+                                  state.nav.rate_body, s.time_offset_s)
+            : state.nav.world_from_body;
+    const geometry::Rigid3 pose =
+        camera != nullptr ? body * camera->sensor.body_from_sensor : state.nav.world_from_body;
     poses.push_back({state.t, pose});
     cameras.push_back(pose);
   }
@@ -954,6 +966,10 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
       {"image_pairs_used", visual_init.visual_steps},
       {"heading_change_deg", visual_init.heading_change_deg}};
   summary["back_end"] = BackEndJson(s);
+  if (s.time_offset_estimated) {
+    spdlog::info("{}/{}: camera-IMU time offset {:+.1f} ms (capture instant - image stamp)",
+                 ctx.session->id(), pass.id, 1e3 * s.time_offset_s);
+  }
   if (input.camera_height_m) {
     // The soil's depth below the camera before the rescale, and the scale it set (1: too few
     // soil landmarks to measure it).

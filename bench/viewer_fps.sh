@@ -4,7 +4,7 @@
 # only read), serves it with `crop4d view`, and measures time to first frame and frames per
 # second in headless Chromium with SwiftShader (bench/viewer_fps.cjs).
 #   bench/viewer_fps.sh WORKSPACE DATE [CONFIGS] [SECONDS] [SCREENSHOT.png]   (viewer_fps.cjs)
-# e.g. bench/viewer_fps.sh /tmp/exp/ws_demo_full 2016-06-01
+# e.g. bench/viewer_fps.sh demo/workspace 2016-06-01
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 build="${CROP4D_BUILD:-$here/build/release}"

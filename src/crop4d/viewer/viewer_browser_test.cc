@@ -1,7 +1,8 @@
 // The viewer page in headless Chromium against `crop4d view` on a small workspace
-// (viewer_data_test_util.h): no console error, every date in the page's state, the time slider
-// switches dates, two dates overlay, change colouring and measuring work
-// (viewer/test/browser_check.cjs). Fails, never skips, when node or chromium is missing.
+// (viewer_data_test_util.h) and on the tiny simulated field's workspace: no console error, every
+// date in the page's state, the time slider switches dates, two dates overlay, change colouring and
+// measuring work (viewer/test/browser_check.cjs). Fails, never skips, when node or chromium is
+// missing.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -19,6 +20,8 @@
 #include <utility>
 
 #include "crop4d/io/test_helpers.h"
+#include "crop4d/sim/cached_field_test_util.h"
+#include "crop4d/sim/sim_config.h"
 #include "crop4d/viewer/viewer_data_test_util.h"
 
 extern char** environ;
@@ -79,29 +82,29 @@ class ViewProcess {
 
 bool Executable(const std::string& path) { return ::access(path.c_str(), X_OK) == 0; }
 
-TEST(ViewerBrowserTest, LoadsWithoutErrorAndTheSliderSwitchesDates) {
+// Serves `ws` with `crop4d view` and runs viewer/test/browser_check.cjs on it; `dates_json`: the
+// dates the page must list, `expected_log`: a text `crop4d view` must print.
+void CheckInBrowser(const std::string& ws, const std::string& dates_json,
+                    const std::string& expected_log) {
   const std::string node = CROP4D_NODE;
   const char* chromium_env = std::getenv("CROP4D_CHROMIUM");
   const std::string chromium = chromium_env != nullptr ? chromium_env : "/usr/bin/chromium";
   ASSERT_TRUE(Executable(node)) << "node not found at " << node
                                 << ": install it with scripts/install-deps.sh";
-  ASSERT_TRUE(Executable(chromium)) << "chromium not found at " << chromium
-                                    << ": install it with scripts/install-deps.sh";
+  ASSERT_TRUE(Executable(chromium))
+      << "chromium not found at " << chromium << ": install it with scripts/install-deps.sh";
   ASSERT_TRUE(fs::is_directory(fs::path(CROP4D_VIEWER_NODE_MODULES) / "playwright-core"))
       << "playwright-core missing from " << CROP4D_VIEWER_NODE_MODULES << " (the build's npm ci)";
-  TempDir dir;
-  const std::string ws = dir / "ws";
-  testing::WriteSmallWorkspace(ws, 20000);
   ViewProcess view(ws);
   std::string log;
   const std::string url = view.Url(&log);
   ASSERT_FALSE(url.empty()) << "crop4d view printed no URL:\n" << log;
-  EXPECT_NE(log.find("2 measurement sites"), std::string::npos) << log;
+  EXPECT_NE(log.find(expected_log), std::string::npos) << log;
   const std::string command =
-      "NODE_PATH=" + ShellQuote(CROP4D_VIEWER_NODE_MODULES) + " CROP4D_CHROMIUM=" +
-      ShellQuote(chromium) + " " + ShellQuote(node) + " " +
+      "NODE_PATH=" + ShellQuote(CROP4D_VIEWER_NODE_MODULES) +
+      " CROP4D_CHROMIUM=" + ShellQuote(chromium) + " " + ShellQuote(node) + " " +
       ShellQuote(std::string(CROP4D_SOURCE_DIR) + "/viewer/test/browser_check.cjs") + " " +
-      ShellQuote(url) + " '[\"2016-06-10\",\"2016-06-24\"]' 2>&1";
+      ShellQuote(url) + " " + ShellQuote(dates_json) + " 2>&1";
   FILE* pipe = ::popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;
@@ -110,6 +113,32 @@ TEST(ViewerBrowserTest, LoadsWithoutErrorAndTheSliderSwitchesDates) {
   const int status = ::pclose(pipe);
   EXPECT_EQ(status, 0) << output;
   EXPECT_NE(output.find("viewer check ok"), std::string::npos) << output;
+}
+
+TEST(ViewerBrowserTest, LoadsWithoutErrorAndTheSliderSwitchesDates) {
+  TempDir dir;
+  const std::string ws = dir / "ws";
+  testing::WriteSmallWorkspace(ws, 20000);
+  CheckInBrowser(ws, R"(["2016-06-10","2016-06-24"])", "2 measurement sites");
+}
+
+// The same checks on what the pipeline writes: `crop4d run` on the tiny simulated field (sparse
+// clouds, --no-densify, to keep the test short), then `crop4d view` on its workspace.
+TEST(ViewerBrowserTest, ShowsTheTinyFieldAsThePipelineWroteIt) {
+  sim::SimConfig config = sim::PresetConfig("tiny");
+  // The tiny preset as it is (cached under the name the fusion tests give it, so it is
+  // simulated once per build tree).
+  const std::string field = sim::testing::CachedSimulatedField("tiny_rain", config);
+  TempDir dir;
+  const std::string ws = dir / "ws";
+  const io::testing::CommandResult run = io::testing::RunCommand(
+      dir, io::testing::Crop4dBinary(),
+      "run " + ShellQuote(field) + " --workspace " + ShellQuote(ws) + " --no-densify -q");
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  std::string dates;
+  for (const sim::SessionSpec& session : config.sessions)
+    dates += (dates.empty() ? "[\"" : ",\"") + session.date + "\"";
+  CheckInBrowser(ws, dates + "]", "measurement sites");
 }
 
 // Runs `command` through the shell; its output (stdout and stderr) and exit code.
@@ -126,9 +155,8 @@ std::pair<std::string, int> RunShell(const std::string& command) {
 TEST(ViewCommandTest, WorkspaceWithoutCloudsIsBadInputNamingWhatIsMissing) {
   TempDir dir;
   fs::create_directories(dir / "ws");
-  const auto [output, code] =
-      RunShell(ShellQuote(io::testing::Crop4dBinary()) + " view " + ShellQuote(dir / "ws") +
-          " --port 0 --no-browser");
+  const auto [output, code] = RunShell(ShellQuote(io::testing::Crop4dBinary()) + " view " +
+                                       ShellQuote(dir / "ws") + " --port 0 --no-browser");
   EXPECT_EQ(code, 2) << output;
   EXPECT_NE(output.find("no cloud to show"), std::string::npos) << output;
 }
@@ -139,7 +167,7 @@ TEST(ViewCommandTest, ANonLoopbackHostIsServedWithAWarning) {
   // Stopped by SIGTERM after two seconds: a clean exit (status 0).
   const auto [output, code] =
       RunShell("timeout --preserve-status 2 " + ShellQuote(io::testing::Crop4dBinary()) + " view " +
-          ShellQuote(dir / "ws") + " --host 0.0.0.0 --port 0 --no-browser");
+               ShellQuote(dir / "ws") + " --host 0.0.0.0 --port 0 --no-browser");
   EXPECT_EQ(code, 0) << output;
   EXPECT_NE(output.find("warning: serving on 0.0.0.0"), std::string::npos) << output;
   EXPECT_NE(output.find("crop4d view: serving"), std::string::npos) << output;
@@ -150,7 +178,7 @@ TEST(ViewCommandTest, ExportViewerWritesTheStaticFolderAndNeedsSomethingToWrite)
   testing::WriteSmallWorkspace(dir / "ws", 2000);
   const std::string binary = ShellQuote(io::testing::Crop4dBinary());
   const auto [output, code] = RunShell(binary + " export -w " + ShellQuote(dir / "ws") +
-                                  " --viewer " + ShellQuote(dir / "site"));
+                                       " --viewer " + ShellQuote(dir / "site"));
   EXPECT_EQ(code, 0) << output;
   EXPECT_TRUE(fs::is_regular_file(dir / "site/index.html")) << output;
   EXPECT_TRUE(fs::is_regular_file(dir / "site/ws/viewer/scene.json")) << output;

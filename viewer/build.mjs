@@ -2,10 +2,10 @@
 // app/viewer.css) and, when a second argument is given, writes the C++ source that embeds
 // every file of OUT_DIR into the crop4d binary (src/crop4d/viewer/bundle.h).
 //   node build.mjs OUT_DIR [BUNDLE_CC] [NODE_MODULES]
-import { build } from 'esbuild';
 import { copyFileSync, mkdirSync, readdirSync, readFileSync, statSync, writeFileSync, renameSync } from 'node:fs';
 import { dirname, join, relative } from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { createRequire } from 'node:module';
 
 const here = dirname(fileURLToPath(import.meta.url));
 const [outDir, bundleCc, nodeModules] = process.argv.slice(2);
@@ -13,6 +13,10 @@ if (!outDir) {
   console.error('usage: node build.mjs OUT_DIR [BUNDLE_CC] [NODE_MODULES]');
   process.exit(2);
 }
+// esbuild from NODE_MODULES (the build tree's npm ci) when given, else from viewer/node_modules:
+// an ES module import would resolve only next to this file and ignores NODE_PATH.
+const modulesRoot = dirname(nodeModules || join(here, 'node_modules'));
+const { build } = createRequire(join(modulesRoot, 'package.json'))('esbuild');
 mkdirSync(join(outDir, 'app'), { recursive: true });
 await build({
   entryPoints: [join(here, 'src', 'main.js')],

@@ -71,9 +71,10 @@ int main(int argc, char** argv) {
 
     std::printf("Sensors, demo preset (seed %llu), ideal -> real:\n\n",
                 static_cast<unsigned long long>(ideal_config.seed));
-    std::printf("| session | duration s | standstill s (stops) | images | stamp - capture ms | "
-                "gps0 samples | gps0 RTK float %% | gps0 outliers %% | gps1 samples | gps1 "
-                "outliers %% |\n|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| session | duration s | standstill s (stops) | images | stamp - capture ms | "
+        "gps0 samples | gps0 RTK float %% | gps0 outliers %% | gps1 samples | gps1 "
+        "outliers %% |\n|---|---|---|---|---|---|---|---|---|---|\n");
     std::vector<sim::SessionRecord> ideal_records, real_records;
     for (int i = 0; i < sessions; ++i) {
       ideal_records.push_back(ideal.SimulateSession(i));
@@ -88,14 +89,15 @@ int main(int argc, char** argv) {
         offset_min = std::min(offset_min, d);
         offset_max = std::max(offset_max, d);
       }
-      std::printf("| %s | %.0f -> %.0f | %.1f (%zu) | %zu -> %zu | %.2f .. %.2f | %zu -> %zu | %.1f | "
-                  "%.1f | %zu -> %zu | %.1f |\n",
-                  ideal_config.sessions[i].date.c_str(), a.trajectory->Duration(),
-                  b.trajectory->Duration(), still, b.trajectory->standstills().size(),
-                  a.image_times.size(), b.image_times.size(), offset_min, offset_max,
-                  a.gps[0].size(), b.gps[0].size(), 100.0 * ShareOf(b.gps_faults[0], &sim::GpsFault::is_float),
-                  100.0 * ShareOf(b.gps_faults[0], &sim::GpsFault::outlier), a.gps[1].size(),
-                  b.gps[1].size(), 100.0 * ShareOf(b.gps_faults[1], &sim::GpsFault::outlier));
+      std::printf(
+          "| %s | %.0f -> %.0f | %.1f (%zu) | %zu -> %zu | %.2f .. %.2f | %zu -> %zu | %.1f | "
+          "%.1f | %zu -> %zu | %.1f |\n",
+          ideal_config.sessions[i].date.c_str(), a.trajectory->Duration(), b.trajectory->Duration(),
+          still, b.trajectory->standstills().size(), a.image_times.size(), b.image_times.size(),
+          offset_min, offset_max, a.gps[0].size(), b.gps[0].size(),
+          100.0 * ShareOf(b.gps_faults[0], &sim::GpsFault::is_float),
+          100.0 * ShareOf(b.gps_faults[0], &sim::GpsFault::outlier), a.gps[1].size(),
+          b.gps[1].size(), 100.0 * ShareOf(b.gps_faults[1], &sim::GpsFault::outlier));
     }
     const sim::CalibrationErrors& e = real.calibration_errors();
     std::printf(
@@ -118,7 +120,8 @@ int main(int argc, char** argv) {
     auto camera_at = [&](double dt) {
       return first.trajectory->WorldFromBody(t + dt) * ideal.BodyFromCamera();
     };
-    const geometry::Rigid3 begin_from_mid = camera_at(-0.5 * exposure).Inverse() * world_from_camera;
+    const geometry::Rigid3 begin_from_mid =
+        camera_at(-0.5 * exposure).Inverse() * world_from_camera;
     const geometry::Rigid3 end_from_mid = camera_at(0.5 * exposure).Inverse() * world_from_camera;
 
     sim::RenderOptions options;
@@ -126,9 +129,10 @@ int main(int argc, char** argv) {
     sim::Renderer renderer(ideal.world(), options);
     std::printf("\nImages, one frame per session at the same pose (%.2f m/s), ideal -> real:\n\n",
                 state.velocity_world.norm());
-    std::printf("| session | soil renewed since the previous session %% | soil level | wind sway "
-                "mm | exposure gain over the session | gain of this frame | mean abs diff (grey) "
-                "| sharpness ideal -> real |\n|---|---|---|---|---|---|---|---|\n");
+    std::printf(
+        "| session | soil renewed since the previous session %% | soil level | wind sway "
+        "mm | exposure gain over the session | gain of this frame | mean abs diff (grey) "
+        "| sharpness ideal -> real |\n|---|---|---|---|---|---|---|---|\n");
     std::vector<cv::Mat> tiles;
     cv::Mat previous_soil;
     for (int i = 0; i < sessions; ++i) {
@@ -158,9 +162,8 @@ int main(int argc, char** argv) {
       soil.extent_m = 0.5;
       soil.seed = real.world().options().seed;
       soil.epoch = cr.soil_epoch;
-      const cv::Mat soil_now =
-          sim::ApplySoilChange(soil, sim::GenerateSoilTexture(soil), cr.soil_change_level,
-                               cr.soil_change);
+      const cv::Mat soil_now = sim::ApplySoilChange(soil, sim::GenerateSoilTexture(soil),
+                                                    cr.soil_change_level, cr.soil_change);
       double renewed = 100.0;
       if (!previous_soil.empty() && !cr.rain_before) {
         cv::Mat diff;

@@ -51,7 +51,8 @@ int RunView(const ViewArgs& args) {
     // The viewer data is written under the workspace's lock, then the lock is released: a
     // pipeline stage may run while the viewer is open (reload the page to see its results).
     const auto lock = LockWorkspace(args.workspace, "view", /*create=*/false);
-    const viewer::ViewerDataSummary summary = viewer::WriteViewerData(args.workspace, data, args.data);
+    const viewer::ViewerDataSummary summary =
+        viewer::WriteViewerData(args.workspace, data, args.data);
     if (!IsQuiet()) std::fputs(viewer::FormatViewerDataSummary(summary).c_str(), stdout);
   }
   viewer::ViewerServer server(args.workspace, args.server);

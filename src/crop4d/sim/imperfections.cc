@@ -264,10 +264,10 @@ std::vector<GpsFault> SimulateGpsFaults(const GpsFaultOptions& o, bool rtk, doub
   CROP4D_CHECK(seconds.size() == in_headland.size());
   Random random(seed);
   std::vector<GpsFault> faults(seconds.size());
-  const double extra_h = std::sqrt(std::max(0.0, o.float_sigma_h_m * o.float_sigma_h_m -
-                                                     fix_sigma_h * fix_sigma_h));
-  const double extra_v = std::sqrt(std::max(0.0, o.float_sigma_v_m * o.float_sigma_v_m -
-                                                     fix_sigma_v * fix_sigma_v));
+  const double extra_h =
+      std::sqrt(std::max(0.0, o.float_sigma_h_m * o.float_sigma_h_m - fix_sigma_h * fix_sigma_h));
+  const double extra_v =
+      std::sqrt(std::max(0.0, o.float_sigma_v_m * o.float_sigma_v_m - fix_sigma_v * fix_sigma_v));
   double float_until = -1.0, dropout_until = -1.0;
   for (size_t k = 0; k < seconds.size(); ++k) {
     const double t = seconds[k];
@@ -291,9 +291,9 @@ std::vector<GpsFault> SimulateGpsFaults(const GpsFaultOptions& o, bool rtk, doub
     }
     if (o.outlier_probability > 0.0 && random.Bernoulli(o.outlier_probability)) {
       f.outlier = true;
-      f.extra += Eigen::Vector3d(o.outlier_sigma_m * random.Normal(),
-                                 o.outlier_sigma_m * random.Normal(),
-                                 1.5 * o.outlier_sigma_m * random.Normal());
+      f.extra +=
+          Eigen::Vector3d(o.outlier_sigma_m * random.Normal(), o.outlier_sigma_m * random.Normal(),
+                          1.5 * o.outlier_sigma_m * random.Normal());
     }
   }
   return faults;

@@ -111,9 +111,9 @@ TEST(ImperfectionsTest, ImageNoiseOnAFlatPatchHasTheModelledStdDev) {
   o.electrons_per_dn = 0.0;
   o.read_noise_dn = 4.0;
   cv::Scalar mean, std;
-  cv::meanStdDev(ExposeAndQuantise(cv::Mat(200, 200, CV_8UC3, cv::Scalar::all(100)), 1.0, o, 6)
-                     .reshape(1),
-                 mean, std);
+  cv::meanStdDev(
+      ExposeAndQuantise(cv::Mat(200, 200, CV_8UC3, cv::Scalar::all(100)), 1.0, o, 6).reshape(1),
+      mean, std);
   EXPECT_NEAR(std[0], std::sqrt(16.0 + 1.0 / 12.0), 0.2);
   const cv::Mat ramp = [] {
     cv::Mat m(10, 256, CV_8UC3);
@@ -223,7 +223,8 @@ TEST(ImperfectionsTest, RollingShutterSlantsWhatMovesSideways) {
   camera.cy = 20.0;
   // A linear ramp from 40 to 200 over columns 90..110 (bilinear sampling keeps it exact).
   cv::Mat sharp(41, 200, CV_32FC3, cv::Scalar::all(40));
-  for (int c = 90; c < 200; ++c) sharp.col(c).setTo(cv::Scalar::all(std::min(200.0, 40.0 + 8.0 * (c - 90))));
+  for (int c = 90; c < 200; ++c)
+    sharp.col(c).setTo(cv::Scalar::all(std::min(200.0, 40.0 + 8.0 * (c - 90))));
   const cv::Mat depth(41, 200, CV_32F, cv::Scalar(2.0));
   const double v = 1.5, readout = 0.03;
   std::vector<geometry::Rigid3> rows;
@@ -235,10 +236,10 @@ TEST(ImperfectionsTest, RollingShutterSlantsWhatMovesSideways) {
   const double slant = EdgeColumn(out, 0) - EdgeColumn(out, 40);
   EXPECT_NEAR(slant, camera.fx * v * readout / 2.0, 0.02);  // 3.4 px
   // The middle row is the reference: its edge stays where it was.
-  EXPECT_NEAR(EdgeColumn(out, 20), EdgeColumn(MotionBlur(sharp, depth, camera, geometry::Rigid3(),
-                                                         geometry::Rigid3()),
-                                              20),
-              1e-3);
+  EXPECT_NEAR(
+      EdgeColumn(out, 20),
+      EdgeColumn(MotionBlur(sharp, depth, camera, geometry::Rigid3(), geometry::Rigid3()), 20),
+      1e-3);
 }
 
 // ---- IMU and GPS ----------------------------------------------------------------------------
@@ -385,7 +386,8 @@ TEST(ImperfectionsTest, ImuOutputIsTheScaledMisalignedTruth) {
     Eigen::Vector3d gyro, accel;
     IdealImu(rec.trajectory->StateAt(rec.Seconds(s.t)), &gyro, &accel);
     const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
-    max_gyro = std::max(max_gyro, (s.gyro - (I + e.gyro_misalignment) * e.gyro_scale * gyro).norm());
+    max_gyro =
+        std::max(max_gyro, (s.gyro - (I + e.gyro_misalignment) * e.gyro_scale * gyro).norm());
     max_accel =
         std::max(max_accel, (s.accel - (I + e.accel_misalignment) * e.accel_scale * accel).norm());
     max_change = std::max(max_change, (s.accel - accel).norm());

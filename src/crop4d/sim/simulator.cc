@@ -194,13 +194,13 @@ Simulator::Simulator(const SimConfig& config) : config_(config) {
   config_.Check();
   world_ = std::make_unique<World>(config_.MakeWorldOptions());
   if (config_.calibration_error.Any()) {
-    calibration_errors_ =
-        DrawCalibrationErrors(config_.calibration_error, HashCombine(config_.seed, kTagCalibration));
+    calibration_errors_ = DrawCalibrationErrors(config_.calibration_error,
+                                                HashCombine(config_.seed, kTagCalibration));
   }
   if (config_.imu.scale_factor_sigma > 0.0 || config_.imu.misalignment_sigma_rad > 0.0) {
-    imu_axis_errors_ = DrawImuAxisErrors(config_.imu.scale_factor_sigma,
-                                         config_.imu.misalignment_sigma_rad,
-                                         HashCombine(config_.seed, kTagImuAxes));
+    imu_axis_errors_ =
+        DrawImuAxisErrors(config_.imu.scale_factor_sigma, config_.imu.misalignment_sigma_rad,
+                          HashCombine(config_.seed, kTagImuAxes));
   }
 }
 
@@ -419,8 +419,9 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     std::string y =
         "# The rig's true calibration (used to render and to simulate the sensors) and the one\n"
         "# written to sessions/*/*/sensor.yaml (calibration_error in simulate.yaml).\n";
-    y += fmt::format("camera_time_offset_s: {:.9g}  # image stamp - capture time at session start\n",
-                     calib.time_offset_s);
+    y +=
+        fmt::format("camera_time_offset_s: {:.9g}  # image stamp - capture time at session start\n",
+                    calib.time_offset_s);
     y += fmt::format("camera_clock_drift: {:.9g}  # d(stamp - capture)/dt\n", calib.drift);
     y += "cam0:\n";
     y += "  true_intrinsics: " + FormatIntrinsics(cfg.camera.Intrinsics()) + "\n";
@@ -563,8 +564,7 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
         summary.render_seconds +=
             std::chrono::duration<double>(std::chrono::steady_clock::now() - r0).count();
         const std::string image_path = Join(image_dir, entry.filename);
-        const std::string depth_path =
-            Join(depth_dir, fmt::format("{}.png", t));
+        const std::string depth_path = Join(depth_dir, fmt::format("{}.png", t));
         // The camera at the start and the end of the exposure, seen from its mid-exposure frame.
         // With a rolling shutter, row k is exposed around capture + (k / (H − 1) − ½) readout.
         std::vector<geometry::Rigid3> begin_from_mid, end_from_mid;
@@ -587,8 +587,8 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
           fmt::format_to(std::back_inserter(exposure_csv), "{},{},{:.6f},{}\n", t,
                          rec.image_capture_times[f], gain, effects.exposure_s);
         }
-        const std::uint64_t noise_seed = HashCombine(cfg.seed, kTagImageNoise,
-                                                     static_cast<std::uint64_t>(i), f);
+        const std::uint64_t noise_seed =
+            HashCombine(cfg.seed, kTagImageNoise, static_cast<std::uint64_t>(i), f);
         const geometry::PinholeRadTan intrinsics = cfg.camera.Intrinsics();
         auto encode = [frame, image_path, depth_path, &progress, &cfg, image_effects, blur,
                        begin_from_mid, end_from_mid, gain, noise_seed, intrinsics]() {
@@ -742,7 +742,8 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
       fmt::memory_buffer b;
       fmt::format_to(std::back_inserter(b), "t_begin [ns],t_end [ns]\n");
       for (const Standstill& still : traj.standstills()) {
-        fmt::format_to(std::back_inserter(b), "{},{}\n", rec.start + SecondsToTimestamp(still.t_begin),
+        fmt::format_to(std::back_inserter(b), "{},{}\n",
+                       rec.start + SecondsToTimestamp(still.t_begin),
                        rec.start + SecondsToTimestamp(still.t_end));
       }
       WriteBuffer(Join(session_truth, "standstills.csv"), b);

@@ -250,21 +250,22 @@ class SimulatorWriteTest : public testing::Test {
     // Every imperfection's magnitude explicitly zero, its other settings changed: the same
     // field as "a".
     SimConfig zero = ShortTiny(5);
-    ApplySimConfigYaml("zero.yaml",
-                       "realism: ideal\n"
-                       "recording: {wind_sway_m: 0, wind_period_s: 7}\n"
-                       "camera: {exposure_s: 0, electrons_per_dn: 0, read_noise_dn: 0, "
-                       "auto_exposure_jitter: 0, auto_exposure_period_s: 3, jpeg_quality: 0}\n"
-                       "drive: {standstill_start_s: 0, stop_probability_row_end: 0, "
-                       "stop_probability_in_row: 0, stop_duration_s: 9, stop_ramp_s: 2}\n"
-                       "imu: {scale_factor_sigma: 0, misalignment_sigma_rad: 0}\n"
-                       "gps0: {outlier_probability: 0, outlier_sigma_m: 3, float_rate_per_min: 0, "
-                       "float_duration_s: 4, dropout_rate_per_min: 0, dropout_duration_s: 9}\n"
-                       "soil_change: {fraction_per_session: 0, patch_m: 0.5, drying_per_session: 0}\n"
-                       "calibration_error: {focal_px: 0, principal_point_px: 0, "
-                       "radial_distortion: 0, tangential_distortion: 0, lever_arm_m: 0, "
-                       "rotation_deg: 0, camera_time_offset_s: 0, camera_clock_drift_ppm: 0}\n",
-                       &zero);
+    ApplySimConfigYaml(
+        "zero.yaml",
+        "realism: ideal\n"
+        "recording: {wind_sway_m: 0, wind_period_s: 7}\n"
+        "camera: {exposure_s: 0, electrons_per_dn: 0, read_noise_dn: 0, "
+        "auto_exposure_jitter: 0, auto_exposure_period_s: 3, jpeg_quality: 0}\n"
+        "drive: {standstill_start_s: 0, stop_probability_row_end: 0, "
+        "stop_probability_in_row: 0, stop_duration_s: 9, stop_ramp_s: 2}\n"
+        "imu: {scale_factor_sigma: 0, misalignment_sigma_rad: 0}\n"
+        "gps0: {outlier_probability: 0, outlier_sigma_m: 3, float_rate_per_min: 0, "
+        "float_duration_s: 4, dropout_rate_per_min: 0, dropout_duration_s: 9}\n"
+        "soil_change: {fraction_per_session: 0, patch_m: 0.5, drying_per_session: 0}\n"
+        "calibration_error: {focal_px: 0, principal_point_px: 0, "
+        "radial_distortion: 0, tangential_distortion: 0, lever_arm_m: 0, "
+        "rotation_deg: 0, camera_time_offset_s: 0, camera_clock_drift_ppm: 0}\n",
+        &zero);
     Simulator(zero).Write((*root_ / "zero").string());
     // The real world, with JPEG images.
     SimConfig real = ShortTiny(5);
@@ -379,22 +380,25 @@ TEST_F(SimulatorWriteTest, TheRealWorldWritesItsErrorsAndTheirTruth) {
   for (const char* session : {"2016-06-10", "2016-06-24"}) {
     const fs::path s = field / "sessions" / session;
     const fs::path t = field / "ground_truth" / session;
-    for (const char* file : {"standstills.csv", "cam0_exposure.csv", "gps0_faults.csv",
-                             "gps1_faults.csv"}) {
+    for (const char* file :
+         {"standstills.csv", "cam0_exposure.csv", "gps0_faults.csv", "gps1_faults.csv"}) {
       EXPECT_TRUE(fs::is_regular_file(t / file)) << session << "/" << file;
     }
     // The calibration crop4d reads is off the truth by the configured amounts.
     const io::CameraSensor cam = io::ReadCameraSensorYaml((s / "cam0/sensor.yaml").string());
     const io::CameraSensor true_cam =
         io::ReadCameraSensorYaml((ideal / "sessions" / session / "cam0/sensor.yaml").string());
-    EXPECT_NEAR(std::abs(cam.camera.fx - true_cam.camera.fx), real.calibration_error.focal_px, 1e-6);
+    EXPECT_NEAR(std::abs(cam.camera.fx - true_cam.camera.fx), real.calibration_error.focal_px,
+                1e-6);
     EXPECT_NEAR(std::hypot(cam.camera.cx - true_cam.camera.cx, cam.camera.cy - true_cam.camera.cy),
                 real.calibration_error.principal_point_px, 1e-6);
-    EXPECT_NEAR((cam.body_from_sensor.translation() - true_cam.body_from_sensor.translation()).norm(),
-                real.calibration_error.lever_arm_m, 1e-6);
-    EXPECT_NEAR(cam.body_from_sensor.rotation().angularDistance(true_cam.body_from_sensor.rotation()) *
-                    180.0 / M_PI,
-                real.calibration_error.rotation_deg, 1e-6);
+    EXPECT_NEAR(
+        (cam.body_from_sensor.translation() - true_cam.body_from_sensor.translation()).norm(),
+        real.calibration_error.lever_arm_m, 1e-6);
+    EXPECT_NEAR(
+        cam.body_from_sensor.rotation().angularDistance(true_cam.body_from_sensor.rotation()) *
+            180.0 / M_PI,
+        real.calibration_error.rotation_deg, 1e-6);
     const io::GpsSensor gps = io::ReadGpsSensorYaml((s / "gps0/sensor.yaml").string());
     EXPECT_NEAR((gps.antenna_in_body - real.gps0.antenna_in_body).norm(),
                 real.calibration_error.lever_arm_m, 1e-6);

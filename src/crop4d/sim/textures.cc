@@ -449,7 +449,8 @@ cv::Mat SoilChangeMask(int size_px, double extent_m, double patch_m, double frac
   int cells = 1;
   while (cells < size_px && extent_m / (2 * cells) >= patch_m) cells *= 2;
   const cv::Mat coarse = PeriodicValueNoise(size_px, cells, HashCombine(seed, 1));
-  const cv::Mat fine = PeriodicValueNoise(size_px, std::min(size_px, 4 * cells), HashCombine(seed, 2));
+  const cv::Mat fine =
+      PeriodicValueNoise(size_px, std::min(size_px, 4 * cells), HashCombine(seed, 2));
   std::vector<float> value(n);
   for (std::size_t i = 0; i < n; ++i) {
     value[i] = coarse.ptr<float>()[i] + 0.3f * fine.ptr<float>()[i];
@@ -494,7 +495,8 @@ cv::Mat ApplySoilChange(const SoilTextureOptions& base_options, const cv::Mat& b
       std::uint8_t* p = out.ptr<std::uint8_t>(r);
       for (int c = 0; c < out.cols; ++c) {
         for (int k = 0; k < 3; ++k) {
-          p[4 * c + k] = static_cast<std::uint8_t>(std::min(255.0, std::round(p[4 * c + k] * tone)));
+          p[4 * c + k] =
+              static_cast<std::uint8_t>(std::min(255.0, std::round(p[4 * c + k] * tone)));
         }
       }
     }

@@ -387,8 +387,8 @@ BodyState Trajectory::StateAt(double t) const {
   Warp(t, &tau, &sigma, &sigma_rate);
   BodyState state = DrivingStateAt(tau);
   // d/dt = σ d/dτ: v = σ v_τ, a = σ² a_τ + σ' v_τ, and every rate (ω) scales with σ.
-  state.acceleration_world = sigma * sigma * state.acceleration_world +
-                             sigma_rate * state.velocity_world;
+  state.acceleration_world =
+      sigma * sigma * state.acceleration_world + sigma_rate * state.velocity_world;
   state.velocity_world *= sigma;
   state.angular_velocity_body *= sigma;
   return state;

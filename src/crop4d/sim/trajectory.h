@@ -211,8 +211,8 @@ class Trajectory {
   std::vector<Segment> segments_;
   std::vector<double> segment_start_s_;
   double path_length_ = 0.0;
-  double duration_ = 0.0;       // driving time
-  double wall_duration_ = 0.0;  // session time
+  double duration_ = 0.0;        // driving time
+  double wall_duration_ = 0.0;   // session time
   std::vector<WarpPiece> warp_;  // empty: no standstills, t = τ
   std::vector<Standstill> standstills_;
   std::vector<Pass> passes_;

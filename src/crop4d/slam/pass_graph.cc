@@ -280,8 +280,8 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
         motion.vel_world = Eigen::Map<const Eigen::Vector3d>(b.vel);
         motion.rate_body = Eigen::Map<const Eigen::Vector3d>(b.rate);
         problem->AddResidualBlock(
-            TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera,
-                                                 obs.pixel, options_.reprojection_sigma_px, motion),
+            TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,
+                                                 options_.reprojection_sigma_px, motion),
             reprojection_loss_.get(), b.pose, (*landmarks)[l].data(), &time_offset_s_);
       } else {
         problem->AddResidualBlock(

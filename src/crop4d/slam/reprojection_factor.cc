@@ -40,19 +40,12 @@ bool ReprojectionFactor::Evaluate(double const* const* parameters, double* resid
   const Eigen::Vector3d point_body = Rt * (point_world - t);
   const Eigen::Vector3d point_camera =
       camera_from_body_rotation_ * point_body + camera_from_body_translation_;
-  const double z = point_camera.z();
-  if (!(z > kMinDepth)) return false;
-  const Eigen::Vector2d xy(point_camera.x() / z, point_camera.y() / z);
-  const Eigen::Vector2d xy_d = camera_.Distort(xy);
-  const Eigen::Vector2d uv(camera_.fx * xy_d.x() + camera_.cx, camera_.fy * xy_d.y() + camera_.cy);
-  (Eigen::Map<Eigen::Vector2d>(residuals)) = inv_sigma_ * (uv - pixel_);
+  Eigen::Matrix<double, 2, 3> d_r_d_pc;
+  if (!WhitenedReprojection(camera_, pixel_, inv_sigma_, point_camera, residuals,
+                            jacobians != nullptr ? &d_r_d_pc : nullptr)) {
+    return false;
+  }
   if (jacobians == nullptr) return true;
-
-  Eigen::Matrix<double, 2, 3> d_xy_d_pc;
-  d_xy_d_pc << 1.0 / z, 0.0, -xy.x() / z, 0.0, 1.0 / z, -xy.y() / z;
-  const Eigen::Matrix<double, 2, 3> d_r_d_pc =
-      inv_sigma_ * Eigen::Vector2d(camera_.fx, camera_.fy).asDiagonal() *
-      camera_.DistortJacobian(xy) * d_xy_d_pc;
   if (jacobians[0] != nullptr) {
     Eigen::Matrix<double, 3, 6> d_pc_d_pose;
     d_pc_d_pose.leftCols<3>() = -camera_from_body_rotation_ * Rt;
@@ -64,6 +57,23 @@ bool ReprojectionFactor::Evaluate(double const* const* parameters, double* resid
     (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[1])) =
         d_r_d_pc * camera_from_body_rotation_ * Rt;
   }
+  return true;
+}
+
+bool WhitenedReprojection(const geometry::PinholeRadTan& camera, const Eigen::Vector2d& pixel,
+                          double inv_sigma, const Eigen::Vector3d& point_camera, double* residuals,
+                          Eigen::Matrix<double, 2, 3>* d_r_d_pc) {
+  const double z = point_camera.z();
+  if (!(z > kMinDepth)) return false;
+  const Eigen::Vector2d xy(point_camera.x() / z, point_camera.y() / z);
+  const Eigen::Vector2d xy_d = camera.Distort(xy);
+  const Eigen::Vector2d uv(camera.fx * xy_d.x() + camera.cx, camera.fy * xy_d.y() + camera.cy);
+  (Eigen::Map<Eigen::Vector2d>(residuals)) = inv_sigma * (uv - pixel);
+  if (d_r_d_pc == nullptr) return true;
+  Eigen::Matrix<double, 2, 3> d_xy_d_pc;
+  d_xy_d_pc << 1.0 / z, 0.0, -xy.x() / z, 0.0, 1.0 / z, -xy.y() / z;
+  *d_r_d_pc = inv_sigma * Eigen::Vector2d(camera.fx, camera.fy).asDiagonal() *
+              camera.DistortJacobian(xy) * d_xy_d_pc;
   return true;
 }
 

@@ -45,6 +45,14 @@ class ReprojectionFactor final : public ceres::SizedCostFunction<2, 7, 3> {
   double inv_sigma_;
 };
 
+// The projection every reprojection factor shares: the residual ((u, v) − pixel) · inv_sigma of
+// the camera-frame point `point_camera` into `residuals` and, when `d_r_d_pc` is given, its
+// Jacobian ∂r/∂X_c. False (nothing written) when the point is not in front of the camera
+// (Z_c ≤ 1e-6 m).
+bool WhitenedReprojection(const geometry::PinholeRadTan& camera, const Eigen::Vector2d& pixel,
+                          double inv_sigma, const Eigen::Vector3d& point_camera, double* residuals,
+                          Eigen::Matrix<double, 2, 3>* d_r_d_pc);
+
 // Pixel distance between the observation and the projection of point_world (for rejecting
 // outliers above 10 px, DESIGN.md §2.2); +infinity when the point is not in front of the camera.
 double ReprojectionError(const geometry::PinholeRadTan& camera,

@@ -7,12 +7,10 @@
 #include <vector>
 
 #include "crop4d/geometry/rotation.h"
+#include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/state_layout.h"
 
 namespace crop4d::slam {
-namespace {
-constexpr double kMinDepth = 1e-6;
-}  // namespace
 
 TimeOffsetReprojectionFactor::TimeOffsetReprojectionFactor(const geometry::PinholeRadTan& camera,
                                                            const geometry::Rigid3& body_from_camera,
@@ -58,20 +56,14 @@ bool TimeOffsetReprojectionFactor::Evaluate(double const* const* parameters, dou
   const Eigen::Vector3d point_body = Et * a;
   const Eigen::Vector3d point_camera =
       camera_from_body_rotation_ * point_body + camera_from_body_translation_;
-  const double z = point_camera.z();
-  if (!(z > kMinDepth)) return false;
-  const Eigen::Vector2d xy(point_camera.x() / z, point_camera.y() / z);
-  const Eigen::Vector2d xy_d = camera_.Distort(xy);
-  const Eigen::Vector2d uv(camera_.fx * xy_d.x() + camera_.cx, camera_.fy * xy_d.y() + camera_.cy);
-  (Eigen::Map<Eigen::Vector2d>(residuals)) = inv_sigma_ * (uv - pixel_);
+  Eigen::Matrix<double, 2, 3> d_r_d_pc;
+  if (!WhitenedReprojection(camera_, pixel_, inv_sigma_, point_camera, residuals,
+                            jacobians != nullptr ? &d_r_d_pc : nullptr)) {
+    return false;
+  }
   if (jacobians == nullptr) return true;
-
-  Eigen::Matrix<double, 2, 3> d_xy_d_pc;
-  d_xy_d_pc << 1.0 / z, 0.0, -xy.x() / z, 0.0, 1.0 / z, -xy.y() / z;
   // ∂r/∂X_b (X_c = R_cb X_b + t_cb).
-  const Eigen::Matrix<double, 2, 3> d_r_d_pb =
-      inv_sigma_ * Eigen::Vector2d(camera_.fx, camera_.fy).asDiagonal() *
-      camera_.DistortJacobian(xy) * d_xy_d_pc * camera_from_body_rotation_;
+  const Eigen::Matrix<double, 2, 3> d_r_d_pb = d_r_d_pc * camera_from_body_rotation_;
   const Eigen::Matrix3d EtRt = Et * Rt;
   const Eigen::Matrix3d Et_hat_a = Et * geometry::Hat(a);
   if (jacobians[0] != nullptr) {

@@ -1,0 +1,117 @@
+#include "crop4d/workspace/layout.h"
+
+#include <algorithm>
+
+namespace crop4d::workspace {
+
+namespace fs = std::filesystem;
+
+fs::path Layout::SessionDir(const std::string& session) const { return SessionsDir() / session; }
+
+fs::path Layout::PassList(const std::string& session) const {
+  return SessionDir(session) / "passes.csv";
+}
+
+fs::path Layout::RowsDir(const std::string& session) const { return SessionDir(session) / "rows"; }
+
+fs::path Layout::PassDir(const std::string& session, const std::string& pass) const {
+  return RowsDir(session) / pass;
+}
+
+fs::path Layout::PassProblem(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "problem.json";
+}
+
+fs::path Layout::PassFeatures(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "features.bin";
+}
+
+fs::path Layout::PassTracks(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "tracks.bin";
+}
+
+fs::path Layout::PassStates(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "states.csv";
+}
+
+fs::path Layout::PassInitialPoses(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "initial_poses.tum";
+}
+
+fs::path Layout::PassPoses(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "poses.tum";
+}
+
+fs::path Layout::PassLandmarks(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "landmarks.ply";
+}
+
+fs::path Layout::PassSummary(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "summary.json";
+}
+
+fs::path Layout::AssociationsDir(const std::string& method) const {
+  return AssociationsRoot() / method;
+}
+
+fs::path Layout::FusedSessionDir(const std::string& session) const { return FusedDir() / session; }
+
+fs::path Layout::FusedPoses(const std::string& session) const {
+  return FusedSessionDir(session) / "poses.tum";
+}
+
+fs::path Layout::FusedSparse(const std::string& session) const {
+  return FusedSessionDir(session) / "sparse.ply";
+}
+
+fs::path Layout::DenseCloud(const std::string& session) const {
+  return DenseDir() / (session + ".ply");
+}
+
+fs::path Layout::DenseSummary(const std::string& session) const {
+  return DenseDir() / (session + ".json");
+}
+
+fs::path Layout::SiteHeightsSinglePlane() const {
+  return AnalysisDir() / "site_heights_single_plane.csv";
+}
+
+std::string Layout::ChmName(const std::string& session) { return "chm_" + session + ".tif"; }
+
+std::string Layout::ChmChangeName(const std::string& earlier, const std::string& later) {
+  return "chm_change_" + earlier + "_" + later + ".tif";
+}
+
+fs::path Layout::Chm(const std::string& session) const { return AnalysisDir() / ChmName(session); }
+
+fs::path Layout::ChmChange(const std::string& earlier, const std::string& later) const {
+  return AnalysisDir() / ChmChangeName(earlier, later);
+}
+
+fs::path Layout::EvalDepthDir(const std::string& session) const {
+  return EvalDir() / "depth" / session;
+}
+
+namespace {
+
+// Names of the sub-folders of `dir`, sorted; empty when `dir` is missing or unreadable.
+std::vector<std::string> SubfolderNames(const fs::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    if (it->is_directory(type_ec)) names.push_back(it->path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::string> Layout::SessionsWithRows() const { return SubfolderNames(SessionsDir()); }
+
+std::vector<std::string> Layout::PassFolders(const std::string& session) const {
+  return SubfolderNames(RowsDir(session));
+}
+
+}  // namespace crop4d::workspace

@@ -5,28 +5,42 @@
 #include <cmath>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <vector>
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/yaml_util.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 
 namespace crop4d::pipeline {
 
 namespace {
 
 // One key of the file. Parsing and formatting both go through this table, so the file written
-// to WS/crop4d.yaml always reads back to the same configuration.
+// to WS/crop4d.yaml always reads back to the same configuration. A key is bound to its option by
+// the option's dotted path in RunConfig's field lists (stage_option_fields.h).
 struct Key {
   const char* section;  // "" for the top level
   const char* name;
   const char* comment;
+  const char* field;  // "slam.front_end.num_neighbors"
   // The value as YAML text.
   std::function<std::string(RunConfig&)> get;
   // Sets the value from a YAML scalar; returns an error message, "" when valid.
   std::function<std::string(RunConfig&, const std::string&)> set;
 };
+
+// The option at `path`; a path that names no field of type T is a programmer error.
+template <typename T>
+T& FieldOf(RunConfig& c, const char* path) {
+  T* field = fields::FindField<T>(c, path);
+  CROP4D_CHECK_MSG(field != nullptr, std::string("a configuration key is bound to '") + path +
+                                         "', which is no field of that type in RunConfig's "
+                                         "field lists (stage_option_fields.h)");
+  return *field;
+}
 
 std::string FormatDouble(double v) {
   std::string s = fmt::format("{:.10g}", v);
@@ -34,23 +48,30 @@ std::string FormatDouble(double v) {
   return s;
 }
 
-template <typename Ref>
-Key Double(const char* section, const char* name, const char* comment, Ref ref, double min,
-           double max) {
-  return {section, name, comment, [ref](RunConfig& c) { return FormatDouble(ref(c)); },
-          [ref, min, max](RunConfig& c, const std::string& text) -> std::string {
+Key Double(const char* section, const char* name, const char* comment, const char* field,
+           double min, double max) {
+  return {section,
+          name,
+          comment,
+          field,
+          [field](RunConfig& c) { return FormatDouble(FieldOf<double>(c, field)); },
+          [field, min, max](RunConfig& c, const std::string& text) -> std::string {
             double v = 0;
             if (!io::ParseYamlDouble(text, &v) || !std::isfinite(v)) return "expected a number";
             if (v < min || v > max) return fmt::format("expected a value in [{}, {}]", min, max);
-            ref(c) = v;
+            FieldOf<double>(c, field) = v;
             return "";
           }};
 }
 
-template <typename Ref>
-Key Int(const char* section, const char* name, const char* comment, Ref ref, int min, int max) {
-  return {section, name, comment, [ref](RunConfig& c) { return std::to_string(ref(c)); },
-          [ref, min, max](RunConfig& c, const std::string& text) -> std::string {
+Key Int(const char* section, const char* name, const char* comment, const char* field, int min,
+        int max) {
+  return {section,
+          name,
+          comment,
+          field,
+          [field](RunConfig& c) { return std::to_string(FieldOf<int>(c, field)); },
+          [field, min, max](RunConfig& c, const std::string& text) -> std::string {
             std::size_t used = 0;
             long v = 0;
             try {
@@ -60,19 +81,22 @@ Key Int(const char* section, const char* name, const char* comment, Ref ref, int
             }
             if (used == 0 || used != text.size()) return "expected an integer";
             if (v < min || v > max) return fmt::format("expected an integer in [{}, {}]", min, max);
-            ref(c) = static_cast<int>(v);
+            FieldOf<int>(c, field) = static_cast<int>(v);
             return "";
           }};
 }
 
-template <typename Ref>
-Key Bool(const char* section, const char* name, const char* comment, Ref ref) {
-  return {section, name, comment, [ref](RunConfig& c) { return ref(c) ? "true" : "false"; },
-          [ref](RunConfig& c, const std::string& text) -> std::string {
+Key Bool(const char* section, const char* name, const char* comment, const char* field) {
+  return {section,
+          name,
+          comment,
+          field,
+          [field](RunConfig& c) { return FieldOf<bool>(c, field) ? "true" : "false"; },
+          [field](RunConfig& c, const std::string& text) -> std::string {
             if (text == "true") {
-              ref(c) = true;
+              FieldOf<bool>(c, field) = true;
             } else if (text == "false") {
-              ref(c) = false;
+              FieldOf<bool>(c, field) = false;
             } else {
               return "expected true or false";
             }
@@ -90,20 +114,27 @@ std::string Quote(const std::string& s) {
 }
 
 // A free string (a path).
-template <typename Ref>
-Key String(const char* section, const char* name, const char* comment, Ref ref) {
-  return {section, name, comment, [ref](RunConfig& c) { return Quote(ref(c)); },
-          [ref](RunConfig& c, const std::string& text) -> std::string {
-            ref(c) = text;
+Key String(const char* section, const char* name, const char* comment, const char* field) {
+  return {section,
+          name,
+          comment,
+          field,
+          [field](RunConfig& c) { return Quote(FieldOf<std::string>(c, field)); },
+          [field](RunConfig& c, const std::string& text) -> std::string {
+            FieldOf<std::string>(c, field) = text;
             return "";
           }};
 }
 
 // One of a few words; `get`/`set` convert between the word and the option.
-Key Choice(const char* section, const char* name, const char* comment,
+Key Choice(const char* section, const char* name, const char* comment, const char* field,
            std::vector<std::string> words, std::function<std::string(RunConfig&)> get,
            std::function<void(RunConfig&, const std::string&)> set) {
-  return {section, name, comment, get,
+  return {section,
+          name,
+          comment,
+          field,
+          get,
           [words, set](RunConfig& c, const std::string& text) -> std::string {
             for (const std::string& w : words) {
               if (w == text) {
@@ -118,302 +149,271 @@ Key Choice(const char* section, const char* name, const char* comment,
 }
 
 // A string option that takes one of `words` as is.
-template <typename Ref>
 Key Word(const char* section, const char* name, const char* comment, std::vector<std::string> words,
-         Ref ref) {
+         const char* field) {
   return Choice(
-      section, name, comment, std::move(words), [ref](RunConfig& c) { return ref(c); },
-      [ref](RunConfig& c, const std::string& w) { ref(c) = w; });
+      section, name, comment, field, std::move(words),
+      [field](RunConfig& c) { return FieldOf<std::string>(c, field); },
+      [field](RunConfig& c, const std::string& w) { FieldOf<std::string>(c, field) = w; });
+}
+
+// An enum option, by the names of its values (FieldEnumNames); with `unset_word`, an optional
+// one that this word leaves unset.
+template <typename E>
+Key Enum(const char* section, const char* name, const char* comment, const char* field,
+         const char* unset_word = nullptr) {
+  std::vector<std::string> words;
+  if (unset_word != nullptr) words.emplace_back(unset_word);
+  for (const fields::EnumName<E>& n : FieldEnumNames(E{})) words.emplace_back(n.name);
+  auto value = [](const std::string& word) {
+    for (const fields::EnumName<E>& n : FieldEnumNames(E{})) {
+      if (word == n.name) return n.value;
+    }
+    return E{};  // not reached: Choice passes only the words
+  };
+  if (unset_word == nullptr) {
+    return Choice(
+        section, name, comment, field, std::move(words),
+        [field](RunConfig& c) -> std::string {
+          return fields::EnumValueName(FieldOf<E>(c, field));
+        },
+        [field, value](RunConfig& c, const std::string& w) { FieldOf<E>(c, field) = value(w); });
+  }
+  const std::string unset = unset_word;
+  return Choice(
+      section, name, comment, field, std::move(words),
+      [field, unset](RunConfig& c) -> std::string {
+        const std::optional<E>& v = FieldOf<std::optional<E>>(c, field);
+        return v ? fields::EnumValueName(*v) : unset;
+      },
+      [field, value, unset](RunConfig& c, const std::string& w) {
+        FieldOf<std::optional<E>>(c, field) =
+            w == unset ? std::nullopt : std::optional<E>(value(w));
+      });
 }
 
 const std::vector<Key>& Keys() {
   static const std::vector<Key> keys = [] {
     std::vector<Key> k;
     constexpr double kHuge = 1e9;
-    k.push_back(Int(
-        "", "threads", "worker threads for every stage (0: all cores)",
-        [](RunConfig& c) -> int& { return c.threads; }, 0, RunConfig::kMaxThreads));
+    k.push_back(Int("", "threads", "worker threads for every stage (0: all cores)", "threads", 0,
+                    RunConfig::kMaxThreads));
 
     k.push_back(Bool("stages", "densify",
                      "dense clouds before the analysis (else the analysis uses the sparse clouds)",
-                     [](RunConfig& c) -> bool& { return c.densify; }));
+                     "densify"));
     k.push_back(Word("stages", "eval",
                      "evaluation against ground truth: auto (when FIELD/ground_truth/ exists), "
                      "always, never",
-                     {"auto", "always", "never"},
-                     [](RunConfig& c) -> std::string& { return c.eval; }));
-    k.push_back(Bool("stages", "report", "write WS/report.html at the end",
-                     [](RunConfig& c) -> bool& { return c.report; }));
+                     {"auto", "always", "never"}, "eval"));
+    k.push_back(Bool("stages", "report", "write WS/report.html at the end", "report"));
 
-    std::vector<std::string> sensors = {"auto"};
-    for (const std::string& s : slam::SensorSetNames()) sensors.push_back(s);
-    k.push_back(Choice(
+    k.push_back(Enum<slam::SensorSet>(
         "slam", "sensors",
         "sensor set: auto (cam+imu+rtk with an RTK receiver, else cam+imu+gps, else cam+imu), "
         "cam+imu+rtk, cam+imu+gps, cam+imu, imu+rtk",
-        sensors,
-        [](RunConfig& c) -> std::string {
-          return c.slam.sensors ? slam::ToString(*c.slam.sensors) : "auto";
-        },
-        [](RunConfig& c, const std::string& w) {
-          c.slam.sensors = w == "auto" ? std::nullopt : slam::ParseSensorSet(w);
-        }));
-    k.push_back(Int(
-        "slam", "neighbors", "each image is matched with this many following images",
-        [](RunConfig& c) -> int& { return c.slam.front_end.num_neighbors; }, 1, 50));
-    k.push_back(Int(
-        "slam", "min_track_length", "a landmark is seen in at least this many images",
-        [](RunConfig& c) -> int& { return c.slam.front_end.tracks.min_track_length; }, 2, 1000));
-    k.push_back(Double(
-        "slam", "max_reprojection_error_px",
-        "observations above this error are removed before the final solve",
-        [](RunConfig& c) -> double& { return c.slam.optimiser.max_reprojection_error_px; }, 0.1,
-        1000));
-    k.push_back(Double(
-        "slam", "state_rate_hz", "states per second of a camera-less pass",
-        [](RunConfig& c) -> double& { return c.slam.state_rate_hz; }, 0.1, 1000));
+        "slam.sensors", "auto"));
+    k.push_back(Int("slam", "neighbors", "each image is matched with this many following images",
+                    "slam.front_end.num_neighbors", 1, 50));
+    k.push_back(Int("slam", "min_track_length", "a landmark is seen in at least this many images",
+                    "slam.front_end.tracks.min_track_length", 2, 1000));
+    k.push_back(Double("slam", "max_reprojection_error_px",
+                       "observations above this error are removed before the final solve",
+                       "slam.optimiser.max_reprojection_error_px", 0.1, 1000));
+    k.push_back(Double("slam", "state_rate_hz", "states per second of a camera-less pass",
+                       "slam.state_rate_hz", 0.1, 1000));
     k.push_back(Bool("slam", "motion_constraint",
                      "the non-holonomic constraint of a vehicle on row passes",
-                     [](RunConfig& c) -> bool& { return c.slam.motion_constraint; }));
+                     "slam.motion_constraint"));
     k.push_back(Bool("slam", "imu_noise_auto",
                      "inflate the stated IMU noise when the session's IMU + GPS fit misses the "
                      "fixes by more than 1.5 sigmas (false: warn only)",
-                     [](RunConfig& c) -> bool& { return c.slam.imu_noise_auto; }));
-    k.push_back(Choice(
+                     "slam.imu_noise_auto"));
+    k.push_back(Enum<PassMode>(
         "slam", "passes",
         "auto (row passes where the drive has rows, declared or clearly found; else one "
         "trajectory), rows (every straight pass along the rows' axis) or whole (one trajectory)",
-        {"auto", "rows", "whole"},
-        [](RunConfig& c) -> std::string { return ToString(c.slam.pass_mode); },
-        [](RunConfig& c, const std::string& w) { c.slam.pass_mode = *ParsePassMode(w); }));
+        "slam.pass_mode"));
     k.push_back(Double(
         "slam", "max_window_s",
         "a session processed as one trajectory is cut into windows of at most this many seconds",
-        [](RunConfig& c) -> double& { return c.slam.max_window_s; }, 30, 1e6));
+        "slam.max_window_s", 30, 1e6));
     k.push_back(Bool("slam", "estimate_time_offset",
                      "estimate the camera-IMU time offset of each pass (capture instant - image "
                      "stamp; for rigs whose camera and IMU clocks are not synchronised)",
-                     [](RunConfig& c) -> bool& { return c.slam.optimiser.estimate_time_offset; }));
+                     "slam.optimiser.estimate_time_offset"));
     k.push_back(Bool("slam", "standstills",
                      "detect standstills (zero velocity, one pose while the rig stands still)",
-                     [](RunConfig& c) -> bool& { return c.slam.standstills; }));
+                     "slam.standstills"));
     k.push_back(Double(
         "slam", "camera_height_m",
         "camera above the ground, measured on the rig: the scale of passes without RTK (0: the "
         "camera's sensor.yaml height_above_ground_m, if any)",
-        [](RunConfig& c) -> double& { return c.slam.camera_height_m; }, 0, 100));
+        "slam.camera_height_m", 0, 100));
     k.push_back(Bool("slam", "use_camera_height",
                      "set the scale of passes without RTK from the camera height, when known",
-                     [](RunConfig& c) -> bool& { return c.slam.use_camera_height; }));
+                     "slam.use_camera_height"));
 
     k.push_back(Word("associate", "method",
                      "robust (the paper's), naive (whole-image baseline) or both",
-                     {"robust", "naive", "both"},
-                     [](RunConfig& c) -> std::string& { return c.associate.method; }));
-    k.push_back(Int(
-        "associate", "session_gap",
-        "a row is matched with the same row in this many later sessions",
-        [](RunConfig& c) -> int& { return c.associate.session_gap; }, 1, 1000));
-    k.push_back(Double(
-        "associate", "min_overlap", "image pairs need this ground-footprint overlap (0..1)",
-        [](RunConfig& c) -> double& { return c.associate.image_pairs.min_overlap; }, 0.0, 1.0));
-    k.push_back(Int(
-        "associate", "pairs_per_image", "image pairs per image of the first pass",
-        [](RunConfig& c) -> int& { return c.associate.image_pairs.max_pairs_per_image; }, 1, 1000));
-    k.push_back(Double(
-        "associate", "sigma_position_m",
-        "position uncertainty of the row-SLAM poses for the bounded search",
-        [](RunConfig& c) -> double& { return c.associate.robust.sigma_position_m; }, 0.0, kHuge));
-    k.push_back(Double(
-        "associate", "max_ratio", "distinctiveness ratio of a match",
-        [](RunConfig& c) -> double& { return c.associate.robust.max_ratio; }, 0.01, 1.0));
-    k.push_back(Double(
-        "associate", "warp_baseline_m", "plane-induced warp beyond this baseline",
-        [](RunConfig& c) -> double& { return c.associate.robust.warp_min_baseline_m; }, 0.0,
-        kHuge));
+                     {"robust", "naive", "both"}, "associate.method"));
+    k.push_back(Int("associate", "session_gap",
+                    "a row is matched with the same row in this many later sessions",
+                    "associate.session_gap", 1, 1000));
+    k.push_back(Double("associate", "min_overlap",
+                       "image pairs need this ground-footprint overlap (0..1)",
+                       "associate.image_pairs.min_overlap", 0.0, 1.0));
+    k.push_back(Int("associate", "pairs_per_image", "image pairs per image of the first pass",
+                    "associate.image_pairs.max_pairs_per_image", 1, 1000));
+    k.push_back(Double("associate", "sigma_position_m",
+                       "position uncertainty of the row-SLAM poses for the bounded search",
+                       "associate.robust.sigma_position_m", 0.0, kHuge));
+    k.push_back(Double("associate", "max_ratio", "distinctiveness ratio of a match",
+                       "associate.robust.max_ratio", 0.01, 1.0));
+    k.push_back(Double("associate", "warp_baseline_m", "plane-induced warp beyond this baseline",
+                       "associate.robust.warp_min_baseline_m", 0.0, kHuge));
     k.push_back(Word("associate", "prealign",
                      "pre-alignment of passes placed by a metre-level GPS: auto, always, never",
-                     {"auto", "always", "never"},
-                     [](RunConfig& c) -> std::string& { return c.associate.prealign; }));
-    k.push_back(Int(
-        "associate", "min_track_length",
-        "landmarks projected from row-SLAM tracks of at least this many images",
-        [](RunConfig& c) -> int& { return c.associate.min_track_length; }, 2, 1000));
-    k.push_back(Double(
-        "associate", "max_landmark_distance_m",
-        "landmarks projected up to this distance from the camera",
-        [](RunConfig& c) -> double& { return c.associate.max_landmark_distance_m; }, 0.1, kHuge));
+                     {"auto", "always", "never"}, "associate.prealign"));
+    k.push_back(Int("associate", "min_track_length",
+                    "landmarks projected from row-SLAM tracks of at least this many images",
+                    "associate.min_track_length", 2, 1000));
+    k.push_back(Double("associate", "max_landmark_distance_m",
+                       "landmarks projected up to this distance from the camera",
+                       "associate.max_landmark_distance_m", 0.1, kHuge));
     k.push_back(Bool("associate", "surface_points",
                      "also project the features that are no landmark, placed on the local "
                      "surface of the landmarks around them",
-                     [](RunConfig& c) -> bool& { return c.associate.surface_points; }));
+                     "associate.surface_points"));
     k.push_back(Bool("associate", "upright",
                      "describe warped keypoints and their candidates upright in the second "
                      "image's pixel grid rather than at SIFT's orientations",
-                     [](RunConfig& c) -> bool& { return c.associate.robust.upright_after_warp; }));
+                     "associate.robust.upright_after_warp"));
 
     k.push_back(Word("fuse", "method", "the associations used: robust or naive",
-                     {"robust", "naive"},
-                     [](RunConfig& c) -> std::string& { return c.fuse.method; }));
-    k.push_back(Int(
-        "fuse", "matches_per_image_pair", "cross matches of one image pair used at most (0: all)",
-        [](RunConfig& c) -> int& { return c.fuse.max_matches_per_image_pair; }, 0, 1000000));
-    k.push_back(Double(
-        "fuse", "max_reprojection_error_px",
-        "observations above this error are removed before the final solve",
-        [](RunConfig& c) -> double& { return c.fuse.optimiser.row.max_reprojection_error_px; }, 0.1,
-        1000));
-    k.push_back(Int(
-        "fuse", "max_iterations", "Levenberg-Marquardt iterations per solve",
-        [](RunConfig& c) -> int& { return c.fuse.optimiser.row.max_iterations; }, 1, 100000));
-    k.push_back(Double(
-        "fuse", "function_tolerance",
-        "a solve stops when an iteration lowers the cost by less than this fraction of it",
-        [](RunConfig& c) -> double& { return c.fuse.optimiser.row.function_tolerance; }, 1e-12,
-        0.1));
+                     {"robust", "naive"}, "fuse.method"));
+    k.push_back(Int("fuse", "matches_per_image_pair",
+                    "cross matches of one image pair used at most (0: all)",
+                    "fuse.max_matches_per_image_pair", 0, 1000000));
+    k.push_back(Double("fuse", "max_reprojection_error_px",
+                       "observations above this error are removed before the final solve",
+                       "fuse.optimiser.row.max_reprojection_error_px", 0.1, 1000));
+    k.push_back(Int("fuse", "max_iterations", "Levenberg-Marquardt iterations per solve",
+                    "fuse.optimiser.row.max_iterations", 1, 100000));
+    k.push_back(
+        Double("fuse", "function_tolerance",
+               "a solve stops when an iteration lowers the cost by less than this fraction of it",
+               "fuse.optimiser.row.function_tolerance", 1e-12, 0.1));
     k.push_back(Double(
         "fuse", "max_imu_gap_s",
         "a pass with no IMU sample for longer than this degrades its session (season_quality.h)",
-        [](RunConfig& c) -> double& { return c.fuse.quality.max_imu_gap_s; }, 0.001, 1e6));
+        "fuse.quality.max_imu_gap_s", 0.001, 1e6));
     k.push_back(Choice(
         "fuse", "linear_solver",
         "exact (sparse Cholesky of the Schur complement) or iterative (conjugate gradients)",
-        {"exact", "iterative"},
+        "fuse.optimiser.row.iterative_schur", {"exact", "iterative"},
         [](RunConfig& c) -> std::string {
-          return c.fuse.optimiser.row.iterative_schur ? "iterative" : "exact";
+          return FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") ? "iterative" : "exact";
         },
         [](RunConfig& c, const std::string& w) {
-          c.fuse.optimiser.row.iterative_schur = w == "iterative";
+          FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") = w == "iterative";
         }));
     k.push_back(Bool("fuse", "colmap", "write the COLMAP text model of the fused reconstruction",
-                     [](RunConfig& c) -> bool& { return c.fuse.write_colmap; }));
+                     "fuse.write_colmap"));
     k.push_back(Bool("fuse", "ground_ties",
                      "tie the two dates of a row through their soil where association found "
                      "no cross matches",
-                     [](RunConfig& c) -> bool& { return c.fuse.ground_ties; }));
-    k.push_back(Int(
-        "fuse", "ground_tie_max_matches",
-        "pairs of passes of two sessions with fewer cross matches than this get ground ties",
-        [](RunConfig& c) -> int& { return c.fuse.ground_tie_max_matches; }, 0, 1000000));
+                     "fuse.ground_ties"));
+    k.push_back(
+        Int("fuse", "ground_tie_max_matches",
+            "pairs of passes of two sessions with fewer cross matches than this get ground ties",
+            "fuse.ground_tie_max_matches", 0, 1000000));
 
-    k.push_back(Double(
-        "densify", "cell_m", "cell of the height-field grid",
-        [](RunConfig& c) -> double& { return c.densify_options.stereo.cell_m; }, 0.001, 1.0));
-    k.push_back(Double(
-        "densify", "max_canopy_height_m", "heights swept above the ground",
-        [](RunConfig& c) -> double& { return c.densify_options.stereo.max_canopy_height_m; }, 0.01,
-        100));
-    k.push_back(Double(
-        "densify", "margin_m", "the crop rows widened by this much",
-        [](RunConfig& c) -> double& { return c.densify_options.margin_m; }, 0.0, 1000));
-    k.push_back(Int(
-        "densify", "max_views", "views compared with the reference view per cell",
-        [](RunConfig& c) -> int& { return c.densify_options.stereo.max_views; }, 1, 100));
-    k.push_back(Double(
-        "densify", "min_score", "aggregated ZNCC a cell needs",
-        [](RunConfig& c) -> double& { return c.densify_options.stereo.min_score; }, -1.0, 1.0));
-    k.push_back(Double(
-        "densify", "top_surface_margin",
-        "a green peak above a cell's best height (a top leaf) scoring at most this much "
-        "less wins (0: off)",
-        [](RunConfig& c) -> double& { return c.densify_options.stereo.top_surface_margin; }, 0.0,
-        2.0));
+    k.push_back(Double("densify", "cell_m", "cell of the height-field grid",
+                       "densify_options.stereo.cell_m", 0.001, 1.0));
+    k.push_back(Double("densify", "max_canopy_height_m", "heights swept above the ground",
+                       "densify_options.stereo.max_canopy_height_m", 0.01, 100));
+    k.push_back(Double("densify", "margin_m", "the crop rows widened by this much",
+                       "densify_options.margin_m", 0.0, 1000));
+    k.push_back(Int("densify", "max_views", "views compared with the reference view per cell",
+                    "densify_options.stereo.max_views", 1, 100));
+    k.push_back(Double("densify", "min_score", "aggregated ZNCC a cell needs",
+                       "densify_options.stereo.min_score", -1.0, 1.0));
+    k.push_back(
+        Double("densify", "top_surface_margin",
+               "a green peak above a cell's best height (a top leaf) scoring at most this much "
+               "less wins (0: off)",
+               "densify_options.stereo.top_surface_margin", 0.0, 2.0));
     k.push_back(Bool("densify", "around_sites", "only discs of radius_m around the sites",
-                     [](RunConfig& c) -> bool& { return c.densify_options.around_sites; }));
-    k.push_back(Double(
-        "densify", "radius_m", "radius of the discs of around_sites",
-        [](RunConfig& c) -> double& { return c.densify_options.radius_m; }, 0.01, 1000));
+                     "densify_options.around_sites"));
+    k.push_back(Double("densify", "radius_m", "radius of the discs of around_sites",
+                       "densify_options.radius_m", 0.01, 1000));
 
     k.push_back(String("analyze", "sites",
                        "sites file (CSV: site_id,x,y,radius_m or site_id,lat,lon,radius_m); \"\": "
                        "the sites of field.yaml",
-                       [](RunConfig& c) -> std::string& { return c.analyze.sites_file; }));
-    k.push_back(Word(
-        "analyze", "cloud", "clouds analysed: auto (dense when present), dense, sparse",
-        {"auto", "dense", "sparse"}, [](RunConfig& c) -> std::string& { return c.analyze.cloud; }));
-    k.push_back(Choice(
-        "analyze", "greenness", "vegetation index: exg or exgr", {"exg", "exgr"},
-        [](RunConfig& c) -> std::string {
-          return c.analyze.vegetation.index == analysis::GreennessIndex::kExGR ? "exgr" : "exg";
-        },
-        [](RunConfig& c, const std::string& w) {
-          c.analyze.vegetation.index =
-              w == "exgr" ? analysis::GreennessIndex::kExGR : analysis::GreennessIndex::kExG;
-        }));
-    k.push_back(Choice(
+                       "analyze.sites_file"));
+    k.push_back(Word("analyze", "cloud",
+                     "clouds analysed: auto (dense when present), dense, sparse",
+                     {"auto", "dense", "sparse"}, "analyze.cloud"));
+    k.push_back(Enum<analysis::GreennessIndex>(
+        "analyze", "greenness", "vegetation index: exg or exgr", "analyze.vegetation.index"));
+    k.push_back(Enum<analysis::CanopyTop>(
         "analyze", "canopy_top", "canopy height per site: plant-tops, crown-peaks or quantile",
-        {"plant-tops", "crown-peaks", "quantile"},
-        [](RunConfig& c) -> std::string { return analysis::CanopyTopName(c.analyze.canopy.top); },
-        [](RunConfig& c, const std::string& w) {
-          c.analyze.canopy.top = w == "crown-peaks" ? analysis::CanopyTop::kCrownPeaks
-                                 : w == "quantile"  ? analysis::CanopyTop::kQuantile
-                                                    : analysis::CanopyTop::kPlantTops;
-        }));
-    k.push_back(Double(
-        "analyze", "plant_top_quantile", "quantile of a plant's canopy cells",
-        [](RunConfig& c) -> double& { return c.analyze.canopy.plant_top_quantile; }, 0.0, 1.0));
-    k.push_back(Double(
-        "analyze", "max_shrink_m",
-        "a plant's top is at most its top in the next session plus this (-1: off)",
-        [](RunConfig& c) -> double& { return c.analyze.canopy.max_shrink_m; }, -1.0, 10));
-    k.push_back(Double(
-        "analyze", "plant_min_prominence_m",
-        "touching plants are split where the lower top rises this much above the saddle",
-        [](RunConfig& c) -> double& { return c.analyze.plants.min_prominence_m; }, 0.0, 10));
-    k.push_back(Double(
-        "analyze", "min_canopy_height_m", "vegetation this far above the terrain is canopy",
-        [](RunConfig& c) -> double& { return c.analyze.canopy.min_height_m; }, 0.0, 10));
-    k.push_back(Double(
-        "analyze", "min_canopy_height_any_colour_m",
-        "any point this far above the terrain is canopy",
-        [](RunConfig& c) -> double& { return c.analyze.canopy.min_height_any_colour_m; }, 0.0, 10));
-    k.push_back(Double(
-        "analyze", "terrain_cell_m", "cell of the terrain model",
-        [](RunConfig& c) -> double& { return c.analyze.terrain.cell_m; }, 0.005, 10));
-    k.push_back(Double(
-        "analyze", "terrain_radius_m", "radius of the terrain's local fits",
-        [](RunConfig& c) -> double& { return c.analyze.terrain.fit_radius_m; }, 0.01, 100));
+        "analyze.canopy.top"));
+    k.push_back(Double("analyze", "plant_top_quantile", "quantile of a plant's canopy cells",
+                       "analyze.canopy.plant_top_quantile", 0.0, 1.0));
+    k.push_back(Double("analyze", "max_shrink_m",
+                       "a plant's top is at most its top in the next session plus this (-1: off)",
+                       "analyze.canopy.max_shrink_m", -1.0, 10));
+    k.push_back(
+        Double("analyze", "plant_min_prominence_m",
+               "touching plants are split where the lower top rises this much above the saddle",
+               "analyze.plants.min_prominence_m", 0.0, 10));
+    k.push_back(Double("analyze", "min_canopy_height_m",
+                       "vegetation this far above the terrain is canopy",
+                       "analyze.canopy.min_height_m", 0.0, 10));
+    k.push_back(Double("analyze", "min_canopy_height_any_colour_m",
+                       "any point this far above the terrain is canopy",
+                       "analyze.canopy.min_height_any_colour_m", 0.0, 10));
+    k.push_back(Double("analyze", "terrain_cell_m", "cell of the terrain model",
+                       "analyze.terrain.cell_m", 0.005, 10));
+    k.push_back(Double("analyze", "terrain_radius_m", "radius of the terrain's local fits",
+                       "analyze.terrain.fit_radius_m", 0.01, 100));
     k.push_back(Double(
         "analyze", "ground_filter_window_m",
         "soil-coloured points above the ground's opening with this window are not ground (0: off)",
-        [](RunConfig& c) -> double& { return c.analyze.terrain.ground_filter.window_m; }, 0.0,
-        100));
-    k.push_back(Double(
-        "analyze", "ground_filter_height_m", "... when more than this above it",
-        [](RunConfig& c) -> double& { return c.analyze.terrain.ground_filter.max_height_m; }, 0.001,
-        10));
+        "analyze.terrain.ground_filter.window_m", 0.0, 100));
+    k.push_back(Double("analyze", "ground_filter_height_m", "... when more than this above it",
+                       "analyze.terrain.ground_filter.max_height_m", 0.001, 10));
     k.push_back(Bool("analyze", "later_session_terrain",
                      "refine the terrain with later sessions' bare ground",
-                     [](RunConfig& c) -> bool& { return c.analyze.terrain.use_later_sessions; }));
-    k.push_back(Double(
-        "analyze", "lone_point_radius_m",
-        "dense clouds: points without another within this radius are left out (0: none)",
-        [](RunConfig& c) -> double& { return c.analyze.lone_point_radius_m; }, 0.0, 1.0));
-    k.push_back(Double(
-        "analyze", "raster_cell_m", "cell of the GeoTIFF rasters",
-        [](RunConfig& c) -> double& { return c.analyze.raster_cell_m; }, 0.001, 100));
+                     "analyze.terrain.use_later_sessions"));
+    k.push_back(
+        Double("analyze", "lone_point_radius_m",
+               "dense clouds: points without another within this radius are left out (0: none)",
+               "analyze.lone_point_radius_m", 0.0, 1.0));
+    k.push_back(Double("analyze", "raster_cell_m", "cell of the GeoTIFF rasters",
+                       "analyze.raster_cell_m", 0.001, 100));
 
-    k.push_back(Double(
-        "eval", "rpe_distance_m", "relative pose error over this path length",
-        [](RunConfig& c) -> double& { return c.eval_options.metrics.rpe_distance_m; }, 0.01,
-        kHuge));
-    k.push_back(Double(
-        "eval", "match_distance_m", "a cross match is correct within this distance",
-        [](RunConfig& c) -> double& { return c.eval_options.association.max_distance_m; }, 0.0001,
-        100));
-    k.push_back(Double(
-        "eval", "canopy_max_error_m", "a canopy height further from the truth is a failure",
-        [](RunConfig& c) -> double& { return c.eval_options.canopy_options.max_error_m; }, 0.0001,
-        100));
+    k.push_back(Double("eval", "rpe_distance_m", "relative pose error over this path length",
+                       "eval_options.metrics.rpe_distance_m", 0.01, kHuge));
+    k.push_back(Double("eval", "match_distance_m", "a cross match is correct within this distance",
+                       "eval_options.association.max_distance_m", 0.0001, 100));
+    k.push_back(Double("eval", "canopy_max_error_m",
+                       "a canopy height further from the truth is a failure",
+                       "eval_options.canopy_options.max_error_m", 0.0001, 100));
     k.push_back(Bool("eval", "associations",
                      "precision of the cross matches (renders a true depth map per matched image: "
                      "the slow part of the evaluation)",
-                     [](RunConfig& c) -> bool& { return c.eval_options.associations; }));
-    k.push_back(
-        String("eval", "depth_cache",
-               "where rendered true depth maps are kept (\"\": "
-               "WS/eval/depth)",
-               [](RunConfig& c) -> std::string& { return c.eval_options.depth_cache_dir; }));
+                     "eval_options.associations"));
+    k.push_back(String("eval", "depth_cache",
+                       "where rendered true depth maps are kept (\"\": "
+                       "WS/eval/depth)",
+                       "eval_options.depth_cache_dir"));
+    // Every key's field is there, of its type (aborts otherwise: a programmer error).
+    RunConfig defaults;
+    for (const Key& key : k) key.get(defaults);
     return k;
   }();
   return keys;
@@ -481,6 +481,12 @@ RunConfig Parse(io::YamlFile& file) {
 }
 
 }  // namespace
+
+std::vector<RunConfigKey> RunConfigKeys() {
+  std::vector<RunConfigKey> out;
+  for (const Key& k : Keys()) out.push_back({k.section, k.name, k.field});
+  return out;
+}
 
 bool RunConfig::Check(std::string* message) const {
   auto fail = [message](const std::string& m) {

@@ -19,6 +19,7 @@
 // a key reruns that stage and what depends on its outputs, nothing else.
 
 #include <string>
+#include <vector>
 
 #include "crop4d/eval/workspace_eval.h"
 #include "crop4d/pipeline/analyze_stage.h"
@@ -52,6 +53,15 @@ struct RunConfig {
   // Valid values in every section; `message` says what is wrong.
   bool Check(std::string* message) const;
 };
+
+// A key of the file and the option it sets: the option's dotted path in RunConfig's field lists
+// (stage_option_fields.h), e.g. {"slam", "neighbors", "slam.front_end.num_neighbors"}.
+struct RunConfigKey {
+  std::string section;  // "" for the top level
+  std::string name;
+  std::string field;
+};
+std::vector<RunConfigKey> RunConfigKeys();
 
 // Reads a configuration file over the defaults. Throws InputError naming the file, line and key
 // for a syntax error, an unknown key or a bad value.

@@ -9,10 +9,13 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
+#include <type_traits>
 
 #include "crop4d/core/error.h"
 #include "crop4d/pipeline/run_log.h"
 #include "crop4d/pipeline/season_run.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -99,6 +102,55 @@ TEST(RunConfigTest, FormattedConfigurationReadsBackToItself) {
   // The defaults too.
   EXPECT_EQ(FormatRunConfig(ParseRunConfig("d.yaml", FormatRunConfig(RunConfig{}))),
             FormatRunConfig(RunConfig{}));
+}
+
+// Another value of an option that its key accepts: numbers halved (0: 0.5), integers + 1, bools
+// flipped, enums the next value, optionals set, strings extended.
+template <typename T>
+void Change(T& value) {
+  if constexpr (std::is_floating_point_v<T>) {
+    value = value != 0 ? value / 2 : 0.5;
+  } else {
+    fields::Perturb(value);
+  }
+}
+
+TEST(RunConfigTest, EveryKeyReadsAndWritesItsField) {
+  RunConfig defaults;
+  std::set<std::string> leaves;
+  fields::VisitLeaves(defaults,
+                      [&](const std::string& path, auto&, fields::Role) { leaves.insert(path); });
+  const std::string base = FormatRunConfig(defaults);
+  const nlohmann::json base_json = fields::OptionsToJson(defaults, /*with_control=*/true);
+  std::set<std::string> bound;
+  int round_trips = 0;
+  for (const RunConfigKey& key : RunConfigKeys()) {
+    const std::string name = key.section + "." + key.name;
+    EXPECT_EQ(leaves.count(key.field), 1u)
+        << name << " is bound to '" << key.field << "', which is no field of RunConfig";
+    EXPECT_TRUE(bound.insert(key.field).second) << name << ": a second key for " << key.field;
+    RunConfig changed = defaults;
+    bool free_string = false;
+    fields::VisitLeaves(changed, [&](const std::string& path, auto& field, fields::Role) {
+      if (path != key.field) return;
+      Change(field);
+      free_string = std::is_same_v<std::remove_cvref_t<decltype(field)>, std::string>;
+    });
+    ASSERT_NE(fields::OptionsToJson(changed, true), base_json) << name;
+    // The file shows the field...
+    const std::string text = FormatRunConfig(changed);
+    EXPECT_NE(text, base) << name << " does not write " << key.field;
+    // ... and reading it back sets that field, and nothing else. A string key that takes one of
+    // a few words refuses the extended string (its errors: BadFilesAreErrorsNamingTheLineAndKey).
+    try {
+      const RunConfig back = ParseRunConfig("crop4d.yaml", text);
+      EXPECT_EQ(fields::OptionsToJson(back, true), fields::OptionsToJson(changed, true)) << name;
+      ++round_trips;
+    } catch (const InputError& e) {
+      EXPECT_TRUE(free_string) << name << ": " << e.what();
+    }
+  }
+  EXPECT_GT(round_trips, 60);
 }
 
 TEST(RunConfigTest, BadFilesAreErrorsNamingTheLineAndKey) {

@@ -26,7 +26,7 @@
 #include "crop4d/association/association_file.h"
 #include "crop4d/eval/association_eval.h"
 #include "crop4d/eval/truth_geometry.h"
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 
 namespace {
 
@@ -113,13 +113,13 @@ int main(int argc, char** argv) {
   for (const auto& [refs, files] : pairs) {
     const auto& [ref_a, ref_b] = refs;
     const slam::RowPass pass_a =
-        FindPass(pipeline::ReadPassList(workspace, ref_a.session), ref_a.pass);
+        FindPass(workspace::ReadPassList(workspace, ref_a.session), ref_a.pass);
     const slam::RowPass pass_b =
-        FindPass(pipeline::ReadPassList(workspace, ref_b.session), ref_b.pass);
-    const pipeline::PassData a =
-        pipeline::LoadPassData(workspace, ref_a.session, pass_a, {.features = true});
-    const pipeline::PassData b =
-        pipeline::LoadPassData(workspace, ref_b.session, pass_b, {.features = true});
+        FindPass(workspace::ReadPassList(workspace, ref_b.session), ref_b.pass);
+    const workspace::PassData a =
+        workspace::LoadPassData(workspace, ref_a.session, pass_a, {.features = true});
+    const workspace::PassData b =
+        workspace::LoadPassData(workspace, ref_b.session, pass_b, {.features = true});
     const eval::PairType type = eval::ClassifyPair(ref_a, {pass_a.row, pass_a.direction}, ref_b,
                                                    {pass_b.row, pass_b.direction}, timeline);
     Counts& counts = by_type[type];

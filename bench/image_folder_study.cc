@@ -27,7 +27,7 @@
 #include "crop4d/io/exif_import.h"
 #include "crop4d/io/exif_test_writer.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
 
 namespace fs = std::filesystem;
@@ -89,7 +89,7 @@ void Study(const std::string& field_folder, const std::string& session, const st
   PrintRow(session, sensors, "passes", eval::EvaluateWorkspace(ws, field_folder).overall);
   // The same poses inside the true row passes only.
   const auto truth = TruePasses(field_folder, session);
-  for (const slam::RowPass& pass : pipeline::ReadPassList(ws, session)) {
+  for (const slam::RowPass& pass : workspace::ReadPassList(ws, session)) {
     const std::string file = pipeline::PassFolder(ws, session, pass.id) + "/poses.tum";
     if (!fs::exists(file)) continue;
     std::vector<io::StampedPose> inside;

@@ -2,7 +2,7 @@
 
 // The checksummed binary container shared by crop4d's own binary files: the feature cache
 // (features/feature_cache.h), the association files (association/association_file.h) and a
-// pass's tracks.bin (pipeline/pass_files.h). Each format only defines its payload; this file
+// pass's tracks.bin (workspace/pass_files.h). Each format only defines its payload; this file
 // owns the framing, so that all three detect damage the same way.
 //
 // Layout (machine byte order, which must be little-endian):

@@ -25,7 +25,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/pipeline/analyze_plots.h"
 #include "crop4d/pipeline/season_quality.h"
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -357,7 +357,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     fingerprint.AddString(s.id);
     fingerprint.Add(s.date);
     fingerprint.AddString(s.cloud.filename().string());
-    fingerprint.AddString(FileHash(s.cloud));
+    fingerprint.AddString(workspace::FileHash(s.cloud));
   }
   // Degraded sessions (season_quality.h) are measured, but never set the terrain, the stems,
   // the growth bounds or the growth curves of the others.
@@ -373,12 +373,12 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
           inputs[k].id);
     }
   }
-  fingerprint.AddString(fs::exists(measurements) ? FileHash(measurements) : "");
+  fingerprint.AddString(fs::exists(measurements) ? workspace::FileHash(measurements) : "");
   const std::string stamp = std::to_string(fingerprint.hash());
   std::string why;
   if (!options.force && fs::exists(out / "site_heights.csv") &&
       fs::exists(out / "site_plants.csv") && fs::exists(out / "growth.csv") &&
-      SummaryUpToDate(out / "summary.json", stamp, &why)) {
+      workspace::SummaryUpToDate(out / "summary.json", stamp, &why)) {
     spdlog::info("analyze: up to date, skipped (--force to analyse again)");
     report.skipped = true;
     report.sites = ReadSiteCsvs(out);
@@ -681,7 +681,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   for (const std::string& path : report.outputs) {
     written.push_back(fs::path(path).lexically_relative("analysis").generic_string());
   }
-  RecordOutputs(&summary, out, written);
+  workspace::RecordOutputs(&summary, out, written);
   summary["seconds"] = report.seconds;
   io::WriteFileAtomic((out / "summary.json").string(), summary.dump(2) + "\n");
   return report;

@@ -24,9 +24,9 @@
 #include "crop4d/core/version.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -41,7 +41,7 @@ constexpr int kAssociateStageRevision = 5;
 // A pass loaded for association: features, camera, image files, the landmarks seen in each
 // image, and (for a pass that projects its landmarks) the local planes of its cloud.
 struct PassContext {
-  PassData data;
+  workspace::PassData data;
   geometry::PinholeRadTan camera;
   std::vector<std::string> image_paths;
   std::vector<std::vector<association::LandmarkObservation>> landmarks_per_image;
@@ -62,7 +62,7 @@ std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string&
                                       const std::string& session, const slam::RowPass& pass,
                                       const AssociateStageOptions& options) {
   auto ctx = std::make_unique<PassContext>();
-  ctx->data = LoadPassData(workspace, session, pass, {.features = true, .tracks = true});
+  ctx->data = workspace::LoadPassData(workspace, session, pass, {.features = true, .tracks = true});
   const io::Session s = field.OpenSession(session);
   const io::CameraSensor* camera = s.FindCamera(ctx->data.camera);
   if (camera == nullptr) {
@@ -81,7 +81,7 @@ std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string&
   ctx->landmarks_per_image.resize(ctx->data.times.size());
   std::vector<Eigen::Vector3d> positions;
   std::vector<double> heights;
-  const std::vector<PassTrack>& cloud = ctx->data.tracks.cloud;
+  const std::vector<workspace::PassTrack>& cloud = ctx->data.tracks.cloud;
   for (std::size_t c = 0; c < cloud.size(); ++c) {
     positions.push_back(cloud[c].position_world);
     heights.push_back(cloud[c].position_world.z());
@@ -189,7 +189,7 @@ fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
 // The fingerprint of a pair's inputs: the stage revision, the options and the two passes'
 // row-SLAM fingerprints.
 std::string PairFingerprint(const std::string& method, const AssociateStageOptions& options,
-                            const PassData& a, const PassData& b) {
+                            const workspace::PassData& a, const workspace::PassData& b) {
   Fnv1aHasher hasher;
   hasher.Add(kAssociateStageRevision);
   hasher.AddString(kVersion);
@@ -211,7 +211,7 @@ std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::st
     const json s = json::parse(in);
     if (s.value("fingerprint", "") != fingerprint) return std::nullopt;
     std::string why;
-    if (!OutputsIntact(out_dir, s, &why)) {
+    if (!workspace::OutputsIntact(out_dir, s, &why)) {
       spdlog::debug("{}: associated again: {}", bin.string(), why);
       return std::nullopt;
     }
@@ -421,7 +421,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
   report.seconds = SecondsSince(start);
   association::WriteAssociationFile(bin.string(), assoc);
   json summary = PairSummaryJson(pair, method, report, options_json, fingerprint);
-  RecordOutputs(&summary, out_dir, {bin.filename().string()});
+  workspace::RecordOutputs(&summary, out_dir, {bin.filename().string()});
   io::WriteFileAtomic(summary_path.string(), summary.dump(2) + "\n");
   return report;
 }
@@ -472,7 +472,7 @@ std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
   std::vector<std::pair<std::string, std::vector<slam::RowPass>>> sessions;
   for (const std::string& id : field.session_ids()) {
     std::vector<slam::RowPass> passes;
-    for (const slam::RowPass& p : ReadPassList(workspace, id)) {
+    for (const slam::RowPass& p : workspace::ReadPassList(workspace, id)) {
       if (p.row < 0) continue;
       const fs::path summary = fs::path(PassFolder(workspace, id, p.id)) / "summary.json";
       if (!fs::exists(summary)) continue;
@@ -571,7 +571,7 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
   auto get = [&](const association::PassRef& ref) -> PassContext& {
     auto& slot = loaded[ref];
     if (!slot) {
-      for (const slam::RowPass& p : ReadPassList(workspace, ref.session)) {
+      for (const slam::RowPass& p : workspace::ReadPassList(workspace, ref.session)) {
         if (p.id == ref.pass) slot = LoadPass(field, workspace, ref.session, p, options);
       }
       if (!slot)
@@ -585,12 +585,12 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
   Progress progress("associate", pairs.size() * methods.size(), "pair", progress_options);
   // Light pass data (summary and poses) decides what is up to date; features, tracks and images
   // are loaded only for the pairs that need work.
-  std::map<association::PassRef, PassData> light;
-  auto get_light = [&](const association::PassRef& ref) -> const PassData& {
+  std::map<association::PassRef, workspace::PassData> light;
+  auto get_light = [&](const association::PassRef& ref) -> const workspace::PassData& {
     auto it = light.find(ref);
     if (it != light.end()) return it->second;
-    for (const slam::RowPass& p : ReadPassList(workspace, ref.session)) {
-      if (p.id == ref.pass) return light[ref] = LoadPassData(workspace, ref.session, p, {});
+    for (const slam::RowPass& p : workspace::ReadPassList(workspace, ref.session)) {
+      if (p.id == ref.pass) return light[ref] = workspace::LoadPassData(workspace, ref.session, p, {});
     }
     throw InputError(workspace, 0, "pass " + ref.session + "/" + ref.pass + " missing");
   };

@@ -22,7 +22,7 @@
 #include "crop4d/io/dataset_writer.h"
 #include "crop4d/io/rosbag/bag_import.h"
 #include "crop4d/io/rosbag/session_bag_writer.h"
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/season_run.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/sim/cached_field_test_util.h"
@@ -152,8 +152,8 @@ TEST_F(BagRunTest, ImportedBagRunsLikeTheOriginalSession) {
   // The same row passes, and per pass the same row-SLAM poses.
   EXPECT_EQ(Slurp(ws_b / "sessions" / id / "passes.csv"),
             Slurp(ws_a / "sessions" / id / "passes.csv"));
-  const std::vector<slam::RowPass> passes_a = ReadPassList(ws_a.string(), id);
-  const std::vector<slam::RowPass> passes_b = ReadPassList(ws_b.string(), id);
+  const std::vector<slam::RowPass> passes_a = workspace::ReadPassList(ws_a.string(), id);
+  const std::vector<slam::RowPass> passes_b = workspace::ReadPassList(ws_b.string(), id);
   ASSERT_FALSE(passes_a.empty());
   ASSERT_EQ(passes_a.size(), passes_b.size());
   for (std::size_t k = 0; k < passes_a.size(); ++k) {

@@ -23,7 +23,7 @@
 #include "crop4d/io/image_sequence.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -188,12 +188,12 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
     for (const fs::path& p :
          {poses_path, sparse_path, fs::path(session.folder()) / options.camera / "sensor.yaml",
           fs::path(session.DataCsvPath(options.camera)), fs::path(field_folder) / "field.yaml"}) {
-      fingerprint.AddString(FileHash(p));
+      fingerprint.AddString(workspace::FileHash(p));
     }
     const std::string stamp = std::to_string(fingerprint.hash());
     // A damaged or stale summary, or a cloud changed since it was written: densify again.
     std::string why;
-    if (!options.force && fs::exists(ply_path) && SummaryUpToDate(json_path, stamp, &why)) {
+    if (!options.force && fs::exists(ply_path) && workspace::SummaryUpToDate(json_path, stamp, &why)) {
       std::ifstream in(json_path);
       const json previous = json::parse(in);
       spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
@@ -314,7 +314,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
                           {"match", s.match_seconds},
                           {"stereo", s.total_seconds},
                           {"total", report.seconds}};
-    RecordOutputs(&summary, out_dir, {ply_path.filename().string()});
+    workspace::RecordOutputs(&summary, out_dir, {ply_path.filename().string()});
     io::WriteFileAtomic(json_path.string(), summary.dump(2) + "\n");
     spdlog::info("densify {}: {} points in {:.1f} s", id, s.num_points, report.seconds);
     reports.push_back(report);

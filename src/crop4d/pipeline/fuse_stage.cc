@@ -31,10 +31,10 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/slam_stage.h"
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
@@ -51,7 +51,7 @@ using Clock = std::chrono::steady_clock;
 constexpr int kFuseStageRevision = 3;  // 3: degraded sessions do not move the others
 
 struct LoadedPass {
-  PassData data;
+  workspace::PassData data;
   fusion::JointOptimiser::Pass input;
   const slam::SessionStreams* streams = nullptr;
   // Cloud track of each (image, feature) of the pass.
@@ -215,7 +215,7 @@ std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams)
 // (one per image).
 slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
                                const slam::TriangulationOptions& options) {
-  const PassData& data = pass.data;
+  const workspace::PassData& data = pass.data;
   std::vector<slam::LandmarkTrack> tracks(data.tracks.cloud.size());
   for (std::size_t i = 0; i < tracks.size(); ++i) {
     for (const features::Observation& o : data.tracks.cloud[i].observations) {
@@ -271,7 +271,7 @@ fusion::CrossPassTracks BuildLandmarkGraph(
     FuseReport* report, std::vector<std::tuple<int, int, std::int64_t>>* session_pairs) {
   fusion::CrossPassTracks graph;
   for (std::size_t p = 0; p < passes.size(); ++p) {
-    for (const PassTrack& t : passes[p]->data.tracks.landmarks) {
+    for (const workspace::PassTrack& t : passes[p]->data.tracks.landmarks) {
       graph.AddPassLandmark(static_cast<int>(p), t.observations);
     }
   }
@@ -300,8 +300,8 @@ fusion::CrossPassTracks BuildLandmarkGraph(
     report->num_cross_matches += static_cast<std::int64_t>(assoc.matches.size());
     report->num_thinned_matches += static_cast<std::int64_t>(assoc.matches.size() - matches.size());
     for (const association::CrossMatch& m : matches) {
-      const PassData& a = passes[pa]->data;
-      const PassData& b = passes[pb]->data;
+      const workspace::PassData& a = passes[pa]->data;
+      const workspace::PassData& b = passes[pb]->data;
       const bool valid =
           m.image_a >= 0 && m.image_a < static_cast<int>(a.times.size()) && m.image_b >= 0 &&
           m.image_b < static_cast<int>(b.times.size()) && a.times[m.image_a] == m.t_a &&
@@ -553,7 +553,7 @@ void LoadPassProblems(const io::Field& field, const std::string& workspace,
                       std::map<std::string, std::unique_ptr<io::Session>>* session_objects) {
   for (auto& pass : passes) {
     const std::string& session = pass->data.session;
-    pass->data = LoadPassData(workspace, session, pass->data.pass,
+    pass->data = workspace::LoadPassData(workspace, session, pass->data.pass,
                               {.features = true, .tracks = true, .states = true});
     if (!streams->count(session)) {
       (*session_objects)[session] = std::make_unique<io::Session>(field.OpenSession(session));
@@ -688,9 +688,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   std::vector<std::string> sessions;
   for (const std::string& session : field.session_ids()) {
     bool any = false;
-    for (const slam::RowPass& pass : ReadPassList(workspace, session)) {
+    for (const slam::RowPass& pass : workspace::ReadPassList(workspace, session)) {
       auto loaded = std::make_unique<LoadedPass>();
-      loaded->data = LoadPassData(workspace, session, pass, {});
+      loaded->data = workspace::LoadPassData(workspace, session, pass, {});
       if (!loaded->data.has_camera()) continue;
       fingerprint.AddString(loaded->data.label());
       fingerprint.AddString(loaded->data.fingerprint);
@@ -713,7 +713,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   std::sort(association_files.begin(), association_files.end());
   for (const fs::path& path : association_files) {
     fingerprint.AddString(path.filename().string());
-    fingerprint.AddString(FileHash(path));
+    fingerprint.AddString(workspace::FileHash(path));
   }
   const std::string stamp = std::to_string(fingerprint.hash());
   const fs::path out_dir = fs::path(workspace) / "fused";
@@ -723,7 +723,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       complete &= fs::exists(out_dir / s / "poses.tum") && fs::exists(out_dir / s / "sparse.ply");
     }
     std::string why;
-    if (complete && SummaryUpToDate(out_dir / "summary.json", stamp, &why)) {
+    if (complete && workspace::SummaryUpToDate(out_dir / "summary.json", stamp, &why)) {
       spdlog::info("fuse: up to date, skipped (--force to fuse again)");
       report.skipped = true;
       report.num_sessions = static_cast<int>(sessions.size());
@@ -781,7 +781,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   io::WriteFileAtomic(SeasonQualityPath(workspace),
                       SeasonQualityToJson(report.quality).dump(2) + "\n");
   // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.
-  RecordOutputs(&summary, out_dir, FilesBelow(out_dir));
+  workspace::RecordOutputs(&summary, out_dir, workspace::FilesBelow(out_dir));
   io::WriteFileAtomic((out_dir / "summary.json").string(), summary.dump(2) + "\n");
   return report;
 }

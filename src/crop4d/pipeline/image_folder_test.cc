@@ -17,7 +17,7 @@
 #include "crop4d/io/exif_import.h"
 #include "crop4d/io/exif_test_writer.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
@@ -115,7 +115,7 @@ TEST_F(ImageFolderTest, JpegsWithPhoneGradePositionsRunCamGpsWithoutLosingTheSha
     if (f.size() < 6 || !io::ParseInt64(f[4], &begin) || !io::ParseInt64(f[5], &end)) continue;
     truth.emplace_back(begin, end);
   }
-  const std::vector<slam::RowPass> passes = ReadPassList((dir_ / "ws").string(), id);
+  const std::vector<slam::RowPass> passes = workspace::ReadPassList((dir_ / "ws").string(), id);
   ASSERT_EQ(passes.size(), truth.size());
   for (std::size_t k = 0; k < passes.size(); ++k) {
     SCOPED_TRACE(k);

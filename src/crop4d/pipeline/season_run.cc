@@ -24,7 +24,7 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/validator.h"
 #include "crop4d/io/workspace_lock.h"
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 #include "crop4d/report/html_report.h"
 
 namespace crop4d::pipeline {
@@ -355,7 +355,7 @@ std::string SeasonRun::EvalFingerprint() const {
   std::sort(summaries.begin(), summaries.end());
   for (const std::string& path : summaries) {
     add(fs::relative(path, ws_).string());
-    add(SummaryFingerprint(path));
+    add(workspace::SummaryFingerprint(path));
   }
   std::error_code ec;
   std::vector<std::string> truth;
@@ -366,7 +366,7 @@ std::string SeasonRun::EvalFingerprint() const {
   std::sort(truth.begin(), truth.end());
   for (const std::string& path : truth) {
     add(fs::relative(path, field_).string());
-    add(FileHash(path));
+    add(workspace::FileHash(path));
   }
   return std::to_string(hasher.hash());
 }
@@ -388,7 +388,7 @@ void SeasonRun::Eval(StageRecord& stage) {
     std::getline(in, metrics_hash);
   }
   if (!options_.force && previous == stamp && !metrics_hash.empty() &&
-      FileHash(metrics) == metrics_hash) {
+      workspace::FileHash(metrics) == metrics_hash) {
     Item(stage, "", "metrics.json", kActionUpToDate, 0);
     return;
   }
@@ -400,7 +400,7 @@ void SeasonRun::Eval(StageRecord& stage) {
   eval::WorkspaceEvalOptions o = config_.eval_options;
   const eval::WorkspaceEval result = eval::EvaluateWorkspace(ws_, field_, o);
   eval::WriteWorkspaceEval(result);
-  io::WriteFileAtomic(stamp_path.string(), stamp + "\n" + FileHash(metrics) + "\n");
+  io::WriteFileAtomic(stamp_path.string(), stamp + "\n" + workspace::FileHash(metrics) + "\n");
   Item(stage, "", "metrics.json", kActionDone, SecondsSince(start));
   if (!IsQuiet()) {
     spdlog::info("\n{}", eval::FormatWorkspaceEvalTable(result));

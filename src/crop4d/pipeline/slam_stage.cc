@@ -20,9 +20,9 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/pipeline/pass_files.h"
+#include "crop4d/workspace/pass_files.h"
 #include "crop4d/pipeline/pass_standstills.h"
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/time_offset_reprojection_factor.h"
@@ -170,7 +170,7 @@ bool UpToDate(const std::string& folder, const std::string& fingerprint, bool ne
     return false;
   }
   std::string why;
-  if (SummaryUpToDate(summary_path, fingerprint, &why)) return true;
+  if (workspace::SummaryUpToDate(summary_path, fingerprint, &why)) return true;
   spdlog::debug("{}: solved again: {}", folder, why);
   return false;
 }
@@ -674,10 +674,10 @@ int WritePassCloud(const SlamStageOptions& options, const SessionContext& ctx,
   const io::PlyPointCloud cloud = ToPly(track_cloud);
   // The observations behind the optimised landmarks and behind every cloud point, for
   // association and the joint 4D problem (pass_files.h).
-  PassTracks pass_tracks;
+  workspace::PassTracks pass_tracks;
   for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
     const features::Track& track = front.tracks[result.landmark_tracks[l]];
-    PassTrack t;
+    workspace::PassTrack t;
     t.position_world = result.landmarks_world[l];
     t.color = tracks[result.landmark_tracks[l]].color;
     for (std::size_t o = 0; o < track.observations.size(); ++o) {
@@ -689,7 +689,7 @@ int WritePassCloud(const SlamStageOptions& options, const SessionContext& ctx,
     pass_tracks.cloud.push_back({track_cloud.points_world[k], track_cloud.colors[k],
                                  all_tracks[track_cloud.track_indices[k]].observations});
   }
-  WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
+  workspace::WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
   io::PlyWriteOptions ply_options;
   ply_options.comment =
       "crop4d sparse cloud of " + ctx.session->id() + "/" + pass.id + ", field ENU frame (metres)";
@@ -942,7 +942,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                    " of session " + ctx.session->id() + ", pass " + pass.id + " (" +
                    slam::ToString(ctx.sensors) + "), field ENU frame");
 
-  WritePassStates((fs::path(folder) / "states.csv").string(), result.states);
+  workspace::WritePassStates((fs::path(folder) / "states.csv").string(), result.states);
 
   PassOutcome outcome;
   outcome.num_states = static_cast<int>(result.states.size());
@@ -987,7 +987,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                         {"final_solve", s.final_solve_seconds},
                         {"outputs", output_seconds},
                         {"total", SecondsSince(start_total)}};
-  RecordOutputs(&summary, folder, PassOutputs(folder));
+  workspace::RecordOutputs(&summary, folder, PassOutputs(folder));
   io::WriteFileAtomic((fs::path(folder) / "summary.json").string(), summary.dump(2) + "\n");
   return outcome;
 }

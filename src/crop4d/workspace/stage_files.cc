@@ -1,4 +1,4 @@
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 
 #include <algorithm>
 #include <fstream>
@@ -8,7 +8,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/hash.h"
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 
 std::string FileHash(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -110,4 +110,4 @@ bool SummaryUpToDate(const std::filesystem::path& summary_json, const std::strin
   }
 }
 
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

@@ -9,10 +9,10 @@
 
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/geometry/rigid.h"
-#include "crop4d/pipeline/pass_files.h"
+#include "crop4d/workspace/pass_files.h"
 #include "crop4d/slam/row_passes.h"
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 
 // The passes of a session from WS/sessions/<session>/passes.csv (empty when there is none).
 std::vector<slam::RowPass> ReadPassList(const std::string& workspace, const std::string& session);
@@ -49,4 +49,4 @@ struct PassDataParts {
 PassData LoadPassData(const std::string& workspace, const std::string& session,
                       const slam::RowPass& pass, const PassDataParts& parts);
 
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

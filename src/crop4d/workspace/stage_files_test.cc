@@ -1,4 +1,4 @@
-#include "crop4d/pipeline/stage_files.h"
+#include "crop4d/workspace/stage_files.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -7,7 +7,7 @@
 #include <fstream>
 #include <string>
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 namespace {
 
 namespace fs = std::filesystem;
@@ -83,4 +83,4 @@ TEST_F(StageFilesTest, AnOutputThatCannotBeReadIsAnErrorWhenRecorded) {
 }
 
 }  // namespace
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

@@ -1,4 +1,4 @@
-#include "crop4d/pipeline/pass_data.h"
+#include "crop4d/workspace/pass_data.h"
 
 #include <filesystem>
 #include <fstream>
@@ -8,15 +8,15 @@
 #include "crop4d/features/feature_cache.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/workspace/layout.h"
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
 std::vector<slam::RowPass> ReadPassList(const std::string& workspace, const std::string& session) {
-  const fs::path path = fs::path(workspace) / "sessions" / session / "passes.csv";
+  const fs::path path = Layout(workspace).PassList(session);
   std::vector<slam::RowPass> passes;
   if (!fs::exists(path)) return passes;
   io::CsvReader reader(path.string());
@@ -50,9 +50,9 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
   PassData data;
   data.session = session;
   data.pass = pass;
-  data.folder = PassFolder(workspace, session, pass.id);
-  const fs::path folder(data.folder);
-  const fs::path summary_path = folder / "summary.json";
+  const Layout layout(workspace);
+  data.folder = layout.PassDir(session, pass.id).string();
+  const fs::path summary_path = layout.PassSummary(session, pass.id);
   if (!fs::exists(summary_path)) {
     throw InputError(summary_path.string() + ": missing (run `crop4d slam` first)");
   }
@@ -74,14 +74,14 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
     }
     data.summary_json = summary.dump();
   }
-  for (const io::StampedPose& p : io::ReadTum((folder / "poses.tum").string())) {
+  for (const io::StampedPose& p : io::ReadTum(layout.PassPoses(session, pass.id).string())) {
     data.times.push_back(p.t);
     data.poses.push_back(p.pose);
   }
   if (parts.features && data.has_camera()) {
     features::FeatureCache cache;
     std::string detail;
-    const fs::path path = folder / "features.bin";
+    const fs::path path = layout.PassFeatures(session, pass.id);
     const features::FeatureCacheStatus status =
         features::ReadFeatureCache(path.string(), &cache, &detail);
     if (status != features::FeatureCacheStatus::kOk) {
@@ -109,7 +109,7 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
     }
   }
   if (parts.tracks && data.has_camera()) {
-    data.tracks = ReadPassTracks((folder / "tracks.bin").string());
+    data.tracks = ReadPassTracks(layout.PassTracks(session, pass.id).string());
   }
   if (parts.tracks && parts.features && data.has_camera()) {
     for (const auto* list : {&data.tracks.landmarks, &data.tracks.cloud}) {
@@ -117,7 +117,7 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
         for (const features::Observation& o : t.observations) {
           if (o.image >= static_cast<int>(data.features.size()) ||
               o.feature >= static_cast<int>(data.features[o.image].size())) {
-            throw InputError((folder / "tracks.bin").string() +
+            throw InputError(layout.PassTracks(session, pass.id).string() +
                              ": an observation outside features.bin (rerun `crop4d slam --force`)");
           }
         }
@@ -125,9 +125,10 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
     }
   }
   if (parts.states) {
-    data.states = ReadPassStates((folder / "states.csv").string());
+    const fs::path states_path = layout.PassStates(session, pass.id);
+    data.states = ReadPassStates(states_path.string());
     if (data.states.size() != data.times.size()) {
-      throw InputError((folder / "states.csv").string() + ": " +
+      throw InputError(states_path.string() + ": " +
                        std::to_string(data.states.size()) + " states but poses.tum has " +
                        std::to_string(data.times.size()) + " (rerun `crop4d slam --force`)");
     }
@@ -135,4 +136,4 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
   return data;
 }
 
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

@@ -26,7 +26,7 @@
 #include "crop4d/features/tracks.h"
 #include "crop4d/slam/initialisation.h"
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 
 inline constexpr std::uint32_t kPassTracksVersion = 1;
 
@@ -52,4 +52,4 @@ PassTracks ReadPassTracks(const std::string& path);
 void WritePassStates(const std::string& path, const std::vector<slam::RowState>& states);
 std::vector<slam::RowState> ReadPassStates(const std::string& path);
 
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

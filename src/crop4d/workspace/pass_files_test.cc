@@ -1,4 +1,4 @@
-#include "crop4d/pipeline/pass_files.h"
+#include "crop4d/workspace/pass_files.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -9,7 +9,7 @@
 
 #include "crop4d/core/error.h"
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 namespace {
 
 namespace fs = std::filesystem;
@@ -119,4 +119,4 @@ TEST_F(PassFilesTest, StatesRejectMalformedRows) {
 }
 
 }  // namespace
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

@@ -1,4 +1,4 @@
-#include "crop4d/pipeline/pass_files.h"
+#include "crop4d/workspace/pass_files.h"
 
 #include <cmath>
 #include <sstream>
@@ -8,7 +8,7 @@
 #include "crop4d/io/checksummed_file.h"
 #include "crop4d/io/csv.h"
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 namespace {
 
 constexpr char kMagic[8] = {'C', '4', 'D', 'T', 'R', 'A', 'K', '\0'};
@@ -167,4 +167,4 @@ std::vector<slam::RowState> ReadPassStates(const std::string& path) {
   return states;
 }
 
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-namespace crop4d::pipeline {
+namespace crop4d::workspace {
 
 // FNV-1a hash of a file's bytes, as decimal text ("" when the file cannot be read).
 std::string FileHash(const std::filesystem::path& path);
@@ -40,4 +40,4 @@ bool SummaryUpToDate(const std::filesystem::path& summary_json, const std::strin
 bool OutputsIntact(const std::filesystem::path& folder, const nlohmann::json& summary,
                    std::string* why = nullptr);
 
-}  // namespace crop4d::pipeline
+}  // namespace crop4d::workspace

@@ -3,8 +3,8 @@
 #include <fmt/format.h>
 
 #include <cctype>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <set>
@@ -58,8 +58,8 @@ class TableReader {
   template <typename HeaderCheck>
   void ReadHeader(const std::string& expected, HeaderCheck&& matches) {
     if (!csv_.Next(&record_)) {
-      throw InputError(name_, 0, fmt::format("empty file: expected the header '{}'; {}",
-                                             expected, kRerun));
+      throw InputError(name_, 0,
+                       fmt::format("empty file: expected the header '{}'; {}", expected, kRerun));
     }
     CheckSchemaComment();
     CheckLine();
@@ -80,9 +80,9 @@ class TableReader {
     if (!csv_.Next(&record_)) return false;
     CheckLine();
     if (record_.fields.size() != columns_) {
-      throw InputError(name_, record_.line,
-                       fmt::format("expected {} fields, found {}", columns_,
-                                   record_.fields.size()));
+      throw InputError(
+          name_, record_.line,
+          fmt::format("expected {} fields, found {}", columns_, record_.fields.size()));
     }
     return true;
   }
@@ -115,7 +115,9 @@ class TableReader {
     return value;
   }
 
-  std::int64_t Count(std::size_t i, const char* column) const {
+  // A count; an empty cell is -1 (unknown) when `may_be_empty`.
+  std::int64_t Count(std::size_t i, const char* column, bool may_be_empty = false) const {
+    if (record_.fields[i].empty() && may_be_empty) return -1;
     std::int64_t value = 0;
     if (!io::ParseInt64(record_.fields[i], &value) || value < 0) {
       Fail(fmt::format("{} '{}' is not a count", column, record_.fields[i]));
@@ -180,8 +182,9 @@ std::string GrowthIntervalName(const std::string& earlier, const std::string& la
 }
 
 std::vector<std::string> GrowthColumns(const GrowthTable& table) {
-  std::vector<std::string> names = {"site_id", "status",  "asymptote_m", "rate_per_day",
-                                    "midpoint_date", "max_growth_m_per_day", "rmse_m", "n"};
+  std::vector<std::string> names = {
+      "site_id", "status", "asymptote_m", "rate_per_day", "midpoint_date", "max_growth_m_per_day",
+      "rmse_m",  "n"};
   for (const std::string& interval : table.intervals) {
     names.push_back(kGrowthPrefix + interval + kGrowthSuffix);
   }
@@ -189,8 +192,13 @@ std::vector<std::string> GrowthColumns(const GrowthTable& table) {
 }
 
 std::vector<std::string> SiteHeightCells(const SiteHeight& r) {
-  return {r.site_id,          r.session,           r.date, Fixed(r.height_m, 4),
-          Fixed(r.cover, 3), Fixed(r.volume_m3, 5), std::to_string(r.n_points)};
+  return {r.site_id,
+          r.session,
+          r.date,
+          Fixed(r.height_m, 4),
+          Fixed(r.cover, 3),
+          Fixed(r.volume_m3, 5),
+          r.n_points >= 0 ? std::to_string(r.n_points) : std::string()};
 }
 
 std::vector<std::string> GrowthCells(const GrowthRow& r) {
@@ -257,11 +265,11 @@ std::vector<SiteHeight> ReadSiteHeights(std::istream& in, const std::string& nam
     r.height_m = t.Number(3, "height_m", true);
     r.cover = t.Number(4, "cover", true);
     r.volume_m3 = t.Number(5, "volume_m3", true);
-    r.n_points = t.Count(6, "n_points");
+    r.n_points = t.Count(6, "n_points", true);
     const auto [it, added] = seen.emplace(std::make_pair(r.site_id, r.session), r.line);
     if (!added) {
-      t.Fail(fmt::format("site '{}' session '{}' repeated (first on line {})", r.site_id,
-                         r.session, it->second));
+      t.Fail(fmt::format("site '{}' session '{}' repeated (first on line {})", r.site_id, r.session,
+                         it->second));
     }
     rows.push_back(std::move(r));
   }
@@ -293,10 +301,10 @@ std::vector<SitePlantRow> ReadSitePlants(std::istream& in, const std::string& na
       t.Fail(fmt::format("site {} plant {} session {} repeated", r.site_id, r.plant, r.session));
     }
     // The writer rounds positions to millimetres: the same stem in every session.
-    const auto [it, added] = stems.emplace(std::make_pair(r.site_id, r.plant),
-                                           std::make_pair(r.x_m, r.y_m));
-    if (!added && (std::abs(it->second.first - r.x_m) > 1e-3 ||
-                   std::abs(it->second.second - r.y_m) > 1e-3)) {
+    const auto [it, added] =
+        stems.emplace(std::make_pair(r.site_id, r.plant), std::make_pair(r.x_m, r.y_m));
+    if (!added &&
+        (std::abs(it->second.first - r.x_m) > 1e-3 || std::abs(it->second.second - r.y_m) > 1e-3)) {
       t.Fail(fmt::format("site {} plant {} moved: ({}, {}) after ({}, {})", r.site_id, r.plant,
                          r.x_m, r.y_m, it->second.first, it->second.second));
     }
@@ -310,23 +318,23 @@ GrowthTable ReadGrowth(std::istream& in, const std::string& name) {
   GrowthTable table;
   const std::vector<std::string> fixed = GrowthColumns(table);
   const std::string prefix(kGrowthPrefix), suffix(kGrowthSuffix);
-  t.ReadHeader(Joined(fixed) + ",growth_<earlier>_<later>" + suffix + "...",
-               [&](const std::vector<std::string>& names) {
-                 if (names.size() < fixed.size() ||
-                     !std::equal(fixed.begin(), fixed.end(), names.begin())) {
-                   return false;
-                 }
-                 for (std::size_t i = fixed.size(); i < names.size(); ++i) {
-                   const std::string& n = names[i];
-                   if (n.size() <= prefix.size() + suffix.size() || n.rfind(prefix, 0) != 0 ||
-                       n.compare(n.size() - suffix.size(), suffix.size(), suffix) != 0) {
-                     return false;
-                   }
-                   table.intervals.push_back(
-                       n.substr(prefix.size(), n.size() - prefix.size() - suffix.size()));
-                 }
-                 return true;
-               });
+  t.ReadHeader(
+      Joined(fixed) + ",growth_<earlier>_<later>" + suffix + "...",
+      [&](const std::vector<std::string>& names) {
+        if (names.size() < fixed.size() || !std::equal(fixed.begin(), fixed.end(), names.begin())) {
+          return false;
+        }
+        for (std::size_t i = fixed.size(); i < names.size(); ++i) {
+          const std::string& n = names[i];
+          if (n.size() <= prefix.size() + suffix.size() || n.rfind(prefix, 0) != 0 ||
+              n.compare(n.size() - suffix.size(), suffix.size(), suffix) != 0) {
+            return false;
+          }
+          table.intervals.push_back(
+              n.substr(prefix.size(), n.size() - prefix.size() - suffix.size()));
+        }
+        return true;
+      });
   std::set<std::string> seen;
   while (t.Next()) {
     GrowthRow r;
@@ -351,15 +359,13 @@ GrowthTable ReadGrowth(std::istream& in, const std::string& name) {
 }
 
 std::vector<SiteHeight> ReadSiteHeights(const fs::path& path) {
-  return ReadFile(path, [](std::istream& in, const std::string& name) {
-    return ReadSiteHeights(in, name);
-  });
+  return ReadFile(
+      path, [](std::istream& in, const std::string& name) { return ReadSiteHeights(in, name); });
 }
 
 std::vector<SitePlantRow> ReadSitePlants(const fs::path& path) {
-  return ReadFile(path, [](std::istream& in, const std::string& name) {
-    return ReadSitePlants(in, name);
-  });
+  return ReadFile(
+      path, [](std::istream& in, const std::string& name) { return ReadSitePlants(in, name); });
 }
 
 GrowthTable ReadGrowth(const fs::path& path) {

@@ -6,7 +6,7 @@
 //
 //   site_heights.csv, site_heights_single_plane.csv
 //       site_id,session,date,height_m,cover,volume_m3,n_points
-//       (height_m, cover, volume_m3 empty where there is no estimate)
+//       (height_m, cover, volume_m3 empty where there is no estimate; n_points empty: unknown)
 //   site_plants.csv
 //       site_id,plant,x_m,y_m,session,date,top_m      (top_m empty: the plant was not seen)
 //   growth.csv

@@ -16,10 +16,12 @@
 
 namespace crop4d::analysis {
 
-// The words of the configuration file's `analyze.greenness`.
+// The names of GreennessIndexName ("ExG", "ExGR": what `crop4d export` reads back from the
+// analysis summary's options).
 inline std::span<const fields::EnumName<GreennessIndex>> FieldEnumNames(GreennessIndex) {
-  static constexpr fields::EnumName<GreennessIndex> kNames[] = {{GreennessIndex::kExG, "exg"},
-                                                                {GreennessIndex::kExGR, "exgr"}};
+  static const fields::EnumName<GreennessIndex> kNames[] = {
+      {GreennessIndex::kExG, GreennessIndexName(GreennessIndex::kExG)},
+      {GreennessIndex::kExGR, GreennessIndexName(GreennessIndex::kExGR)}};
   return kNames;
 }
 

@@ -356,8 +356,19 @@ const std::vector<Key>& Keys() {
     k.push_back(Word("analyze", "cloud",
                      "clouds analysed: auto (dense when present), dense, sparse",
                      {"auto", "dense", "sparse"}, "analyze.cloud"));
-    k.push_back(Enum<analysis::GreennessIndex>(
-        "analyze", "greenness", "vegetation index: exg or exgr", "analyze.vegetation.index"));
+    k.push_back(Choice(
+        "analyze", "greenness", "vegetation index: exg or exgr", "analyze.vegetation.index",
+        {"exg", "exgr"},
+        [](RunConfig& c) -> std::string {
+          return FieldOf<analysis::GreennessIndex>(c, "analyze.vegetation.index") ==
+                         analysis::GreennessIndex::kExGR
+                     ? "exgr"
+                     : "exg";
+        },
+        [](RunConfig& c, const std::string& w) {
+          FieldOf<analysis::GreennessIndex>(c, "analyze.vegetation.index") =
+              w == "exgr" ? analysis::GreennessIndex::kExGR : analysis::GreennessIndex::kExG;
+        }));
     k.push_back(Enum<analysis::CanopyTop>(
         "analyze", "canopy_top", "canopy height per site: plant-tops, crown-peaks or quantile",
         "analyze.canopy.top"));

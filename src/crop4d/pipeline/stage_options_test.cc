@@ -237,6 +237,11 @@ TEST(StageOptionsTest, OptionsJsonWritesEveryValueExactly) {
   const nlohmann::json all = fields::OptionsToJson(SlamStageOptions(), /*with_control=*/true);
   EXPECT_EQ(all["force"], false);
   EXPECT_EQ(all["sensors"], nullptr);
+  // What `crop4d export` reads back from the analysis summary's options.
+  const nlohmann::json analyze = AnalyzeOptionsJson(AnalyzeStageOptions());
+  EXPECT_EQ(analyze["vegetation"]["index"], "ExG");
+  EXPECT_EQ(analyze["canopy"]["min_height_m"], AnalyzeStageOptions().canopy.min_height_m);
+  EXPECT_EQ(analyze["lone_point_radius_m"], AnalyzeStageOptions().lone_point_radius_m);
   o = SlamStageOptions();
   o.gps_outages.push_back({10.0, 5.0});
   EXPECT_EQ(SlamOptionsJson(o, slam::SensorSet::kCamImu)["gps_outages"],

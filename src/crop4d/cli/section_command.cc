@@ -19,6 +19,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/report/cross_section.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::cli {
 namespace {
@@ -47,7 +48,7 @@ std::vector<std::string> SelectSessions(const std::string& workspace,
       throw InputError(
           "--sessions", 0,
           fmt::format("session '{}' is not in {} (it has {})", s,
-                      (fs::path(workspace) / "sessions").string(), fmt::join(all, ", ")));
+                      workspace::Layout(workspace).SessionsDir().string(), fmt::join(all, ", ")));
     }
   }
   std::vector<std::string> selected;

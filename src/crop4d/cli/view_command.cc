@@ -17,6 +17,7 @@
 #include "crop4d/viewer/server.h"
 #include "crop4d/viewer/static_viewer.h"
 #include "crop4d/viewer/viewer_data.h"
+#include "crop4d/workspace/layout.h"
 
 extern char** environ;
 
@@ -46,7 +47,7 @@ void OpenBrowser(const std::string& url) {
 
 int RunView(const ViewArgs& args) {
   namespace fs = std::filesystem;
-  const std::string data = (fs::path(args.workspace) / "viewer").string();
+  const std::string data = workspace::Layout(args.workspace).ViewerDir().string();
   {
     // The viewer data is written under the workspace's lock, then the lock is released: a
     // pipeline stage may run while the viewer is open (reload the page to see its results).

@@ -13,6 +13,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/eval/natural_order.h"
 #include "crop4d/io/csv.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::eval {
 namespace {
@@ -40,8 +41,7 @@ bool IsDate(std::string_view text) {
 struct Columns {
   std::vector<std::string> names;
   std::int64_t line = 0;
-  int site_id = -1, session = -1, date = -1, height_m = -1, cover = -1, volume_m3 = -1,
-      n_points = -1;
+  int site_id = -1, session = -1, date = -1, height_m = -1;
 
   std::string Joined() const {
     std::string out;
@@ -51,24 +51,20 @@ struct Columns {
 };
 
 Columns ParseHeader(const std::vector<std::string>& names, std::int64_t line,
-                    const std::string& file, bool truth) {
+                    const std::string& file) {
   Columns c;
   c.names = names;
   c.line = line;
   for (int i = 0; i < static_cast<int>(names.size()); ++i) {
     const std::string& n = names[i];
-    int* slot = n == "site_id"     ? &c.site_id
-                : n == "session"   ? &c.session
-                : n == "date"      ? &c.date
-                : n == "height_m"  ? &c.height_m
-                : n == "cover"     ? &c.cover
-                : n == "volume_m3" ? &c.volume_m3
-                : n == "n_points"  ? &c.n_points
-                                   : nullptr;
+    int* slot = n == "site_id"    ? &c.site_id
+                : n == "session"  ? &c.session
+                : n == "date"     ? &c.date
+                : n == "height_m" ? &c.height_m
+                                  : nullptr;
     if (slot != nullptr && *slot < 0) *slot = i;
   }
-  const char* expected = truth ? "site_id,session,date,height_m"
-                               : "site_id,session,date,height_m,cover,volume_m3,n_points";
+  const char* expected = "site_id,session,date,height_m";
   for (const auto& [index, name] :
        {std::pair{c.site_id, "site_id"}, {c.session, "session"}, {c.height_m, "height_m"}}) {
     if (index < 0) {
@@ -85,8 +81,8 @@ std::vector<std::string> ToStrings(const std::vector<std::string_view>& fields) 
   return std::vector<std::string>(fields.begin(), fields.end());
 }
 
-// Reads either file; `truth` selects the columns used and the handling of empty heights.
-std::vector<SiteHeight> ReadTable(const std::string& path, bool truth) {
+// Reads the truth: its columns by name; a row without a height was not measured.
+std::vector<SiteHeight> ReadTruthTable(const std::string& path) {
   io::CsvReader reader(path);
   io::CsvRecord record;
   std::optional<Columns> columns;
@@ -110,9 +106,9 @@ std::vector<SiteHeight> ReadTable(const std::string& path, bool truth) {
       if (reader.header() && reader.header()->find("site_id") != std::string::npos) {
         std::vector<std::string_view> names;
         io::SplitCsvLine(*reader.header(), ',', &names);
-        columns = ParseHeader(ToStrings(names), reader.header_line(), path, truth);
+        columns = ParseHeader(ToStrings(names), reader.header_line(), path);
       } else {
-        columns = ParseHeader(ToStrings(record.fields), record.line, path, truth);
+        columns = ParseHeader(ToStrings(record.fields), record.line, path);
         continue;
       }
     }
@@ -136,32 +132,17 @@ std::vector<SiteHeight> ReadTable(const std::string& path, bool truth) {
       }
     }
     row.height_m = number(f[columns->height_m], "height_m", record.line);
-    if (!truth) {
-      if (columns->cover >= 0) row.cover = number(f[columns->cover], "cover", record.line);
-      if (columns->volume_m3 >= 0) {
-        row.volume_m3 = number(f[columns->volume_m3], "volume_m3", record.line);
-      }
-      if (columns->n_points >= 0 && !f[columns->n_points].empty()) {
-        if (!io::ParseInt64(f[columns->n_points], &row.n_points) || row.n_points < 0) {
-          throw InputError(path, record.line,
-                           fmt::format("n_points '{}' is not a count", f[columns->n_points]));
-        }
-      }
-    }
     const auto [it, inserted] = seen.emplace(std::pair{row.site_id, row.session}, record.line);
     if (!inserted) {
       throw InputError(path, record.line,
                        fmt::format("site '{}' session '{}' repeated (first on line {})",
                                    row.site_id, row.session, it->second));
     }
-    if (truth && std::isnan(row.height_m)) continue;  // not measured
+    if (std::isnan(row.height_m)) continue;  // not measured
     rows.push_back(std::move(row));
   }
   if (!columns) {
-    throw InputError(path, 0,
-                     truth ? "empty file: expected the header 'site_id,session,date,height_m'"
-                           : "empty file: expected the header "
-                             "'site_id,session,date,height_m,cover,volume_m3,n_points'");
+    throw InputError(path, 0, "empty file: expected the header 'site_id,session,date,height_m'");
   }
   return rows;
 }
@@ -206,9 +187,7 @@ std::string Cm(double value_m, bool sign = false) {
 
 }  // namespace
 
-std::vector<SiteHeight> ReadSiteHeights(const std::string& path) { return ReadTable(path, false); }
-
-std::vector<SiteHeight> ReadSiteTruth(const std::string& path) { return ReadTable(path, true); }
+std::vector<SiteHeight> ReadSiteTruth(const std::string& path) { return ReadTruthTable(path); }
 
 bool CanopyEvalOptions::Check() const { return std::isfinite(max_error_m) && max_error_m >= 0.0; }
 
@@ -280,11 +259,15 @@ CanopyMethodEval EvaluateCanopyHeights(const std::vector<SiteHeight>& estimates,
 bool EvaluateWorkspaceCanopy(const std::string& workspace, const std::string& field,
                              const CanopyEvalOptions& options, CanopyEval* eval, std::string* why) {
   CROP4D_CHECK(options.Check());
-  const std::string ours = "analysis/site_heights.csv";
-  const std::string single_plane = "analysis/site_heights_single_plane.csv";
+  const workspace::Layout ws(workspace);
+  const auto relative = [&](const fs::path& p) {
+    return p.lexically_relative(ws.root()).generic_string();
+  };
+  const std::string ours = relative(ws.SiteHeights());
+  const std::string single_plane = relative(ws.SiteHeightsSinglePlane());
   const fs::path truth_path = fs::path(field) / "ground_truth" / "site_truth.csv";
   std::error_code ec;
-  if (!fs::is_regular_file(fs::path(workspace) / ours, ec)) {
+  if (!fs::is_regular_file(ws.SiteHeights(), ec)) {
     *why = fmt::format("no {} in the workspace (written by crop4d analyze)", ours);
     return false;
   }
@@ -296,7 +279,7 @@ bool EvaluateWorkspaceCanopy(const std::string& workspace, const std::string& fi
   eval->truth_file = "ground_truth/site_truth.csv";
   eval->options = options;
   std::vector<std::pair<std::string, std::string>> methods = {{"ours", ours}};
-  if (fs::is_regular_file(fs::path(workspace) / single_plane, ec)) {
+  if (fs::is_regular_file(ws.SiteHeightsSinglePlane(), ec)) {
     methods.emplace_back("single_plane", single_plane);
   }
   std::vector<SiteHeight> truth;
@@ -310,8 +293,7 @@ bool EvaluateWorkspaceCanopy(const std::string& workspace, const std::string& fi
     CanopyMethodEval m;
     if (truth_error.empty()) {
       try {
-        m = EvaluateCanopyHeights(ReadSiteHeights((fs::path(workspace) / file).string()), truth,
-                                  options);
+        m = EvaluateCanopyHeights(ReadSiteHeights(ws.root() / file), truth, options);
       } catch (const InputError& e) {
         m = CanopyMethodEval();
         m.error = e.what();

@@ -11,8 +11,9 @@
 //   FIELD/ground_truth/site_truth.csv          the true canopy height
 //       site_id,session,date,height_m
 //
-// Columns are found by their name in the header line (the first line; a leading '#' is
-// allowed); other columns are ignored. Estimates and truth are joined on (site_id, session).
+// The estimates are read with the workspace's reader (workspace/analysis_tables.h); the truth's
+// columns are found by their name in the header line (the first line; a leading '#' is
+// allowed), other columns ignored. Estimates and truth are joined on (site_id, session).
 // error = estimate - truth. A truth row without an estimate row, or with an empty (or "nan")
 // estimate height, is missing. Malformed files throw InputError naming the file and line.
 
@@ -24,31 +25,22 @@
 #include <vector>
 
 #include "crop4d/eval/plant_eval.h"
+#include "crop4d/workspace/analysis_tables.h"
 
 namespace crop4d::eval {
 
-// One row of site_heights.csv or site_truth.csv.
-struct SiteHeight {
-  std::string site_id;
-  std::string session;
-  std::string date;                                             // as written; may be empty
-  double height_m = std::numeric_limits<double>::quiet_NaN();   // NaN: no estimate
-  double cover = std::numeric_limits<double>::quiet_NaN();      // estimates only (0..1)
-  double volume_m3 = std::numeric_limits<double>::quiet_NaN();  // estimates only
-  std::int64_t n_points = -1;                                   // estimates only; -1: unknown
-  std::int64_t line = 0;                                        // 1-based line in the file
-};
+// One row of site_heights.csv or site_truth.csv (the truth without cover, volume and count).
+using SiteHeight = workspace::SiteHeight;
 
-// Reads WS/analysis/site_heights*.csv: required columns site_id, session, height_m (may be
-// empty or "nan": no estimate); optional date, cover, volume_m3, n_points (may be empty).
-// Throws InputError (file and line) for a missing file or column, a row with the wrong number
-// of fields, an empty site_id or session, a value that is not a number (or infinite), and a
-// repeated (site_id, session).
-std::vector<SiteHeight> ReadSiteHeights(const std::string& path);
+// Reads WS/analysis/site_heights*.csv: the analyze stage's table, schema-checked
+// (workspace/analysis_tables.h).
+using workspace::ReadSiteHeights;
 
 // Reads FIELD/ground_truth/site_truth.csv: required columns site_id, session, height_m;
-// optional date. A row with an empty height_m is skipped (not measured). Errors as
-// ReadSiteHeights.
+// optional date. A row with an empty height_m is skipped (not measured). Throws InputError (file
+// and line) for a missing file or column, a row with the wrong number of fields, an empty site_id
+// or session, a date not YYYY-MM-DD, a height that is not a finite number, and a repeated
+// (site_id, session).
 std::vector<SiteHeight> ReadSiteTruth(const std::string& path);
 
 struct CanopyEvalOptions {

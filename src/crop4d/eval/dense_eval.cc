@@ -12,6 +12,7 @@
 #include "crop4d/eval/natural_order.h"
 #include "crop4d/eval/quantile.h"
 #include "crop4d/io/ply.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::eval {
 namespace {
@@ -55,8 +56,8 @@ std::vector<std::string> FindDenseClouds(const std::string& workspace,
                                          const std::vector<std::string>& sessions) {
   std::vector<std::string> names;
   std::error_code ec;
-  for (fs::directory_iterator it(fs::path(workspace) / "dense", ec), end; !ec && it != end;
-       it.increment(ec)) {
+  const workspace::Layout ws(workspace);
+  for (fs::directory_iterator it(ws.DenseDir(), ec), end; !ec && it != end; it.increment(ec)) {
     if (!it->is_regular_file(ec) || it->path().extension() != ".ply") continue;
     const std::string session = it->path().stem().string();
     if (sessions.empty() || std::find(sessions.begin(), sessions.end(), session) != sessions.end())
@@ -64,7 +65,9 @@ std::vector<std::string> FindDenseClouds(const std::string& workspace,
   }
   SortByOrder(session_order, &names);
   std::vector<std::string> files;
-  for (const std::string& session : names) files.push_back("dense/" + session + ".ply");
+  for (const std::string& session : names) {
+    files.push_back(ws.DenseCloud(session).lexically_relative(ws.root()).generic_string());
+  }
   return files;
 }
 

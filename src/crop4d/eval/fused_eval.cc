@@ -13,6 +13,7 @@
 #include "crop4d/eval/natural_order.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::eval {
 namespace {
@@ -26,10 +27,9 @@ bool Selected(const std::vector<std::string>& sessions, const std::string& sessi
 // Whether a row pass of the session says its frame is set by convention (summary.json "trust"
 // holds origin_by_convention: a session without GPS).
 bool SessionFrameByConvention(const std::string& workspace, const std::string& session) {
-  std::error_code ec;
-  const fs::path rows = fs::path(workspace) / "sessions" / session / "rows";
-  for (fs::directory_iterator it(rows, ec), end; !ec && it != end; it.increment(ec)) {
-    std::ifstream in(it->path() / "summary.json");
+  const workspace::Layout ws(workspace);
+  for (const std::string& pass : ws.PassFolders(session)) {
+    std::ifstream in(ws.PassSummary(session, pass));
     const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
     if (!j.is_object() || !j.contains("trust") || !j["trust"].is_array()) continue;
     for (const nlohmann::json& flag : j["trust"]) {
@@ -48,8 +48,9 @@ FusedEval EvaluateFusedTrajectories(const std::string& workspace, const std::str
   FusedEval eval;
   std::vector<std::string> names;
   std::error_code ec;
-  for (const std::string& s : SubFolders(fs::path(workspace) / "fused")) {
-    if (Selected(sessions, s) && fs::exists(fs::path(workspace) / "fused" / s / "poses.tum", ec)) {
+  const workspace::Layout ws(workspace);
+  for (const std::string& s : SubFolders(ws.FusedDir())) {
+    if (Selected(sessions, s) && fs::exists(ws.FusedPoses(s), ec)) {
       names.push_back(s);
     }
   }
@@ -126,9 +127,12 @@ std::vector<SessionCloudFiles> FindCloudFiles(const std::string& workspace,
                                               const std::vector<std::string>& sessions) {
   std::vector<SessionCloudFiles> clouds;
   std::error_code ec;
-  const fs::path root(workspace);
+  const workspace::Layout ws(workspace);
+  const auto relative = [&](const fs::path& p) {
+    return p.lexically_relative(ws.root()).generic_string();
+  };
   std::vector<std::string> names;
-  for (const std::string& s : SubFolders(root / (label == "fused" ? "fused" : "sessions"))) {
+  for (const std::string& s : SubFolders(label == "fused" ? ws.FusedDir() : ws.SessionsDir())) {
     if (Selected(sessions, s)) names.push_back(s);
   }
   SortByOrder(session_order, &names);
@@ -136,13 +140,14 @@ std::vector<SessionCloudFiles> FindCloudFiles(const std::string& workspace,
     SessionCloudFiles c;
     c.session = session;
     if (label == "fused") {
-      const std::string rel = "fused/" + session + "/sparse.ply";
-      if (fs::is_regular_file(root / rel, ec)) c.files.push_back(rel);
+      if (fs::is_regular_file(ws.FusedSparse(session), ec)) {
+        c.files.push_back(relative(ws.FusedSparse(session)));
+      }
     } else {
-      const std::string rows = "sessions/" + session + "/rows/";
-      for (const std::string& pass : SubFolders(root / rows)) {
-        const std::string rel = rows + pass + "/landmarks.ply";
-        if (fs::is_regular_file(root / rel, ec)) c.files.push_back(rel);
+      for (const std::string& pass : SubFolders(ws.RowsDir(session))) {
+        if (fs::is_regular_file(ws.PassLandmarks(session, pass), ec)) {
+          c.files.push_back(relative(ws.PassLandmarks(session, pass)));
+        }
       }
     }
     if (!c.files.empty()) clouds.push_back(std::move(c));

@@ -16,6 +16,7 @@
 #include "crop4d/eval/ground_misalignment.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/dataset_reader.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::eval {
 namespace {
@@ -24,143 +25,13 @@ namespace fs = std::filesystem;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-}  // namespace
-
-bool PlantEvalOptions::Check() const { return max_stem_offset_m > 0.0 && max_top_error_m > 0.0; }
-
-std::vector<SitePlantRow> ReadSitePlants(const std::string& path) {
-  io::CsvReader reader(path);
-  io::CsvRecord record;
-  std::vector<std::string> names;
-  int site_id = -1, plant = -1, x = -1, y = -1, session = -1, date = -1, top = -1;
-  std::vector<SitePlantRow> rows;
-  std::set<std::tuple<std::string, int, std::string>> seen;
-  std::map<std::pair<std::string, int>, std::pair<double, double>> stems;
-  const auto number = [&](std::string_view text, const char* name, bool may_be_empty) {
-    if (text.empty() && may_be_empty) return kNaN;
-    double value = 0.0;
-    if (!io::ParseDouble(text, &value) || !std::isfinite(value)) {
-      throw InputError(path, record.line, fmt::format("{} '{}' is not a number", name, text));
-    }
-    return value;
-  };
-  while (reader.Next(&record)) {
-    if (reader.too_long()) throw InputError(path, record.line, "line too long");
-    if (names.empty()) {
-      names.assign(record.fields.begin(), record.fields.end());
-      for (int i = 0; i < static_cast<int>(names.size()); ++i) {
-        int* slot = names[i] == "site_id"   ? &site_id
-                    : names[i] == "plant"   ? &plant
-                    : names[i] == "x_m"     ? &x
-                    : names[i] == "y_m"     ? &y
-                    : names[i] == "session" ? &session
-                    : names[i] == "date"    ? &date
-                    : names[i] == "top_m"   ? &top
-                                            : nullptr;
-        if (slot != nullptr && *slot < 0) *slot = i;
-      }
-      for (const auto& [index, name] : {std::pair{site_id, "site_id"},
-                                        {plant, "plant"},
-                                        {x, "x_m"},
-                                        {y, "y_m"},
-                                        {session, "session"},
-                                        {top, "top_m"}}) {
-        if (index < 0) {
-          throw InputError(path, record.line,
-                           fmt::format("the header has no column '{}' (expected "
-                                       "site_id,plant,x_m,y_m,session,date,top_m)",
-                                       name));
-        }
-      }
-      continue;
-    }
-    const std::vector<std::string_view>& f = record.fields;
-    if (f.size() != names.size()) {
-      throw InputError(path, record.line,
-                       fmt::format("expected {} fields, found {}", names.size(), f.size()));
-    }
-    SitePlantRow row;
-    row.line = record.line;
-    row.site_id = std::string(f[site_id]);
-    row.session = std::string(f[session]);
-    if (row.site_id.empty()) throw InputError(path, record.line, "empty site_id");
-    if (row.session.empty()) throw InputError(path, record.line, "empty session");
-    const double p = number(f[plant], "plant", false);
-    if (p < 1 || p != std::floor(p) || p > 1e6) {
-      throw InputError(path, record.line,
-                       fmt::format("plant '{}' is not a number 1, 2, ...", f[plant]));
-    }
-    row.plant = static_cast<int>(p);
-    row.x_m = number(f[x], "x_m", false);
-    row.y_m = number(f[y], "y_m", false);
-    row.top_m = number(f[top], "top_m", true);
-    if (date >= 0) row.date = std::string(f[date]);
-    if (!seen.emplace(row.site_id, row.plant, row.session).second) {
-      throw InputError(
-          path, record.line,
-          fmt::format("site {} plant {} session {} repeated", row.site_id, row.plant, row.session));
-    }
-    const auto [it, added] =
-        stems.emplace(std::make_pair(row.site_id, row.plant), std::make_pair(row.x_m, row.y_m));
-    if (!added && (std::abs(it->second.first - row.x_m) > 1e-3 ||
-                   std::abs(it->second.second - row.y_m) > 1e-3)) {
-      throw InputError(
-          path, record.line,
-          fmt::format("site {} plant {} moved: ({}, {}) after ({}, {})", row.site_id, row.plant,
-                      row.x_m, row.y_m, it->second.first, it->second.second));
-    }
-    rows.push_back(std::move(row));
-  }
-  if (names.empty()) throw InputError(path, 0, "empty file: no header line");
-  return rows;
-}
-
-bool EvaluateSitePlants(const std::string& workspace, const std::string& field,
-                        const PlantEvalOptions& options, PlantEval* eval, std::string* why) {
-  CROP4D_CHECK(options.Check());
-  const std::string file = "analysis/site_plants.csv";
-  std::error_code ec;
-  if (!fs::is_regular_file(fs::path(workspace) / file, ec)) {
-    *why = "no " + file + " in the workspace (written by crop4d analyze)";
-    return false;
-  }
-  std::vector<SitePlantRow> rows = ReadSitePlants((fs::path(workspace) / file).string());
-  if (!options.sessions.empty()) {
-    std::erase_if(rows, [&](const SitePlantRow& r) {
-      return std::find(options.sessions.begin(), options.sessions.end(), r.session) ==
-             options.sessions.end();
-    });
-  }
-  // Sessions by date (then id), those with true plants only.
-  std::map<std::pair<std::string, std::string>, std::string> by_date;
-  for (const SitePlantRow& r : rows) by_date[{r.date, r.session}] = r.session;
-  std::vector<std::string> sessions;
-  std::map<std::string, std::vector<PlantFootprint>> truth;
-  for (const auto& [key, session] : by_date) {
-    const fs::path plants = fs::path(field) / "ground_truth" / session / "plants.csv";
-    if (!fs::is_regular_file(plants, ec)) continue;
-    truth[session] = ReadPlantsCsv(plants.string());
-    sessions.push_back(session);
-  }
-  if (sessions.empty()) {
-    *why = "no ground_truth/<session>/plants.csv in the field for the sessions of " + file;
-    return false;
-  }
-  if (!fs::is_regular_file(fs::path(field) / "field.yaml", ec)) {
-    *why = "no field.yaml in the field (the sites)";
-    return false;
-  }
-  const io::Field field_info(field);
-  std::map<std::string, const io::Site*> site_by_id;
-  for (const io::Site& s : field_info.info().sites) site_by_id[s.id] = &s;
-
-  *eval = PlantEval();
-  eval->file = file;
-  eval->options = options;
-  eval->truth_session = sessions.back();
-  const std::vector<PlantFootprint>& last = truth[eval->truth_session];
-
-  // Found plants per site (first row of each), in the file's order of sites.
+// Matches the found plants of each site (first row of each plant, in the file's order of sites)
+// with the true plants of `last` within the site, nearest pairs first, one to one; counts them
+// into `eval`. Returns (site, plant) → index of its true plant in `last`.
+std::map<std::pair<std::string, int>, std::size_t> MatchSitePlants(
+    const std::vector<SitePlantRow>& rows, const std::vector<PlantFootprint>& last,
+    const std::map<std::string, const io::Site*>& site_by_id, const PlantEvalOptions& options,
+    PlantEval* eval) {
   std::map<std::string, std::vector<std::pair<int, Eigen::Vector2d>>> found;
   std::vector<std::string> site_order;
   for (const SitePlantRow& r : rows) {
@@ -170,7 +41,6 @@ bool EvaluateSitePlants(const std::string& workspace, const std::string& field,
       list.emplace_back(r.plant, Eigen::Vector2d(r.x_m, r.y_m));
     }
   }
-  // Matched: (site, plant) → index of the true plant in `last`.
   std::map<std::pair<std::string, int>, std::size_t> matched;
   std::vector<double> offsets;
   for (const std::string& id : site_order) {
@@ -223,14 +93,22 @@ bool EvaluateSitePlants(const std::string& workspace, const std::string& field,
     std::nth_element(offsets.begin(), mid, offsets.end());
     eval->median_stem_offset_m = *mid;
   }
-  // Tops: the matched plant's true height in each session (the same stem in that session's
-  // plants.csv).
+  return matched;
+}
+
+// Tops: the matched plant's true height in each session (the same stem in that session's
+// plants.csv) against its top.
+void JudgeTops(const std::vector<SitePlantRow>& rows,
+               const std::map<std::pair<std::string, int>, std::size_t>& matched,
+               const std::vector<PlantFootprint>& last,
+               const std::map<std::string, std::vector<PlantFootprint>>& truth,
+               const PlantEvalOptions& options, PlantEval* eval) {
   double sum = 0.0, sum2 = 0.0;
   for (const SitePlantRow& r : rows) {
     const auto m = matched.find({r.site_id, r.plant});
     if (m == matched.end() || std::isnan(r.top_m) || !truth.count(r.session)) continue;
     const Eigen::Vector2d stem = last[m->second].xy;
-    for (const PlantFootprint& p : truth[r.session]) {
+    for (const PlantFootprint& p : truth.at(r.session)) {
       if ((p.xy - stem).norm() > 1e-3 || p.height_m <= 0.0) continue;
       const double e = r.top_m - p.height_m;
       sum += e;
@@ -244,6 +122,62 @@ bool EvaluateSitePlants(const std::string& workspace, const std::string& field,
     eval->top_bias_m = sum / eval->num_tops;
     eval->top_rmse_m = std::sqrt(sum2 / eval->num_tops);
   }
+}
+
+}  // namespace
+
+bool PlantEvalOptions::Check() const { return max_stem_offset_m > 0.0 && max_top_error_m > 0.0; }
+
+bool EvaluateSitePlants(const std::string& workspace, const std::string& field,
+                        const PlantEvalOptions& options, PlantEval* eval, std::string* why) {
+  CROP4D_CHECK(options.Check());
+  const workspace::Layout ws(workspace);
+  const std::string file = ws.SitePlants().lexically_relative(ws.root()).generic_string();
+  std::error_code ec;
+  if (!fs::is_regular_file(ws.SitePlants(), ec)) {
+    *why = "no " + file + " in the workspace (written by crop4d analyze)";
+    return false;
+  }
+  std::vector<SitePlantRow> rows = ReadSitePlants(ws.SitePlants());
+  if (!options.sessions.empty()) {
+    std::erase_if(rows, [&](const SitePlantRow& r) {
+      return std::find(options.sessions.begin(), options.sessions.end(), r.session) ==
+             options.sessions.end();
+    });
+  }
+  // Sessions by date (then id), those with true plants only.
+  std::map<std::pair<std::string, std::string>, std::string> by_date;
+  for (const SitePlantRow& r : rows) by_date[{r.date, r.session}] = r.session;
+  std::vector<std::string> sessions;
+  std::map<std::string, std::vector<PlantFootprint>> truth;
+  for (const auto& [key, session] : by_date) {
+    const fs::path plants = fs::path(field) / "ground_truth" / session / "plants.csv";
+    if (!fs::is_regular_file(plants, ec)) continue;
+    truth[session] = ReadPlantsCsv(plants.string());
+    sessions.push_back(session);
+  }
+  if (sessions.empty()) {
+    *why = "no ground_truth/<session>/plants.csv in the field for the sessions of " + file;
+    return false;
+  }
+  if (!fs::is_regular_file(fs::path(field) / "field.yaml", ec)) {
+    *why = "no field.yaml in the field (the sites)";
+    return false;
+  }
+  const io::Field field_info(field);
+  std::map<std::string, const io::Site*> site_by_id;
+  for (const io::Site& s : field_info.info().sites) site_by_id[s.id] = &s;
+
+  *eval = PlantEval();
+  eval->file = file;
+  eval->options = options;
+  eval->truth_session = sessions.back();
+  const std::vector<PlantFootprint>& last = truth[eval->truth_session];
+
+  // (site, plant) → index of the true plant in `last`.
+  const std::map<std::pair<std::string, int>, std::size_t> matched =
+      MatchSitePlants(rows, last, site_by_id, options, eval);
+  JudgeTops(rows, matched, last, truth, options, eval);
   return true;
 }
 

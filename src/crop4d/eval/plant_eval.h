@@ -19,24 +19,14 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/workspace/analysis_tables.h"
+
 namespace crop4d::eval {
 
-// One row of site_plants.csv.
-struct SitePlantRow {
-  std::string site_id;
-  int plant = 0;  // 1, 2, ... within the site
-  double x_m = 0.0, y_m = 0.0;
-  std::string session;
-  std::string date;                                         // as written; may be empty
-  double top_m = std::numeric_limits<double>::quiet_NaN();  // NaN: not seen
-  std::int64_t line = 0;
-};
-
-// Reads site_plants.csv: required columns site_id, plant, x_m, y_m, session, top_m (may be
-// empty); optional date. Throws InputError (file and line) for a missing file or column, a row
-// with the wrong number of fields, an empty site_id or session, a value that is not a number,
-// a plant that moves between rows, or a repeated (site_id, plant, session).
-std::vector<SitePlantRow> ReadSitePlants(const std::string& path);
+// One row of WS/analysis/site_plants.csv and its reader: the analyze stage's table,
+// schema-checked (workspace/analysis_tables.h).
+using SitePlantRow = workspace::SitePlantRow;
+using workspace::ReadSitePlants;
 
 struct PlantEvalOptions {
   // A found plant matches a true one within this distance of its stem, m.

@@ -127,11 +127,11 @@ TEST(PlantEvalTest, MalformedFilesNameTheFileAndLine) {
     }
   };
   const std::string header = "site_id,plant,x_m,y_m,session,date,top_m\n";
-  expect_error("site_id,plant,x_m,session,top_m\n", "no column 'y_m'", 1);
+  expect_error("site_id,plant,x_m,session,top_m\n", "not the one this crop4d writes", 1);
   expect_error(header + "a,1,1,1,s1,2016-06-01\n", "expected 7 fields", 2);
   expect_error(header + "a,one,1,1,s1,2016-06-01,0.1\n", "plant 'one'", 2);
   expect_error(header + "a,0,1,1,s1,2016-06-01,0.1\n", "plant '0'", 2);
-  expect_error(header + "a,1,1,x,s1,2016-06-01,0.1\n", "y_m 'x' is not a number", 2);
+  expect_error(header + "a,1,1,x,s1,2016-06-01,0.1\n", "y_m 'x' is not a finite number", 2);
   expect_error(header + "a,1,1,1,,2016-06-01,0.1\n", "empty session", 2);
   expect_error(header + "a,1,1,1,s1,,0.1\na,1,1,1,s1,,0.2\n", "repeated", 3);
   expect_error(header + "a,1,1,1,s1,,0.1\na,1,1.5,1,s2,,0.2\n", "moved", 3);

@@ -23,6 +23,7 @@
 #include "crop4d/io/csv.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/sim_config.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::eval {
 namespace {
@@ -470,7 +471,7 @@ json CanopyJson(const CanopyEval& canopy) {
 // in natural order.
 std::vector<std::string> FindAssociationFiles(const std::string& workspace) {
   std::vector<std::string> files;
-  const fs::path root = fs::path(workspace) / "associations";
+  const fs::path root = workspace::Layout(workspace).AssociationsRoot();
   std::error_code ec;
   if (!fs::is_directory(root, ec)) return files;
   for (auto it = fs::recursive_directory_iterator(root, ec); !ec && it != fs::end(it);
@@ -513,10 +514,10 @@ bool ParseInt(std::string_view text, int* value) {
 std::map<std::string, PassLayout> ReadPassLayouts(const std::string& workspace,
                                                   const std::string& session) {
   std::map<std::string, PassLayout> layouts;
-  const fs::path dir = fs::path(workspace) / "sessions" / session;
+  const workspace::Layout ws(workspace);
   std::error_code ec;
-  if (fs::exists(dir / "passes.csv", ec)) {
-    io::CsvReader reader((dir / "passes.csv").string());
+  if (fs::exists(ws.PassList(session), ec)) {
+    io::CsvReader reader(ws.PassList(session).string());
     io::CsvRecord record;
     while (reader.Next(&record)) {
       PassLayout layout;
@@ -527,10 +528,10 @@ std::map<std::string, PassLayout> ReadPassLayouts(const std::string& workspace,
       layouts[std::string(record.fields[0])] = layout;
     }
   }
-  for (const std::string& pass : SubFolders(dir / "rows")) {
-    if (layouts.count(pass) > 0 || !fs::exists(dir / "rows" / pass / "summary.json", ec)) continue;
+  for (const std::string& pass : SubFolders(ws.RowsDir(session))) {
+    if (layouts.count(pass) > 0 || !fs::exists(ws.PassSummary(session, pass), ec)) continue;
     try {
-      const json j = json::parse(ReadWholeFile(dir / "rows" / pass / "summary.json"));
+      const json j = json::parse(ReadWholeFile(ws.PassSummary(session, pass)));
       PassLayout layout;
       if (j.contains("row") && j["row"].is_number_integer()) layout.row = j["row"].get<int>();
       if (j.contains("direction") && j["direction"].is_number_integer()) {
@@ -598,8 +599,9 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
   if (inputs.empty()) return result;
 
   SimulatedFieldTruthOptions truth_options;
+  // The parent of every Layout::EvalDepthDir(session).
   truth_options.depth_cache_dir = options.depth_cache_dir.empty()
-                                      ? (fs::path(workspace) / "eval" / "depth").string()
+                                      ? (workspace::Layout(workspace).EvalDir() / "depth").string()
                                       : options.depth_cache_dir;
   truth_options.render = options.render_depth;
   try {
@@ -624,124 +626,87 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
   }
   return result;
 }
-}  // namespace
 
-bool WorkspaceEvalOptions::Check() const {
-  return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0 && association.Check() &&
-         clouds.selection.Check() && clouds.misalignment.Check() && canopy_options.Check() &&
-         dense_options.Check();
-}
-
-WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
-                                const WorkspaceEvalOptions& options) {
-  CROP4D_CHECK(options.Check());
-  std::error_code ec;
-  if (!fs::is_directory(workspace, ec))
-    throw InputError(workspace, 0, "workspace folder not found");
-  if (!fs::is_directory(field, ec)) throw InputError(field, 0, "field folder not found");
-  const fs::path truth_root = fs::path(field) / "ground_truth";
-  if (!fs::is_directory(truth_root, ec)) {
-    throw InputError(truth_root.string(), 0,
-                     "ground truth folder not found: crop4d eval needs a field with ground "
-                     "truth, e.g. one made by crop4d simulate");
-  }
-
-  WorkspaceEval eval;
-  eval.workspace = workspace;
-  eval.field = field;
-  eval.options = options;
-  const fs::path sessions_dir = fs::path(workspace) / "sessions";
-  for (const std::string& session : SubFolders(sessions_dir)) {
+// The row passes of the workspace (of the selected sessions), in session and pass order.
+std::vector<PassEval> ListPasses(const workspace::Layout& ws, const WorkspaceEvalOptions& options) {
+  std::vector<PassEval> passes;
+  for (const std::string& session : SubFolders(ws.SessionsDir())) {
     if (!options.sessions.empty() && std::find(options.sessions.begin(), options.sessions.end(),
                                                session) == options.sessions.end()) {
       continue;
     }
-    for (const std::string& pass_id : SubFolders(sessions_dir / session / "rows")) {
+    for (const std::string& pass_id : SubFolders(ws.RowsDir(session))) {
       PassEval pass;
       pass.session = session;
       pass.pass = pass_id;
-      const std::string rel = "sessions/" + session + "/rows/" + pass_id + "/";
-      pass.poses_file = rel + "poses.tum";
-      eval.passes.push_back(pass);
+      pass.poses_file =
+          ws.PassPoses(session, pass_id).lexically_relative(ws.root()).generic_string();
+      passes.push_back(pass);
     }
   }
-  const std::vector<std::string> association_files =
-      options.associations ? FindAssociationFiles(workspace) : std::vector<std::string>();
-  bool has_fused = false;
-  for (const std::string& session : SubFolders(fs::path(workspace) / "fused")) {
-    has_fused = has_fused || fs::exists(fs::path(workspace) / "fused" / session / "poses.tum", ec);
-  }
-  const bool has_canopy =
-      options.canopy && fs::is_regular_file(fs::path(workspace) / "analysis/site_heights.csv", ec);
-  const SessionTimeline timeline = ReadTimeline(field);
-  const std::vector<std::string> dense_files =
-      options.dense ? FindDenseClouds(workspace, timeline.sessions, options.sessions)
-                    : std::vector<std::string>();
-  if (eval.passes.empty() && association_files.empty() && !(options.fused && has_fused) &&
-      !has_canopy && dense_files.empty()) {
-    throw InputError(
-        workspace, 0,
-        options.sessions.empty()
-            ? "no row pass in the workspace: expected sessions/<session>/rows/<pass>/ folders "
-              "(written by crop4d slam)"
-            : "no row pass of the selected sessions in the workspace");
-  }
+  return passes;
+}
 
-  // Truth files, read once per session and frame (body_poses.tum is at the IMU rate).
-  std::map<std::string, std::vector<io::StampedPose>> truth_cache;
+// Truth files, read once per session and frame (body_poses.tum is at the IMU rate).
+struct TruthCache {
+  std::map<std::string, std::vector<io::StampedPose>> poses;       // by truth file
   std::map<std::string, std::map<Timestamp, Timestamp>> captures;  // per session
+};
+
+// One pass against the truth: its summary, its poses associated by time with the truth's, the
+// trajectory metrics and the camera-IMU time offset. Throws InputError for what cannot be read
+// or compared.
+void EvaluatePass(const workspace::Layout& ws, const std::string& field,
+                  const WorkspaceEvalOptions& options, TruthCache* truth, PassEval* pass_ptr) {
+  PassEval& pass = *pass_ptr;
+  std::error_code ec;
   const Timestamp max_dt = SecondsToTimestamp(options.max_dt_s);
-  for (PassEval& pass : eval.passes) {
-    try {
-      const fs::path pass_dir = fs::path(workspace) / pass.poses_file;
-      ReadPassSummary(pass_dir.parent_path() / "summary.json", &pass);
-      pass.truth_file = "ground_truth/" + pass.session + "/" +
-                        (pass.pose_frame == "camera" ? "cam0_poses.tum" : "body_poses.tum");
-      if (!fs::exists(pass_dir, ec)) throw InputError(pass_dir.string(), 0, "file not found");
-      const std::vector<io::StampedPose> estimate = io::ReadTum(pass_dir.string());
-      pass.estimate_poses = static_cast<int>(estimate.size());
-      if (estimate.empty()) throw InputError(pass_dir.string(), 0, "holds no pose");
+  const fs::path pass_dir = ws.PassPoses(pass.session, pass.pass);
+  ReadPassSummary(ws.PassSummary(pass.session, pass.pass), &pass);
+  pass.truth_file = "ground_truth/" + pass.session + "/" +
+                    (pass.pose_frame == "camera" ? "cam0_poses.tum" : "body_poses.tum");
+  if (!fs::exists(pass_dir, ec)) throw InputError(pass_dir.string(), 0, "file not found");
+  const std::vector<io::StampedPose> estimate = io::ReadTum(pass_dir.string());
+  pass.estimate_poses = static_cast<int>(estimate.size());
+  if (estimate.empty()) throw InputError(pass_dir.string(), 0, "holds no pose");
 
-      auto cached = truth_cache.find(pass.truth_file);
-      if (cached == truth_cache.end()) {
-        const fs::path truth_path = fs::path(field) / pass.truth_file;
-        if (!fs::exists(truth_path, ec)) {
-          throw InputError(truth_path.string(), 0,
-                           fmt::format("no ground truth for session '{}' ({} poses): file not "
-                                       "found",
-                                       pass.session, pass.pose_frame));
-        }
-        cached = truth_cache.emplace(pass.truth_file, io::ReadTum(truth_path.string())).first;
-      }
-      const AssociatedPoses associated = AssociateByTime(estimate, cached->second, max_dt);
-      pass.exact = associated.exact;
-      pass.interpolated = associated.interpolated;
-      pass.dropped_out_of_span = associated.dropped_out_of_span;
-      pass.dropped_gap = associated.dropped_gap;
-      if (associated.size() == 0) {
-        throw InputError(
-            pass_dir.string(), 0,
-            fmt::format("none of its {} poses can be compared with {} ({} outside "
-                        "the truth's time span, {} in gaps wider than {} s)",
-                        estimate.size(), pass.truth_file, associated.dropped_out_of_span,
-                        associated.dropped_gap, options.max_dt_s));
-      }
-      std::vector<geometry::Rigid3> estimate_poses = associated.estimate;
-      if (pass.frame_by_convention) {
-        const geometry::Rigid3 truth_from_local =
-            AlignYawTranslation(estimate_poses, associated.truth);
-        for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
-      }
-      pass.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options.metrics);
-      if (pass.time_offset_s && pass.pose_frame == "camera") {
-        pass.true_time_offset_s = PassTrueTimeOffset(field, pass.session, estimate, &captures);
-      }
-    } catch (const InputError& e) {
-      pass.error = e.what();
+  auto cached = truth->poses.find(pass.truth_file);
+  if (cached == truth->poses.end()) {
+    const fs::path truth_path = fs::path(field) / pass.truth_file;
+    if (!fs::exists(truth_path, ec)) {
+      throw InputError(truth_path.string(), 0,
+                       fmt::format("no ground truth for session '{}' ({} poses): file not "
+                                   "found",
+                                   pass.session, pass.pose_frame));
     }
+    cached = truth->poses.emplace(pass.truth_file, io::ReadTum(truth_path.string())).first;
   }
+  const AssociatedPoses associated = AssociateByTime(estimate, cached->second, max_dt);
+  pass.exact = associated.exact;
+  pass.interpolated = associated.interpolated;
+  pass.dropped_out_of_span = associated.dropped_out_of_span;
+  pass.dropped_gap = associated.dropped_gap;
+  if (associated.size() == 0) {
+    throw InputError(pass_dir.string(), 0,
+                     fmt::format("none of its {} poses can be compared with {} ({} outside "
+                                 "the truth's time span, {} in gaps wider than {} s)",
+                                 estimate.size(), pass.truth_file, associated.dropped_out_of_span,
+                                 associated.dropped_gap, options.max_dt_s));
+  }
+  std::vector<geometry::Rigid3> estimate_poses = associated.estimate;
+  if (pass.frame_by_convention) {
+    const geometry::Rigid3 truth_from_local = AlignYawTranslation(estimate_poses, associated.truth);
+    for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
+  }
+  pass.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options.metrics);
+  if (pass.time_offset_s && pass.pose_frame == "camera") {
+    pass.true_time_offset_s = PassTrueTimeOffset(field, pass.session, estimate, &truth->captures);
+  }
+}
 
-  // Pooled.
+// The pooled statistics of the passes that were evaluated, and the worst of them.
+void PoolPasses(WorkspaceEval* eval_ptr) {
+  WorkspaceEval& eval = *eval_ptr;
   OverallEval& overall = eval.overall;
   overall.num_passes = static_cast<int>(eval.passes.size());
   std::vector<ErrorStats> raw, aligned, rot, rpe_t, rpe_r;
@@ -768,6 +733,67 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   overall.rotation_deg = ErrorStats::Pool(rot);
   overall.rpe_translation_percent = ErrorStats::Pool(rpe_t);
   overall.rpe_rotation_deg_per_m = ErrorStats::Pool(rpe_r);
+}
+
+}  // namespace
+
+bool WorkspaceEvalOptions::Check() const {
+  return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0 && association.Check() &&
+         clouds.selection.Check() && clouds.misalignment.Check() && canopy_options.Check() &&
+         dense_options.Check();
+}
+
+WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
+                                const WorkspaceEvalOptions& options) {
+  CROP4D_CHECK(options.Check());
+  std::error_code ec;
+  if (!fs::is_directory(workspace, ec))
+    throw InputError(workspace, 0, "workspace folder not found");
+  if (!fs::is_directory(field, ec)) throw InputError(field, 0, "field folder not found");
+  const fs::path truth_root = fs::path(field) / "ground_truth";
+  if (!fs::is_directory(truth_root, ec)) {
+    throw InputError(truth_root.string(), 0,
+                     "ground truth folder not found: crop4d eval needs a field with ground "
+                     "truth, e.g. one made by crop4d simulate");
+  }
+
+  WorkspaceEval eval;
+  eval.workspace = workspace;
+  eval.field = field;
+  eval.options = options;
+  const workspace::Layout ws(workspace);
+  eval.passes = ListPasses(ws, options);
+  const std::vector<std::string> association_files =
+      options.associations ? FindAssociationFiles(workspace) : std::vector<std::string>();
+  bool has_fused = false;
+  for (const std::string& session : SubFolders(ws.FusedDir())) {
+    has_fused = has_fused || fs::exists(ws.FusedPoses(session), ec);
+  }
+  const bool has_canopy = options.canopy && fs::is_regular_file(ws.SiteHeights(), ec);
+  const SessionTimeline timeline = ReadTimeline(field);
+  const std::vector<std::string> dense_files =
+      options.dense ? FindDenseClouds(workspace, timeline.sessions, options.sessions)
+                    : std::vector<std::string>();
+  if (eval.passes.empty() && association_files.empty() && !(options.fused && has_fused) &&
+      !has_canopy && dense_files.empty()) {
+    throw InputError(
+        workspace, 0,
+        options.sessions.empty()
+            ? "no row pass in the workspace: expected sessions/<session>/rows/<pass>/ folders "
+              "(written by crop4d slam)"
+            : "no row pass of the selected sessions in the workspace");
+  }
+
+  TruthCache truth;
+  for (PassEval& pass : eval.passes) {
+    try {
+      EvaluatePass(ws, field, options, &truth, &pass);
+    } catch (const InputError& e) {
+      pass.error = e.what();
+    }
+  }
+  PoolPasses(&eval);
+  const Timestamp max_dt = SecondsToTimestamp(options.max_dt_s);
 
   // The later stages, each when its inputs exist.
   if (!association_files.empty()) {
@@ -886,7 +912,7 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
 
 std::string WriteWorkspaceEval(const WorkspaceEval& eval, const std::string& path) {
   const std::string out =
-      path.empty() ? (fs::path(eval.workspace) / "eval" / "metrics.json").string() : path;
+      path.empty() ? workspace::Layout(eval.workspace).EvalMetrics().string() : path;
   io::WriteFileAtomic(out, WorkspaceEvalJson(eval));
   return out;
 }

@@ -1,5 +1,8 @@
 #include "crop4d/pipeline/analyze_plots.h"
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
 
 #include "crop4d/core/error.h"
@@ -94,6 +97,52 @@ std::vector<std::string> WriteHeightPlots(const std::filesystem::path& dir,
   report::WritePng((dir / "heights.png").string(), report::DrawPlotGrid(plots, columns));
   written.insert(written.begin(), "heights.png");
   return written;
+}
+
+std::string FormatAnalyzeReport(const AnalyzeReport& report) {
+  std::string s;
+  if (report.sites.empty()) return "analyze: no sites\n";
+  std::vector<std::string> sessions;
+  for (const SiteResult& r : report.sites) {
+    if (std::find(sessions.begin(), sessions.end(), r.session) == sessions.end()) {
+      sessions.push_back(r.session);
+    }
+  }
+  s += report.skipped ? "Canopy height per site [m] (up to date; DTM / single plane):\n"
+                      : "Canopy height per site [m] (DTM / single plane):\n";
+  s += fmt::format("{:<10}", "site");
+  for (const std::string& id : sessions) s += fmt::format(" {:>15}", id);
+  s += "\n";
+  std::string current;
+  for (const SiteResult& r : report.sites) {
+    if (r.site_id != current) {
+      if (!current.empty()) s += "\n";
+      current = r.site_id;
+      s += fmt::format("{:<10}", r.site_id);
+    }
+    const auto cell = [](double v) {
+      return std::isfinite(v) ? fmt::format("{:.3f}", v) : "  -  ";
+    };
+    s += fmt::format(" {:>15}", cell(r.ours.height_m) + " / " + cell(r.single_plane.height_m));
+  }
+  s += "\n";
+  if (!report.growth.empty()) {
+    s += "Growth (logistic fit per site):\n";
+    for (const SiteGrowth& g : report.growth) {
+      if (g.fit.ok()) {
+        s += fmt::format("  {:<10} asymptote {:.3f} m, max growth {:.1f} mm/day, rmse {:.1f} mm\n",
+                         g.site_id, g.fit.curve.asymptote_m, 1000 * g.fit.curve.MaxGrowthRate(),
+                         1000 * g.fit.rmse_m);
+      } else {
+        s += fmt::format("  {:<10} {}: {}\n", g.site_id, analysis::GrowthStatusName(g.fit.status),
+                         g.fit.message);
+      }
+    }
+  }
+  if (!report.skipped) {
+    s += fmt::format("analyze: {} outputs in {:.1f} s\n", report.outputs.size(), report.seconds);
+  }
+  return s;
 }
 
 }  // namespace crop4d::pipeline

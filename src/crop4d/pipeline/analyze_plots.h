@@ -1,7 +1,8 @@
 #pragma once
 
 // The figures of `crop4d analyze`: canopy height versus date per site, our method and the
-// paper's single plane, with the heights a person measured when the field has them.
+// paper's single plane, with the heights a person measured when the field has them; and its
+// table for the terminal (FormatAnalyzeReport, declared in analyze_stage.h).
 
 #include <filesystem>
 #include <string>

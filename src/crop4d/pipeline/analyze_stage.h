@@ -45,6 +45,8 @@
 #include "crop4d/analysis/canopy.h"
 #include "crop4d/analysis/growth.h"
 #include "crop4d/analysis/plants.h"
+#include "crop4d/analysis/site_series.h"
+#include "crop4d/analysis/sites.h"
 #include "crop4d/analysis/terrain.h"
 #include "crop4d/analysis/vegetation.h"
 #include "crop4d/core/timestamp.h"
@@ -90,21 +92,9 @@ struct AnalyzeSessionReport {
   analysis::VegetationClassification vegetation;  // `index` and flags cleared after use
 };
 
-struct SiteResult {
-  std::string site_id;
-  std::string session;
-  Timestamp date = 0;
-  analysis::SiteCanopy ours;          // above the DTM
-  analysis::SiteCanopy single_plane;  // above the paper's plane
-  // The site's plants (stems, ENU xy; analysis/plants.h), the same in every session; their tops
-  // are ours.plant_tops.
-  std::vector<Eigen::Vector2d> stems;
-};
-
-struct SiteGrowth {
-  std::string site_id;
-  analysis::GrowthFit fit;
-};
+// One site in one session; a site's growth (analysis/site_series.h).
+using SiteResult = analysis::SiteResult;
+using SiteGrowth = analysis::SiteGrowth;
 
 struct AnalyzeReport {
   bool skipped = false;  // up to date
@@ -125,8 +115,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
 // fits, for the terminal.
 std::string FormatAnalyzeReport(const AnalyzeReport& report);
 
-// Reads a sites file (see AnalyzeStageOptions::sites_file); lat/lon sites are converted with the
-// field's origin. Throws InputError naming the file and line for anything malformed.
-std::vector<io::Site> ReadSitesCsv(const std::string& path, const geometry::GeodeticPoint& origin);
+// Reads a sites file (see AnalyzeStageOptions::sites_file; analysis/sites.h).
+using analysis::ReadSitesCsv;
 
 }  // namespace crop4d::pipeline

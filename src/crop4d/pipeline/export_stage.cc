@@ -14,8 +14,7 @@
 #include <set>
 #include <sstream>
 
-#include "crop4d/analysis/canopy.h"
-#include "crop4d/analysis/lone_points.h"
+#include "crop4d/analysis/point_classes.h"
 #include "crop4d/analysis/vegetation.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
@@ -28,6 +27,9 @@
 #include "crop4d/io/las.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/pipeline/export_formats.h"
+#include "crop4d/workspace/analysis_summary.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -65,28 +67,14 @@ std::function<bool(const fs::directory_entry&)> FilesEndingIn(const std::string&
   };
 }
 
-// Copies `from` to `to` atomically.
-void CopyFileAtomic(const fs::path& from, const fs::path& to) {
-  std::ifstream in(from, std::ios::binary);
-  if (!in) throw InputError(from.string(), 0, "cannot read");
-  io::AtomicFile out(to.string());
-  char buffer[1 << 16];
-  while (in) {
-    in.read(buffer, sizeof(buffer));
-    out.stream().write(buffer, in.gcount());
-  }
-  if (in.bad()) throw InputError(from.string(), 0, "read failed");
-  out.Commit();
-}
-
 // What one session offers.
 struct SessionInputs {
   std::string id;
-  fs::path fused_sparse;                 // empty when missing
-  std::vector<std::string> pass_clouds;  // pass names with rows/<pass>/landmarks.ply
-  fs::path dense;                        // empty when missing
-  fs::path fused_poses;                  // empty when missing
-  std::vector<std::string> pass_poses;   // pass names with rows/<pass>/poses.tum
+  fs::path fused_sparse;                // empty when missing
+  std::vector<fs::path> pass_clouds;    // the passes' landmarks.ply, in pass name order
+  fs::path dense;                       // empty when missing
+  fs::path fused_poses;                 // empty when missing
+  std::vector<std::string> pass_poses;  // pass names with a poses.tum
 };
 
 // The work of one output (or a PLY and a LAS of the same cloud).
@@ -94,149 +82,6 @@ struct Job {
   std::string label;
   std::function<void(std::vector<ExportedFile>*)> run;
 };
-
-std::string Join(const std::vector<std::string>& items, const std::string& separator) {
-  std::string text;
-  for (std::size_t i = 0; i < items.size(); ++i) text += (i ? separator : "") + items[i];
-  return text;
-}
-
-std::string OriginText(const geometry::GeodeticPoint& o) {
-  char text[160];
-  std::snprintf(text, sizeof(text), "lat %.9f lon %.9f alt %.4f m (WGS 84, ellipsoidal height)",
-                o.lat_deg, o.lon_deg, o.alt_m);
-  return text;
-}
-
-// The clouds of several row passes as one: common scalars (same name and type), colours when
-// every pass has them, and a scalar `pass` (1-based index in `clouds`).
-io::PlyPointCloud MergePassClouds(const std::vector<io::PlyPointCloud>& clouds) {
-  io::PlyPointCloud merged;
-  bool all_colours = true;
-  for (const io::PlyPointCloud& c : clouds)
-    all_colours = all_colours && c.colors.size() == c.size();
-  std::vector<io::PlyScalarField> scalars;
-  if (!clouds.empty()) {
-    for (const io::PlyScalarField& s : clouds.front().scalars) {
-      bool common = s.name != "pass";
-      for (const io::PlyPointCloud& c : clouds) {
-        const io::PlyScalarField* other = c.FindScalar(s.name);
-        common = common && other != nullptr && other->type == s.type;
-      }
-      if (common) scalars.push_back({s.name, s.type, {}});
-    }
-  }
-  io::PlyScalarField pass{"pass", io::PlyType::kUint16, {}};
-  for (std::size_t k = 0; k < clouds.size(); ++k) {
-    const io::PlyPointCloud& c = clouds[k];
-    merged.points.insert(merged.points.end(), c.points.begin(), c.points.end());
-    if (all_colours) merged.colors.insert(merged.colors.end(), c.colors.begin(), c.colors.end());
-    for (io::PlyScalarField& s : scalars) {
-      const std::vector<double>& values = c.FindScalar(s.name)->values;
-      s.values.insert(s.values.end(), values.begin(), values.end());
-    }
-    pass.values.insert(pass.values.end(), c.size(), double(k + 1));
-  }
-  // Normals only when every pass has them (they do not in practice).
-  bool all_normals = !clouds.empty();
-  for (const io::PlyPointCloud& c : clouds)
-    all_normals = all_normals && c.normals.size() == c.size();
-  if (all_normals) {
-    for (const io::PlyPointCloud& c : clouds) {
-      merged.normals.insert(merged.normals.end(), c.normals.begin(), c.normals.end());
-    }
-  }
-  merged.scalars = std::move(scalars);
-  merged.scalars.push_back(std::move(pass));
-  return merged;
-}
-
-// The analysis' separation of the ground from the vegetation (docs/analysis.md), read back from
-// WS/analysis to classify the points of the LAS files.
-struct AnalysisClasses {
-  io::GeoTiffRaster dtm;  // the terrain model, ellipsoidal heights (the LAS z convention)
-  analysis::GreennessIndex index = analysis::GreennessIndex::kExG;
-  analysis::CanopyOptions canopy;  // min_height_m, min_height_any_colour_m
-  double lone_point_radius_m = 0.0;
-  std::map<std::string, double> thresholds;  // the vegetation threshold of each session analysed
-};
-
-// WS/analysis/dtm.tif and the options and thresholds of WS/analysis/summary.json; nullopt, with
-// `why`, when either is missing or cannot be read.
-std::optional<AnalysisClasses> ReadAnalysisClasses(const fs::path& analysis, std::string* why) {
-  std::error_code ec;
-  if (!fs::is_regular_file(analysis / "dtm.tif", ec) ||
-      !fs::is_regular_file(analysis / "summary.json", ec)) {
-    *why = "no terrain model WS/analysis/dtm.tif with its summary.json (run `crop4d analyze`)";
-    return std::nullopt;
-  }
-  try {
-    AnalysisClasses classes;
-    classes.dtm = io::ReadGeoTiff((analysis / "dtm.tif").string());
-    std::ifstream in(analysis / "summary.json");
-    const json summary = json::parse(in);
-    const json& options = summary.at("options");
-    const std::string index = options.at("vegetation").at("index").get<std::string>();
-    if (index == analysis::GreennessIndexName(analysis::GreennessIndex::kExGR)) {
-      classes.index = analysis::GreennessIndex::kExGR;
-    } else if (index != analysis::GreennessIndexName(analysis::GreennessIndex::kExG)) {
-      throw std::runtime_error("unknown vegetation index '" + index + "'");
-    }
-    classes.canopy.min_height_m = options.at("canopy").at("min_height_m").get<double>();
-    classes.canopy.min_height_any_colour_m =
-        options.at("canopy").at("min_height_any_colour_m").get<double>();
-    classes.lone_point_radius_m = options.value("lone_point_radius_m", 0.0);
-    for (const json& session : summary.at("sessions")) {
-      classes.thresholds[session.at("session").get<std::string>()] =
-          session.at("vegetation_threshold").get<double>();
-    }
-    return classes;
-  } catch (const std::exception& e) {
-    *why = std::string("cannot read the analysis in WS/analysis: ") + e.what();
-    return std::nullopt;
-  }
-}
-
-// A point of the terrain model this far below it is not ground (a false match below the soil).
-constexpr double kBelowTerrainM = 0.10;
-
-// Sets the ASPRS class of `points` (the LAS points of `cloud`, in its order) as the analysis
-// separates them: above the terrain model by the canopy rule of the analysis
-// (CanopyOptions::IsCanopy: vegetation by colour at min_height_m, any colour at
-// min_height_any_colour_m) → vegetation, 3/4/5 by height (io::AsprsVegetationClass); otherwise →
-// ground (2). Unclassified (1): points outside the terrain model or where it has no height, more
-// than kBelowTerrainM below it, and the lone points the analysis leaves out of a dense cloud.
-// `threshold`: the session's vegetation threshold; `dense`: the cloud is a dense cloud.
-void ClassifyLasPoints(const AnalysisClasses& a, double threshold, bool dense,
-                       const io::PlyPointCloud& cloud, io::LasPoint* points) {
-  const io::UtmGrid& grid = a.dtm.grid;
-  std::vector<std::uint8_t> lone;
-  bool finite = true;
-  for (const Eigen::Vector3d& p : cloud.points) finite = finite && p.allFinite();
-  if (dense && a.lone_point_radius_m > 0 && finite) {
-    lone = analysis::FindLonePoints(cloud.points, a.lone_point_radius_m);
-  }
-  const bool colours = cloud.colors.size() == cloud.points.size();
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    io::LasPoint& p = points[i];
-    p.classification = io::kAsprsUnclassified;
-    if (!lone.empty() && lone[i]) continue;
-    const double col = std::floor((p.xyz.x() - grid.min_easting) / grid.cell_m);
-    const double row = std::floor((grid.max_northing - p.xyz.y()) / grid.cell_m);
-    if (!(col >= 0 && row >= 0 && col < grid.width && row < grid.height)) continue;
-    const float ground = a.dtm.values[std::size_t(row) * grid.width + std::size_t(col)];
-    if (!std::isfinite(ground) || (a.dtm.nodata && ground == *a.dtm.nodata)) continue;
-    const double h = p.xyz.z() - ground;
-    const bool vegetation =
-        colours && analysis::Greenness(a.index, cloud.colors[i][0], cloud.colors[i][1],
-                                       cloud.colors[i][2]) > threshold;
-    if (a.canopy.IsCanopy(vegetation, h)) {
-      p.classification = io::AsprsVegetationClass(h);
-    } else if (h >= -kBelowTerrainM) {
-      p.classification = io::kAsprsGround;
-    }
-  }
-}
 
 // The date of a session (midnight UTC): its session.yaml, else the date its id starts with.
 std::optional<Timestamp> SessionDate(const io::Field& field, const std::string& id) {
@@ -247,10 +92,295 @@ std::optional<Timestamp> SessionDate(const io::Field& field, const std::string& 
   }
 }
 
-std::uint64_t FileBytes(const fs::path& p) {
+// The analysis' separation of the ground from the vegetation, read back from WS/analysis
+// (dtm.tif, and the options and thresholds of summary.json) to classify the points of the LAS
+// files; nullopt, with `why`, when either is missing or cannot be read.
+std::optional<analysis::PointClassRule> ReadPointClassRule(const workspace::Layout& ws,
+                                                           std::string* why) {
   std::error_code ec;
-  const std::uintmax_t size = fs::file_size(p, ec);
-  return ec ? 0 : static_cast<std::uint64_t>(size);
+  if (!fs::is_regular_file(ws.Dtm(), ec) || !fs::is_regular_file(ws.AnalysisSummary(), ec)) {
+    *why = "no terrain model WS/analysis/dtm.tif with its summary.json (run `crop4d analyze`)";
+    return std::nullopt;
+  }
+  try {
+    analysis::PointClassRule rule;
+    rule.dtm = io::ReadGeoTiff(ws.Dtm().string());
+    const workspace::AnalysisSummary summary = workspace::ReadAnalysisSummary(ws.AnalysisSummary());
+    const json& options = summary.options;
+    const std::string index = options.at("vegetation").at("index").get<std::string>();
+    if (index == analysis::GreennessIndexName(analysis::GreennessIndex::kExGR)) {
+      rule.index = analysis::GreennessIndex::kExGR;
+    } else if (index != analysis::GreennessIndexName(analysis::GreennessIndex::kExG)) {
+      throw std::runtime_error("unknown vegetation index '" + index + "'");
+    }
+    rule.canopy.min_height_m = options.at("canopy").at("min_height_m").get<double>();
+    rule.canopy.min_height_any_colour_m =
+        options.at("canopy").at("min_height_any_colour_m").get<double>();
+    rule.lone_point_radius_m = options.value("lone_point_radius_m", 0.0);
+    for (const workspace::AnalysisSessionRecord& s : summary.sessions) {
+      if (!std::isfinite(s.vegetation_threshold)) {
+        throw std::runtime_error("session " + s.session + " has no vegetation threshold");
+      }
+      rule.thresholds[s.session] = s.vegetation_threshold;
+    }
+    return rule;
+  } catch (const std::exception& e) {
+    *why = std::string("cannot read the analysis in WS/analysis: ") + e.what();
+    return std::nullopt;
+  }
+}
+
+// Throws unless the workspace exists and holds the results of some stage.
+void CheckWorkspace(const workspace::Layout& ws) {
+  std::error_code ec;
+  const std::string workspace = ws.root().string();
+  if (!fs::is_directory(ws.root(), ec)) {
+    throw InputError(workspace, 0, "no such workspace folder");
+  }
+  bool any_stage = false;
+  for (const fs::path& folder :
+       {ws.SessionsDir(), ws.FusedDir(), ws.DenseDir(), ws.AnalysisDir()}) {
+    any_stage = any_stage || fs::is_directory(folder, ec);
+  }
+  if (!any_stage) {
+    throw InputError(workspace, 0,
+                     "nothing to export: the workspace holds no results (no sessions/, fused/, "
+                     "dense/ or analysis/ folder; run `crop4d slam` or `crop4d run` first)");
+  }
+}
+
+// The sessions: the field's, in its order, then any other the workspace holds; each with what
+// it offers.
+std::vector<SessionInputs> FindSessions(const io::Field& field, const workspace::Layout& ws) {
+  std::vector<std::string> session_ids = field.session_ids();
+  std::set<std::string> extra;
+  for (const std::string& s : ListNames(ws.SessionsDir(), IsDir)) extra.insert(s);
+  for (const std::string& s : ListNames(ws.FusedDir(), IsDir)) {
+    if (ws.FusedDir() / s != ws.FusedColmapDir()) extra.insert(s);
+  }
+  for (const std::string& s : ListNames(ws.DenseDir(), FilesEndingIn(".ply"))) {
+    extra.insert(fs::path(s).stem().string());
+  }
+  for (const std::string& s : extra) {
+    if (std::find(session_ids.begin(), session_ids.end(), s) == session_ids.end()) {
+      session_ids.push_back(s);
+    }
+  }
+  std::vector<SessionInputs> sessions;
+  std::error_code ec;
+  for (const std::string& id : session_ids) {
+    SessionInputs s;
+    s.id = id;
+    if (fs::is_regular_file(ws.FusedSparse(id), ec)) s.fused_sparse = ws.FusedSparse(id);
+    if (fs::is_regular_file(ws.FusedPoses(id), ec)) s.fused_poses = ws.FusedPoses(id);
+    if (fs::is_regular_file(ws.DenseCloud(id), ec)) s.dense = ws.DenseCloud(id);
+    for (const std::string& pass : ListNames(ws.RowsDir(id), IsDir)) {
+      if (fs::is_regular_file(ws.PassLandmarks(id, pass), ec)) {
+        s.pass_clouds.push_back(ws.PassLandmarks(id, pass));
+      }
+      if (fs::is_regular_file(ws.PassPoses(id, pass), ec)) s.pass_poses.push_back(pass);
+    }
+    sessions.push_back(std::move(s));
+  }
+  return sessions;
+}
+
+// ---- ply and las: every session's sparse and/or dense cloud ----
+void AddCloudJobs(const ExportContext& ctx, const io::Field& field,
+                  const std::vector<SessionInputs>& sessions, const ExportOptions& options,
+                  const analysis::PointClassRule* rule, std::vector<Job>* jobs) {
+  const bool want_ply = Wants(options, "ply"), want_las = Wants(options, "las");
+  if (!want_ply && !want_las) return;
+  // LAS points carry their session's date as GPS time and the analysis' class.
+  std::map<std::string, double> gps_times;  // adjusted standard GPS time of each session's date
+  if (want_las) {
+    for (const SessionInputs& s : sessions) {
+      const std::optional<Timestamp> date = SessionDate(field, s.id);
+      if (date) {
+        gps_times[s.id] = io::AdjustedStandardGpsTime(*date);
+      } else {
+        spdlog::warn("export las: session {} has no date (session.yaml): GPS time 0", s.id);
+      }
+    }
+  }
+  const std::string formats = want_ply && want_las ? "ply, las" : (want_ply ? "ply" : "las");
+  std::vector<std::string> kinds;
+  if (options.clouds != "dense") kinds.push_back("sparse");
+  if (options.clouds != "sparse") kinds.push_back("dense");
+  for (const std::string& kind : kinds) {
+    std::vector<std::string> missing;
+    int found = 0;
+    for (const SessionInputs& s : sessions) {
+      CloudJob job;
+      job.session = s.id;
+      job.kind = kind;
+      if (kind == "dense") {
+        if (!s.dense.empty()) job.sources.push_back(s.dense);
+        job.what = "dense cloud";
+      } else if (!s.fused_sparse.empty()) {
+        job.sources.push_back(s.fused_sparse);
+        job.what = "fused sparse cloud";
+      } else {
+        job.sources = s.pass_clouds;
+        job.what = "row-SLAM sparse clouds of the passes (not fused)";
+      }
+      if (job.sources.empty()) {
+        missing.push_back(s.id);
+        continue;
+      }
+      ++found;
+      job.merged = kind == "sparse" && s.fused_sparse.empty();
+      job.ply = want_ply;
+      job.las = want_las;
+      const auto time = gps_times.find(s.id);
+      job.gps_time = time != gps_times.end() ? time->second : 0.0;
+      if (rule != nullptr) {
+        const auto threshold = rule->thresholds.find(s.id);
+        if (threshold != rule->thresholds.end()) job.threshold = threshold->second;
+      }
+      job.rule = rule;
+      jobs->push_back({"cloud " + s.id + " " + kind, [&ctx, job](std::vector<ExportedFile>* files) {
+                         ExportCloud(ctx, job, files);
+                       }});
+    }
+    const std::string where =
+        kind == "dense"
+            ? "WS/dense/<session>.ply: run `crop4d densify`"
+            : "WS/fused/<session>/sparse.ply or WS/sessions/<session>/rows/<pass>/landmarks.ply";
+    if (found == 0) {
+      ctx.Skip(formats, "no " + kind + " point cloud of any session (" + where + ")");
+    } else if (!missing.empty()) {
+      ctx.Skip(formats, "no " + kind + " point cloud of session" +
+                            (missing.size() > 1 ? "s " : " ") + Join(missing, ", ") + " (" + where +
+                            ")");
+    }
+  }
+}
+
+// ---- colmap: the fused model, checked and copied ----
+void AddColmapJob(const ExportContext& ctx, std::vector<Job>* jobs) {
+  const fs::path model = ctx.ws.FusedColmapDir();
+  const std::vector<std::string> names = {"cameras.txt", "images.txt", "points3D.txt"};
+  std::vector<std::string> missing;
+  std::error_code ec;
+  for (const std::string& n : names) {
+    if (!fs::is_regular_file(model / n, ec)) missing.push_back("WS/" + ctx.Rel(model / n));
+  }
+  if (!missing.empty()) {
+    ctx.Skip("colmap", "no COLMAP model: missing " + Join(missing, ", ") + " (run `crop4d fuse`)");
+    return;
+  }
+  jobs->push_back(
+      {"colmap", [&ctx, model, names](std::vector<ExportedFile>* files) {
+         const io::ColmapModel m = io::ReadColmapText(model.string());
+         std::string problem;
+         if (!m.Check(&problem)) throw InputError(model.string(), 0, problem);
+         const std::uint64_t counts[3] = {m.cameras.size(), m.images.size(), m.points.size()};
+         const char* units[3] = {"cameras", "images", "points"};
+         for (int i = 0; i < 3; ++i) {
+           const fs::path to = ctx.out / "colmap" / names[i];
+           CopyFileAtomic(model / names[i], to);
+           files->push_back({"colmap", "colmap/" + names[i], FileBytes(to),
+                             ctx.Rel(model / names[i]), counts[i], units[i]});
+         }
+       }});
+}
+
+// ---- tum: each session's fused trajectory, else its passes' ----
+void AddTumJobs(const ExportContext& ctx, const std::vector<SessionInputs>& sessions,
+                std::vector<Job>* jobs) {
+  std::vector<std::string> missing;
+  int found = 0;
+  for (const SessionInputs& s : sessions) {
+    std::vector<std::pair<fs::path, std::string>> items;  // source, output name
+    if (!s.fused_poses.empty()) {
+      items.emplace_back(s.fused_poses, s.id + ".tum");
+    } else {
+      for (const std::string& pass : s.pass_poses) {
+        items.emplace_back(ctx.ws.PassPoses(s.id, pass), s.id + "_" + pass + ".tum");
+      }
+    }
+    if (items.empty()) missing.push_back(s.id);
+    for (const auto& item : items) {
+      // Named copies: clang 14 cannot capture structured bindings in a lambda.
+      const fs::path from = item.first;
+      const std::string name = item.second;
+      ++found;
+      jobs->push_back(
+          {"tum " + name, [&ctx, from, name](std::vector<ExportedFile>* files) {
+             const std::size_t poses = io::ReadTum(from.string()).size();
+             const fs::path to = ctx.out / "tum" / name;
+             CopyFileAtomic(from, to);
+             files->push_back({"tum", "tum/" + name, FileBytes(to), ctx.Rel(from), poses, "poses"});
+           }});
+    }
+  }
+  const std::string where =
+      "WS/fused/<session>/poses.tum or WS/sessions/<session>/rows/<pass>/poses.tum";
+  if (found == 0) {
+    ctx.Skip("tum", "no trajectory of any session (" + where + ")");
+  } else if (!missing.empty()) {
+    ctx.Skip("tum", "no trajectory of session" + std::string(missing.size() > 1 ? "s " : " ") +
+                        Join(missing, ", ") + " (" + where + ")");
+  }
+}
+
+// ---- geotiff and csv: the rasters and tables of the analysis folder, copied ----
+void AddAnalysisJobs(const ExportContext& ctx, const ExportOptions& options,
+                     std::vector<Job>* jobs) {
+  const fs::path analysis = ctx.ws.AnalysisDir();
+  if (Wants(options, "geotiff")) {
+    const std::vector<std::string> tifs = ListNames(analysis, FilesEndingIn(".tif"));
+    if (tifs.empty()) ctx.Skip("geotiff", "no raster in WS/analysis/*.tif (run `crop4d analyze`)");
+    for (const std::string& name : tifs) {
+      jobs->push_back(
+          {"geotiff " + name, [&ctx, analysis, name](std::vector<ExportedFile>* files) {
+             const io::GeoTiffRaster raster = io::ReadGeoTiff((analysis / name).string());
+             const fs::path to = ctx.out / "geotiff" / name;
+             CopyFileAtomic(analysis / name, to);
+             files->push_back({"geotiff", "geotiff/" + name, FileBytes(to),
+                               ctx.Rel(analysis / name), raster.grid.num_cells(), "cells"});
+           }});
+    }
+  }
+  if (Wants(options, "csv")) {
+    const std::vector<std::string> csvs = ListNames(analysis, FilesEndingIn(".csv"));
+    if (csvs.empty()) ctx.Skip("csv", "no table in WS/analysis/*.csv (run `crop4d analyze`)");
+    for (const std::string& name : csvs) {
+      jobs->push_back({"csv " + name, [&ctx, analysis, name](std::vector<ExportedFile>* files) {
+                         io::CsvReader reader((analysis / name).string());
+                         io::CsvRecord record;
+                         std::uint64_t rows = 0;
+                         while (reader.Next(&record)) ++rows;
+                         // A header line without '#' counts as a record.
+                         if (!reader.header().has_value() && rows > 0) --rows;
+                         const fs::path to = ctx.out / "csv" / name;
+                         CopyFileAtomic(analysis / name, to);
+                         files->push_back({"csv", "csv/" + name, FileBytes(to),
+                                           ctx.Rel(analysis / name), rows, "rows"});
+                       }});
+    }
+  }
+}
+
+// Runs the jobs; the report's files in the order of the formats (a PLY and a LAS of one cloud
+// come from one job).
+void RunJobs(const std::vector<Job>& jobs, const ExportOptions& options, ExportReport* report) {
+  Progress::Options progress_options;
+  progress_options.silent = !options.show_progress;
+  Progress progress("export", jobs.size(), "input", progress_options);
+  for (const Job& job : jobs) {
+    spdlog::debug("export: {}", job.label);
+    job.run(&report->files);
+    progress.Add();
+  }
+  progress.Finish();
+  const std::vector<std::string>& order = ExportFormatNames();
+  std::stable_sort(report->files.begin(), report->files.end(),
+                   [&order](const ExportedFile& a, const ExportedFile& b) {
+                     return std::find(order.begin(), order.end(), a.format) <
+                            std::find(order.begin(), order.end(), b.format);
+                   });
 }
 
 }  // namespace
@@ -283,310 +413,32 @@ ExportReport RunExport(const std::string& field_folder, const std::string& works
   const Clock::time_point start = Clock::now();
   std::string why;
   if (!options.Check(&why)) throw InputError("crop4d export", 0, why);
-  std::error_code ec;
-  if (!fs::is_directory(workspace, ec)) {
-    throw InputError(workspace, 0, "no such workspace folder");
-  }
-  bool any_stage = false;
-  for (const char* folder : {"sessions", "fused", "dense", "analysis"}) {
-    any_stage = any_stage || fs::is_directory(fs::path(workspace) / folder, ec);
-  }
-  if (!any_stage) {
-    throw InputError(workspace, 0,
-                     "nothing to export: the workspace holds no results (no sessions/, fused/, "
-                     "dense/ or analysis/ folder; run `crop4d slam` or `crop4d run` first)");
-  }
+  const workspace::Layout ws(workspace);
+  CheckWorkspace(ws);
   const io::Field field(field_folder);
-  const geometry::GeodeticPoint origin = field.info().origin;
-  const int epsg = geometry::UtmEpsgCode(origin);
-  const fs::path ws(workspace);
-  const fs::path out(out_dir);
+  ExportReport report;
+  const ExportContext ctx{ws, fs::path(out_dir), field.info().origin,
+                          geometry::UtmEpsgCode(field.info().origin), &report};
   {
-    const fs::path a = fs::weakly_canonical(ws, ec), b = fs::weakly_canonical(out, ec);
+    std::error_code ec;
+    const fs::path a = fs::weakly_canonical(ws.root(), ec), b = fs::weakly_canonical(ctx.out, ec);
     if (a == b) throw InputError(out_dir, 0, "the output folder must not be the workspace");
   }
-
-  ExportReport report;
   report.out_dir = out_dir;
-  report.epsg = epsg;
-  auto skip = [&report](const std::string& format, const std::string& message) {
-    spdlog::warn("export {}: {}", format, message);
-    report.skipped.push_back({format, message});
-  };
-  auto rel = [&ws](const fs::path& p) { return fs::relative(p, ws).generic_string(); };
-
-  // Sessions: the field's, in its order, then any other the workspace holds.
-  std::vector<std::string> session_ids = field.session_ids();
-  {
-    std::set<std::string> extra;
-    for (const std::string& s : ListNames(ws / "sessions", IsDir)) extra.insert(s);
-    for (const std::string& s : ListNames(ws / "fused", IsDir)) {
-      if (s != "colmap") extra.insert(s);
-    }
-    for (const std::string& s : ListNames(ws / "dense", FilesEndingIn(".ply"))) {
-      extra.insert(fs::path(s).stem().string());
-    }
-    for (const std::string& s : extra) {
-      if (std::find(session_ids.begin(), session_ids.end(), s) == session_ids.end()) {
-        session_ids.push_back(s);
-      }
-    }
-  }
-  std::vector<SessionInputs> sessions;
-  for (const std::string& id : session_ids) {
-    SessionInputs s;
-    s.id = id;
-    if (fs::is_regular_file(ws / "fused" / id / "sparse.ply", ec)) {
-      s.fused_sparse = ws / "fused" / id / "sparse.ply";
-    }
-    if (fs::is_regular_file(ws / "fused" / id / "poses.tum", ec)) {
-      s.fused_poses = ws / "fused" / id / "poses.tum";
-    }
-    if (fs::is_regular_file(ws / "dense" / (id + ".ply"), ec)) {
-      s.dense = ws / "dense" / (id + ".ply");
-    }
-    const fs::path rows = ws / "sessions" / id / "rows";
-    for (const std::string& pass : ListNames(rows, IsDir)) {
-      if (fs::is_regular_file(rows / pass / "landmarks.ply", ec)) s.pass_clouds.push_back(pass);
-      if (fs::is_regular_file(rows / pass / "poses.tum", ec)) s.pass_poses.push_back(pass);
-    }
-    sessions.push_back(std::move(s));
-  }
+  report.epsg = ctx.epsg;
+  const std::vector<SessionInputs> sessions = FindSessions(field, ws);
 
   std::vector<Job> jobs;
-
-  // ---- point clouds: ply and las ----
-  const bool want_ply = Wants(options, "ply"), want_las = Wants(options, "las");
-  // LAS points carry their session's date as GPS time and the analysis' class.
-  std::optional<AnalysisClasses> classes;
+  std::optional<analysis::PointClassRule> classes;
   std::string classes_why;
-  std::map<std::string, double> gps_times;  // adjusted standard GPS time of each session's date
-  if (want_las) {
-    classes = ReadAnalysisClasses(ws / "analysis", &classes_why);
+  if (Wants(options, "las")) {
+    classes = ReadPointClassRule(ws, &classes_why);
     if (!classes) spdlog::warn("export las: points unclassified (1): {}", classes_why);
-    for (const SessionInputs& s : sessions) {
-      const std::optional<Timestamp> date = SessionDate(field, s.id);
-      if (date) {
-        gps_times[s.id] = io::AdjustedStandardGpsTime(*date);
-      } else {
-        spdlog::warn("export las: session {} has no date (session.yaml): GPS time 0", s.id);
-      }
-    }
   }
-  // Shared by the jobs (which run before this function returns).
-  const AnalysisClasses* const analysis_classes = classes ? &*classes : nullptr;
-  const std::map<std::string, double>* const session_times = &gps_times;
-  if (want_ply || want_las) {
-    const std::string formats = want_ply && want_las ? "ply, las" : (want_ply ? "ply" : "las");
-    std::vector<std::string> kinds;
-    if (options.clouds != "dense") kinds.push_back("sparse");
-    if (options.clouds != "sparse") kinds.push_back("dense");
-    for (const std::string& kind : kinds) {
-      std::vector<std::string> missing;
-      int found = 0;
-      for (const SessionInputs& s : sessions) {
-        // The file(s) this cloud comes from.
-        std::vector<fs::path> sources;
-        std::string what;
-        if (kind == "dense") {
-          if (!s.dense.empty()) sources.push_back(s.dense);
-          what = "dense cloud";
-        } else if (!s.fused_sparse.empty()) {
-          sources.push_back(s.fused_sparse);
-          what = "fused sparse cloud";
-        } else {
-          for (const std::string& pass : s.pass_clouds) {
-            sources.push_back(ws / "sessions" / s.id / "rows" / pass / "landmarks.ply");
-          }
-          what = "row-SLAM sparse clouds of the passes (not fused)";
-        }
-        if (sources.empty()) {
-          missing.push_back(s.id);
-          continue;
-        }
-        ++found;
-        const bool merged = kind == "sparse" && s.fused_sparse.empty();
-        const std::string id = s.id;
-        jobs.push_back(
-            {"cloud " + id + " " + kind, [=, &out, &rel](std::vector<ExportedFile>* files) {
-               std::vector<io::PlyPointCloud> clouds;
-               std::vector<std::string> source_names;
-               for (const fs::path& p : sources) {
-                 clouds.push_back(io::ReadPly(p.string()));
-                 source_names.push_back(rel(p));
-               }
-               const std::string source = Join(source_names, " ");
-               io::PlyPointCloud cloud =
-                   merged ? MergePassClouds(clouds) : std::move(clouds.front());
-               const std::string name = id + "_" + kind;
-               if (want_ply) {
-                 io::PlyWriteOptions ply_options;
-                 ply_options.comment =
-                     "crop4d export: " + what + " of session " + id +
-                     "\nframe: field ENU (x east, y north, z up), metres\norigin: " +
-                     OriginText(origin) + "\nsource: " + source;
-                 const fs::path path = out / "ply" / (name + ".ply");
-                 io::WritePly(path.string(), cloud, ply_options);
-                 files->push_back({"ply", "ply/" + name + ".ply", FileBytes(path), source,
-                                   cloud.size(), "points"});
-               }
-               if (want_las) {
-                 const auto time = session_times->find(id);
-                 const double gps_time = time != session_times->end() ? time->second : 0.0;
-                 // The session's vegetation threshold, when the analysis has the session.
-                 std::optional<double> threshold;
-                 if (analysis_classes != nullptr) {
-                   const auto found = analysis_classes->thresholds.find(id);
-                   if (found != analysis_classes->thresholds.end()) {
-                     threshold = found->second;
-                   }
-                 }
-                 std::vector<io::LasPoint> points;
-                 auto add = [&](const io::PlyPointCloud& part, std::uint16_t source_id) {
-                   const std::size_t begin = points.size();
-                   const std::vector<io::LasPoint> part_points =
-                       io::LasPointsFromEnu(part, origin, epsg, source_id, gps_time);
-                   points.insert(points.end(), part_points.begin(), part_points.end());
-                   if (threshold) {
-                     ClassifyLasPoints(*analysis_classes, *threshold, kind == "dense", part,
-                                       points.data() + begin);
-                   } else {
-                     for (std::size_t i = begin; i < points.size(); ++i) {
-                       points[i].classification = io::kAsprsUnclassified;
-                     }
-                   }
-                 };
-                 if (merged) {
-                   for (std::size_t k = 0; k < clouds.size(); ++k) {
-                     add(clouds[k], static_cast<std::uint16_t>(k + 1));
-                   }
-                 } else {
-                   add(cloud, 0);
-                 }
-                 io::LasWriteOptions las_options;
-                 las_options.epsg = epsg;
-                 const fs::path path = out / "las" / (name + ".las");
-                 io::WriteLas(path.string(), points, las_options);
-                 files->push_back({"las", "las/" + name + ".las", FileBytes(path), source,
-                                   points.size(), "points"});
-               }
-             }});
-      }
-      const std::string where =
-          kind == "dense"
-              ? "WS/dense/<session>.ply: run `crop4d densify`"
-              : "WS/fused/<session>/sparse.ply or WS/sessions/<session>/rows/<pass>/landmarks.ply";
-      if (found == 0) {
-        skip(formats, "no " + kind + " point cloud of any session (" + where + ")");
-      } else if (!missing.empty()) {
-        skip(formats, "no " + kind + " point cloud of session" + (missing.size() > 1 ? "s " : " ") +
-                          Join(missing, ", ") + " (" + where + ")");
-      }
-    }
-  }
-
-  // ---- colmap ----
-  if (Wants(options, "colmap")) {
-    const fs::path model = ws / "fused" / "colmap";
-    const std::vector<std::string> names = {"cameras.txt", "images.txt", "points3D.txt"};
-    std::vector<std::string> missing;
-    for (const std::string& n : names) {
-      if (!fs::is_regular_file(model / n, ec)) missing.push_back("WS/" + rel(model / n));
-    }
-    if (!missing.empty()) {
-      skip("colmap", "no COLMAP model: missing " + Join(missing, ", ") + " (run `crop4d fuse`)");
-    } else {
-      jobs.push_back(
-          {"colmap", [=, &out, &rel](std::vector<ExportedFile>* files) {
-             const io::ColmapModel m = io::ReadColmapText(model.string());
-             std::string problem;
-             if (!m.Check(&problem)) throw InputError(model.string(), 0, problem);
-             const std::uint64_t counts[3] = {m.cameras.size(), m.images.size(), m.points.size()};
-             const char* units[3] = {"cameras", "images", "points"};
-             for (int i = 0; i < 3; ++i) {
-               const fs::path to = out / "colmap" / names[i];
-               CopyFileAtomic(model / names[i], to);
-               files->push_back({"colmap", "colmap/" + names[i], FileBytes(to),
-                                 rel(model / names[i]), counts[i], units[i]});
-             }
-           }});
-    }
-  }
-
-  // ---- tum ----
-  if (Wants(options, "tum")) {
-    std::vector<std::string> missing;
-    int found = 0;
-    for (const SessionInputs& s : sessions) {
-      std::vector<std::pair<fs::path, std::string>> items;  // source, output name
-      if (!s.fused_poses.empty()) {
-        items.emplace_back(s.fused_poses, s.id + ".tum");
-      } else {
-        for (const std::string& pass : s.pass_poses) {
-          items.emplace_back(ws / "sessions" / s.id / "rows" / pass / "poses.tum",
-                             s.id + "_" + pass + ".tum");
-        }
-      }
-      if (items.empty()) missing.push_back(s.id);
-      for (const auto& item : items) {
-        // Named copies: clang 14 cannot capture structured bindings in a lambda.
-        const fs::path from = item.first;
-        const std::string name = item.second;
-        ++found;
-        jobs.push_back(
-            {"tum " + name, [=, &out, &rel](std::vector<ExportedFile>* files) {
-               const std::size_t poses = io::ReadTum(from.string()).size();
-               const fs::path to = out / "tum" / name;
-               CopyFileAtomic(from, to);
-               files->push_back({"tum", "tum/" + name, FileBytes(to), rel(from), poses, "poses"});
-             }});
-      }
-    }
-    const std::string where =
-        "WS/fused/<session>/poses.tum or WS/sessions/<session>/rows/<pass>/poses.tum";
-    if (found == 0) {
-      skip("tum", "no trajectory of any session (" + where + ")");
-    } else if (!missing.empty()) {
-      skip("tum", "no trajectory of session" + std::string(missing.size() > 1 ? "s " : " ") +
-                      Join(missing, ", ") + " (" + where + ")");
-    }
-  }
-
-  // ---- geotiff and csv: the analysis folder ----
-  const fs::path analysis = ws / "analysis";
-  if (Wants(options, "geotiff")) {
-    const std::vector<std::string> tifs = ListNames(analysis, FilesEndingIn(".tif"));
-    if (tifs.empty()) skip("geotiff", "no raster in WS/analysis/*.tif (run `crop4d analyze`)");
-    for (const std::string& name : tifs) {
-      jobs.push_back({"geotiff " + name, [=, &out, &rel](std::vector<ExportedFile>* files) {
-                        const io::GeoTiffRaster raster =
-                            io::ReadGeoTiff((analysis / name).string());
-                        const fs::path to = out / "geotiff" / name;
-                        CopyFileAtomic(analysis / name, to);
-                        files->push_back({"geotiff", "geotiff/" + name, FileBytes(to),
-                                          rel(analysis / name), raster.grid.num_cells(), "cells"});
-                      }});
-    }
-  }
-  if (Wants(options, "csv")) {
-    const std::vector<std::string> csvs = ListNames(analysis, FilesEndingIn(".csv"));
-    if (csvs.empty()) skip("csv", "no table in WS/analysis/*.csv (run `crop4d analyze`)");
-    for (const std::string& name : csvs) {
-      jobs.push_back({"csv " + name, [=, &out, &rel](std::vector<ExportedFile>* files) {
-                        io::CsvReader reader((analysis / name).string());
-                        io::CsvRecord record;
-                        std::uint64_t rows = 0;
-                        while (reader.Next(&record)) ++rows;
-                        // A header line without '#' counts as a record.
-                        if (!reader.header().has_value() && rows > 0) --rows;
-                        const fs::path to = out / "csv" / name;
-                        CopyFileAtomic(analysis / name, to);
-                        files->push_back({"csv", "csv/" + name, FileBytes(to), rel(analysis / name),
-                                          rows, "rows"});
-                      }});
-    }
-  }
-
+  AddCloudJobs(ctx, field, sessions, options, classes ? &*classes : nullptr, &jobs);
+  if (Wants(options, "colmap")) AddColmapJob(ctx, &jobs);
+  if (Wants(options, "tum")) AddTumJobs(ctx, sessions, &jobs);
+  AddAnalysisJobs(ctx, options, &jobs);
   if (jobs.empty()) {
     std::vector<std::string> reasons;
     for (const ExportSkip& s : report.skipped) reasons.push_back(s.format + ": " + s.message);
@@ -594,68 +446,8 @@ ExportReport RunExport(const std::string& field_folder, const std::string& works
                      "nothing to export in the formats asked for (" + Join(options.formats, ",") +
                          "): " + Join(reasons, "; "));
   }
-
-  Progress::Options progress_options;
-  progress_options.silent = !options.show_progress;
-  Progress progress("export", jobs.size(), "input", progress_options);
-  for (const Job& job : jobs) {
-    spdlog::debug("export: {}", job.label);
-    job.run(&report.files);
-    progress.Add();
-  }
-  progress.Finish();
-  // The report in the order of the formats (a PLY and a LAS of one cloud come from one job).
-  const std::vector<std::string>& order = ExportFormatNames();
-  std::stable_sort(report.files.begin(), report.files.end(),
-                   [&order](const ExportedFile& a, const ExportedFile& b) {
-                     return std::find(order.begin(), order.end(), a.format) <
-                            std::find(order.begin(), order.end(), b.format);
-                   });
-
-  // export.json: what was written, from where, and the frames.
-  json manifest;
-  manifest["generator"] = "crop4d export";
-  manifest["workspace"] = fs::absolute(ws).lexically_normal().string();
-  manifest["field"] = fs::absolute(field_folder).lexically_normal().string();
-  manifest["formats"] = options.formats;
-  manifest["clouds"] = options.clouds;
-  manifest["crs"] = {
-      {"enu_origin",
-       {{"lat_deg", origin.lat_deg}, {"lon_deg", origin.lon_deg}, {"alt_m", origin.alt_m}}},
-      {"ply_tum_colmap", "field ENU frame (x east, y north, z up), metres, origin enu_origin"},
-      {"las",
-       "EPSG:" + std::to_string(epsg) +
-           " easting, northing (m); z: WGS 84 ellipsoidal height = origin alt_m + ENU up (m)"},
-      {"geotiff", "EPSG:" + std::to_string(epsg)},
-      {"utm_epsg", epsg}};
-  if (Wants(options, "las")) {
-    manifest["las_points"] = {
-        {"gps_time",
-         "adjusted standard GPS time (GPS seconds - 1e9, global encoding bit 0) of the "
-         "session's date, 00:00 UTC: the same for every point of a session"},
-        {"classification",
-         classes ? "ASPRS classes from WS/analysis: 2 ground, 3/4/5 low/medium/high vegetation "
-                   "(below 0.5 m, 0.5-2 m, 2 m and above the terrain), 1 unclassified (outside "
-                   "the terrain model, more than 0.1 m below it, lone points, sessions not "
-                   "analysed)"
-                 : "1 (unclassified) for every point: " + classes_why}};
-  }
-  json files = json::array();
-  for (const ExportedFile& f : report.files) {
-    files.push_back({{"path", f.path},
-                     {"bytes", f.bytes},
-                     {"format", f.format},
-                     {"source", f.source},
-                     {f.item_unit.empty() ? "items" : f.item_unit, f.items}});
-  }
-  manifest["files"] = std::move(files);
-  json skipped = json::array();
-  for (const ExportSkip& s : report.skipped) {
-    skipped.push_back({{"format", s.format}, {"message", s.message}});
-  }
-  manifest["skipped"] = std::move(skipped);
-  io::WriteFileAtomic((out / "export.json").string(), manifest.dump(2) + "\n");
-
+  RunJobs(jobs, options, &report);
+  WriteExportManifest(ctx, field_folder, options, classes.has_value(), classes_why);
   report.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   return report;
 }

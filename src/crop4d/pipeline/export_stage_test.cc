@@ -18,6 +18,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/workspace/analysis_summary.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -271,13 +272,15 @@ TEST(ExportTest, LasPointsCarryTheSessionDateAndTheAnalysisClasses) {
   const io::UtmGrid grid =
       utm.GridCovering(Eigen::AlignedBox2d(Eigen::Vector2d(-1, -1), Eigen::Vector2d(3, 9)), 0.02);
   io::WriteGeoTiff(t.ws + "/analysis/dtm.tif", grid, std::vector<float>(grid.num_cells(), 100.0f));
-  const nlohmann::json summary = {
-      {"options",
-       {{"vegetation", {{"index", "ExG"}}},
-        {"canopy", {{"min_height_m", 0.02}, {"min_height_any_colour_m", 0.04}}},
-        {"lone_point_radius_m", 0.05}}},
-      {"sessions", {{{"session", kFused}, {"vegetation_threshold", 0.1}}}}};
-  WriteText(t.ws + "/analysis/summary.json", summary.dump(2));
+  workspace::AnalysisSummary summary;
+  summary.options = {{"vegetation", {{"index", "ExG"}}},
+                     {"canopy", {{"min_height_m", 0.02}, {"min_height_any_colour_m", 0.04}}},
+                     {"lone_point_radius_m", 0.05}};
+  workspace::AnalysisSessionRecord session;
+  session.session = kFused;
+  session.vegetation_threshold = 0.1;
+  summary.sessions = {session};
+  WriteText(t.ws + "/analysis/summary.json", workspace::AnalysisSummaryJson(summary).dump(2));
   // A dense cloud with two points 1 cm apart for each case, and one lone point.
   const std::array<std::uint8_t, 3> soil = {149, 126, 103}, leaf = {62, 85, 44};  // ExG 0, 0.33
   struct Case {

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "crop4d/core/error.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -142,7 +143,7 @@ json SeasonQualityToJson(const SeasonQuality& quality) {
 }
 
 std::string SeasonQualityPath(const std::string& workspace) {
-  return (std::filesystem::path(workspace) / "fused" / "quality.json").string();
+  return workspace::Layout(workspace).FusedQuality().string();
 }
 
 SeasonQuality ReadSeasonQuality(const std::string& workspace) {

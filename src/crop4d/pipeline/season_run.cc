@@ -24,8 +24,9 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/validator.h"
 #include "crop4d/io/workspace_lock.h"
-#include "crop4d/workspace/stage_files.h"
 #include "crop4d/report/html_report.h"
+#include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
 
@@ -52,10 +53,11 @@ class SeasonRun {
   SeasonRun(std::string field, std::string workspace, const RunOptions& options)
       : field_(std::move(field)),
         ws_(std::move(workspace)),
+        layout_(ws_),
         options_(options),
         config_(options.config),
-        log_((fs::path(ws_) / "run_log.jsonl").string()),
-        record_path_((fs::path(ws_) / "run.json").string()) {
+        log_(layout_.RunLog().string()),
+        record_path_(layout_.RunRecord().string()) {
     record_.crop4d_version = kVersion;
     record_.field = field_;
     record_.workspace = ws_;
@@ -97,6 +99,7 @@ class SeasonRun {
   std::string EvalFingerprint() const;
 
   std::string field_, ws_;
+  workspace::Layout layout_;  // the paths of ws_
   RunOptions options_;
   RunConfig config_;
   std::vector<std::string> sessions_;
@@ -235,11 +238,9 @@ void SeasonRun::Slam(StageRecord& stage) {
 std::vector<std::string> SeasonRun::SessionsWithPasses() const {
   std::vector<std::string> out;
   for (const std::string& id : sessions_) {
-    const fs::path rows = fs::path(ws_) / "sessions" / id / "rows";
-    std::error_code ec;
     bool any = false;
-    for (fs::directory_iterator it(rows, ec), end; !ec && it != end; it.increment(ec)) {
-      if (fs::exists(it->path() / "summary.json")) any = true;
+    for (const std::string& pass : layout_.PassFolders(id)) {
+      if (fs::exists(layout_.PassSummary(id, pass))) any = true;
     }
     if (any) out.push_back(id);
   }
@@ -290,8 +291,8 @@ void SeasonRun::Fuse(StageRecord& stage) {
 
 void SeasonRun::Densify(StageRecord& stage) {
   for (const std::string& id : sessions_) {
-    if (!fs::exists(fs::path(ws_) / "fused" / id / "poses.tum")) {
-      if (fs::exists(fs::path(ws_) / "sessions" / id)) {
+    if (!fs::exists(layout_.FusedPoses(id))) {
+      if (fs::exists(layout_.SessionDir(id))) {
         Item(stage, id, "", kActionSkipped, 0, "no fused poses (the session has no usable pass)");
       }
       continue;
@@ -345,10 +346,10 @@ std::string SeasonRun::EvalFingerprint() const {
   const std::string config = FormatRunConfig(config_);
   add(config.substr(config.find("\neval:")));
   std::vector<std::string> summaries;
-  for (const char* folder : {"sessions", "associations", "fused", "dense", "analysis"}) {
+  for (const fs::path& folder : {layout_.SessionsDir(), layout_.AssociationsRoot(),
+                                 layout_.FusedDir(), layout_.DenseDir(), layout_.AnalysisDir()}) {
     std::error_code ec;
-    for (fs::recursive_directory_iterator it(fs::path(ws_) / folder, ec), end; !ec && it != end;
-         it.increment(ec)) {
+    for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
       if (it->path().extension() == ".json") summaries.push_back(it->path().string());
     }
   }
@@ -378,8 +379,8 @@ void SeasonRun::Eval(StageRecord& stage) {
     if (config_.eval == "auto") spdlog::info("eval: the field has no ground_truth/");
     return;
   }
-  const fs::path stamp_path = fs::path(ws_) / "eval" / "inputs.fingerprint";
-  const fs::path metrics = fs::path(ws_) / "eval" / "metrics.json";
+  const fs::path stamp_path = layout_.EvalInputsFingerprint();
+  const fs::path metrics = layout_.EvalMetrics();
   const std::string stamp = EvalFingerprint();
   // inputs.fingerprint: the inputs' fingerprint, then the hash of the metrics.json it gave.
   std::string previous, metrics_hash;
@@ -389,7 +390,7 @@ void SeasonRun::Eval(StageRecord& stage) {
   }
   if (!options_.force && previous == stamp && !metrics_hash.empty() &&
       workspace::FileHash(metrics) == metrics_hash) {
-    Item(stage, "", "metrics.json", kActionUpToDate, 0);
+    Item(stage, "", metrics.filename().string(), kActionUpToDate, 0);
     return;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -401,7 +402,7 @@ void SeasonRun::Eval(StageRecord& stage) {
   const eval::WorkspaceEval result = eval::EvaluateWorkspace(ws_, field_, o);
   eval::WriteWorkspaceEval(result);
   io::WriteFileAtomic(stamp_path.string(), stamp + "\n" + workspace::FileHash(metrics) + "\n");
-  Item(stage, "", "metrics.json", kActionDone, SecondsSince(start));
+  Item(stage, "", metrics.filename().string(), kActionDone, SecondsSince(start));
   if (!IsQuiet()) {
     spdlog::info("\n{}", eval::FormatWorkspaceEvalTable(result));
   }
@@ -427,7 +428,7 @@ RunResult SeasonRun::Run() {
   if (const int n = io::RemoveStaleTemporaryFiles(ws_); n > 0) {
     spdlog::info("removed {} temporary file(s) left by an interrupted run", n);
   }
-  io::WriteFileAtomic((fs::path(ws_) / "crop4d.yaml").string(), FormatRunConfig(config_));
+  io::WriteFileAtomic(layout_.Config().string(), FormatRunConfig(config_));
   spdlog::info("crop4d {} run: field {} ({} sessions), workspace {}, configuration {}", kVersion,
                field_, sessions_.size(), ws_, options_.config_source);
   WriteRunRecord(record_path_, record_);
@@ -513,7 +514,8 @@ std::string FormatRunSummary(const RunResult& result) {
       out += fmt::format("  {:<9} {:<28} {}\n", s.stage, what.empty() ? "-" : what, s.reason);
     }
   }
-  const fs::path metrics = fs::path(r.workspace) / "eval" / "metrics.json";
+  const workspace::Layout layout(r.workspace);
+  const fs::path metrics = layout.EvalMetrics();
   if (std::ifstream in(metrics); in) {
     const json m = json::parse(in, nullptr, false);
     if (m.is_object()) {
@@ -529,7 +531,7 @@ std::string FormatRunSummary(const RunResult& result) {
       out += fmt::format("canopy height RMSE: {}\n", Cm(canopy));
     }
   }
-  const fs::path report = fs::path(r.workspace) / "report.html";
+  const fs::path report = layout.Report();
   if (fs::exists(report)) out += fmt::format("\nreport: {}\n", report.string());
   return out;
 }

@@ -12,6 +12,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/report/plot_canvas.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::report {
 namespace {
@@ -39,19 +40,32 @@ constexpr double kMinTickSpacingPx = 70.0;
 
 }  // namespace
 
-bool CrossSectionSlice::Check() const {
-  return center.allFinite() && direction.allFinite() && direction.norm() > 1e-12 &&
-         std::isfinite(thickness_m) && thickness_m > 0 && std::isfinite(half_length_m) &&
-         half_length_m > 0;
+OptionCheck CrossSectionSlice::Check() const {
+  OptionChecker c;
+  c.Require(center.allFinite(), "center", "must be finite")
+      .Require(direction.allFinite() && direction.norm() > 1e-12, "direction",
+               "must be finite and non-zero")
+      .Finite("thickness_m", thickness_m)
+      .Greater("thickness_m", thickness_m, 0.0)
+      .Finite("half_length_m", half_length_m)
+      .Greater("half_length_m", half_length_m, 0.0);
+  return c.Result();
 }
 
-bool CrossSectionOptions::Check() const {
+OptionCheck CrossSectionOptions::Check() const {
   const bool z_auto = std::isnan(z_min) && std::isnan(z_max);
   const bool z_fixed = std::isfinite(z_min) && std::isfinite(z_max) && z_min < z_max;
-  return slice.Check() && plot_width_px >= 50 && plot_width_px <= 20000 &&
-         min_plot_height_px >= 50 && max_plot_height_px >= min_plot_height_px &&
-         max_plot_height_px <= 20000 && (z_auto || z_fixed) && point_radius_px >= 0 &&
-         point_radius_px <= 50;
+  OptionChecker c;
+  c.Nested("slice", slice.Check())
+      .InRange("plot_width_px", plot_width_px, 50, 20000)
+      .AtLeast("min_plot_height_px", min_plot_height_px, 50)
+      .Require(max_plot_height_px >= min_plot_height_px, "max_plot_height_px",
+               "must be >= min_plot_height_px", max_plot_height_px)
+      .AtMost("max_plot_height_px", max_plot_height_px, 20000)
+      .Require(z_auto || z_fixed, "z_min",
+               "z_min and z_max must both be NaN (automatic) or finite with z_min < z_max")
+      .InRange("point_radius_px", point_radius_px, 0, 50);
+  return c.Result();
 }
 
 std::vector<Eigen::Vector2d> PointsInSlice(const io::PlyPointCloud& cloud,
@@ -87,6 +101,77 @@ cv::Vec3b SessionColor(int index, int count) {
   return color.at<cv::Vec3b>(0, 0);
 }
 
+namespace {
+
+// The scale of the figure (pixels per metre, one for both axes) and its height range: the slice
+// length fills plot_width_px, unless the height range would then be taller than
+// max_plot_height_px; a height range shorter than min_plot_height_px grows about its middle.
+void FitScale(const CrossSectionOptions& options, double* z_lo, double* z_hi,
+              CrossSectionFigure* figure) {
+  const double length = 2.0 * options.slice.half_length_m;
+  double scale = options.plot_width_px / length;
+  if ((*z_hi - *z_lo) * scale > options.max_plot_height_px) {
+    scale = options.max_plot_height_px / (*z_hi - *z_lo);
+  }
+  if ((*z_hi - *z_lo) * scale < options.min_plot_height_px) {
+    const double middle = 0.5 * (*z_lo + *z_hi), half = 0.5 * options.min_plot_height_px / scale;
+    *z_lo = middle - half;
+    *z_hi = middle + half;
+  }
+  figure->pixels_per_metre = scale;
+  figure->along_min = -options.slice.half_length_m;
+  figure->z_min = *z_lo;
+  figure->z_max = *z_hi;
+  figure->plot_size = cv::Size(static_cast<int>(std::lround(length * scale)),
+                               static_cast<int>(std::lround((*z_hi - *z_lo) * scale)));
+}
+
+// The points into `plot` (the plot area of the image, at `origin`), latest session first so
+// that the earliest ends on top. Exact colours (no anti-aliasing): a pixel of a session's colour
+// is one of its points.
+void DrawPoints(const std::vector<std::vector<Eigen::Vector2d>>& layers,
+                const CrossSectionOptions& options, const CrossSectionFigure& figure,
+                const cv::Point& origin, cv::Mat plot) {
+  for (int i = static_cast<int>(layers.size()) - 1; i >= 0; --i) {
+    const cv::Vec3b c = figure.series[i].color_bgr;
+    const cv::Scalar color(c[0], c[1], c[2]);
+    for (const Eigen::Vector2d& p : layers[i]) {
+      const cv::Point2d pixel = figure.ToPixel(p.x(), p.y());
+      const cv::Point centre(cvRound(pixel.x) - origin.x, cvRound(pixel.y) - origin.y);
+      if (options.point_radius_px == 0) {
+        if (centre.x >= 0 && centre.y >= 0 && centre.x < plot.cols && centre.y < plot.rows) {
+          plot.at<cv::Vec3b>(centre) = c;
+        }
+      } else {
+        cv::circle(plot, centre, options.point_radius_px, color, cv::FILLED, cv::LINE_8);
+      }
+    }
+  }
+  if (figure.num_points == 0) {
+    const std::string note = "no points in the slice";
+    const cv::Size size = TextSize(note, kLabelFontScale, 1);
+    PutText(plot, note, {(plot.cols - size.width) / 2, plot.rows / 2}, kLabelFontScale, kNoteGray);
+  }
+}
+
+constexpr int kLegendRow = 24, kSwatch = 14, kPad = 10;
+
+// The legend in `box`: one swatch and "label (N points)" per session, earliest first.
+void DrawLegend(const std::vector<CrossSectionSeries>& series,
+                const std::vector<std::string>& texts, const cv::Rect& box, cv::Mat& image) {
+  const int x0 = box.x, top = box.y;
+  cv::rectangle(image, {x0, top}, {x0 + box.width, top + box.height}, kBlack, 1, cv::LINE_8);
+  for (std::size_t i = 0; i < series.size(); ++i) {
+    const cv::Vec3b c = series[i].color_bgr;
+    const int y = top + kPad + static_cast<int>(i) * kLegendRow;
+    cv::rectangle(image, {x0 + kPad, y}, {x0 + kPad + kSwatch - 1, y + kSwatch - 1},
+                  cv::Scalar(c[0], c[1], c[2]), cv::FILLED, cv::LINE_8);
+    PutText(image, texts[i], {x0 + kPad + kSwatch + 8, y + kSwatch / 2}, kLabelFontScale, kBlack);
+  }
+}
+
+}  // namespace
+
 CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds,
                                     const std::vector<std::string>& labels,
                                     const CrossSectionOptions& options) {
@@ -119,25 +204,8 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
     z_hi = 1.0;
   }
 
-  // Scale: the slice length fills plot_width_px, unless the height range would then be taller
-  // than max_plot_height_px; a height range shorter than min_plot_height_px grows about its
-  // middle. One scale for both axes.
-  const double length = 2.0 * options.slice.half_length_m;
-  double scale = options.plot_width_px / length;
-  if ((z_hi - z_lo) * scale > options.max_plot_height_px) {
-    scale = options.max_plot_height_px / (z_hi - z_lo);
-  }
-  if ((z_hi - z_lo) * scale < options.min_plot_height_px) {
-    const double middle = 0.5 * (z_lo + z_hi), half = 0.5 * options.min_plot_height_px / scale;
-    z_lo = middle - half;
-    z_hi = middle + half;
-  }
-  figure.pixels_per_metre = scale;
-  figure.along_min = -options.slice.half_length_m;
-  figure.z_min = z_lo;
-  figure.z_max = z_hi;
-  figure.plot_size = cv::Size(static_cast<int>(std::lround(length * scale)),
-                              static_cast<int>(std::lround((z_hi - z_lo) * scale)));
+  FitScale(options, &z_lo, &z_hi, &figure);
+  const double scale = figure.pixels_per_metre;
 
   // Ticks on a square grid (equal aspect ratio: the same step on both axes).
   const double step = NiceStep(kMinTickSpacingPx / scale);
@@ -163,7 +231,6 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
     legend_text_width =
         std::max(legend_text_width, TextSize(legend_texts.back(), kLabelFontScale, 1).width);
   }
-  constexpr int kLegendRow = 24, kSwatch = 14, kPad = 10;
   const int legend_width = n > 0 ? kPad + kSwatch + 8 + legend_text_width + kPad : 0;
   const int legend_height = n > 0 ? 2 * kPad + n * kLegendRow - (kLegendRow - kSwatch) : 0;
 
@@ -190,28 +257,7 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
     cv::line(plot, {0, y}, {plot.cols - 1, y}, kGrid, 1, cv::LINE_8);
   }
 
-  // Points, latest session first so that the earliest ends on top. Exact colours (no
-  // anti-aliasing): a pixel of a session's colour is one of its points.
-  for (int i = n - 1; i >= 0; --i) {
-    const cv::Vec3b c = figure.series[i].color_bgr;
-    const cv::Scalar color(c[0], c[1], c[2]);
-    for (const Eigen::Vector2d& p : layers[i]) {
-      const cv::Point2d pixel = figure.ToPixel(p.x(), p.y());
-      const cv::Point centre(cvRound(pixel.x) - left, cvRound(pixel.y) - top);
-      if (options.point_radius_px == 0) {
-        if (centre.x >= 0 && centre.y >= 0 && centre.x < plot.cols && centre.y < plot.rows) {
-          plot.at<cv::Vec3b>(centre) = c;
-        }
-      } else {
-        cv::circle(plot, centre, options.point_radius_px, color, cv::FILLED, cv::LINE_8);
-      }
-    }
-  }
-  if (figure.num_points == 0) {
-    const std::string note = "no points in the slice";
-    const cv::Size size = TextSize(note, kLabelFontScale, 1);
-    PutText(plot, note, {(plot.cols - size.width) / 2, plot.rows / 2}, kLabelFontScale, kNoteGray);
-  }
+  DrawPoints(layers, options, figure, cv::Point(left, top), plot);
 
   // Frame, ticks and tick labels.
   cv::rectangle(image, {left - 1, top - 1},
@@ -253,19 +299,10 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
     PutText(image, options.title, {x, 16 + title_height / 2}, kTitleFontScale, kBlack, 2);
   }
 
-  // Legend: one swatch and "label (N points)" per session, earliest first.
   if (n > 0) {
-    const int x0 = left + figure.plot_size.width + 24;
-    cv::rectangle(image, {x0, top}, {x0 + legend_width, top + legend_height}, kBlack, 1,
-                  cv::LINE_8);
-    for (int i = 0; i < n; ++i) {
-      const cv::Vec3b c = figure.series[i].color_bgr;
-      const int y = top + kPad + i * kLegendRow;
-      cv::rectangle(image, {x0 + kPad, y}, {x0 + kPad + kSwatch - 1, y + kSwatch - 1},
-                    cv::Scalar(c[0], c[1], c[2]), cv::FILLED, cv::LINE_8);
-      PutText(image, legend_texts[i], {x0 + kPad + kSwatch + 8, y + kSwatch / 2}, kLabelFontScale,
-              kBlack);
-    }
+    DrawLegend(figure.series, legend_texts,
+               cv::Rect(left + figure.plot_size.width + 24, top, legend_width, legend_height),
+               image);
   }
   return figure;
 }
@@ -282,7 +319,7 @@ void WriteCrossSectionPng(const std::string& path, const CrossSectionFigure& fig
 // ---- workspace inputs ---------------------------------------------------------------------
 
 std::vector<std::string> ListWorkspaceSessions(const std::string& workspace) {
-  const fs::path folder = fs::path(workspace) / "sessions";
+  const fs::path folder = workspace::Layout(workspace).SessionsDir();
   std::error_code ec;
   if (!fs::is_directory(folder, ec)) {
     throw InputError(folder.string(), 0,
@@ -301,24 +338,20 @@ std::vector<SessionCloud> LoadSessionClouds(const std::string& workspace,
                                             const std::vector<std::string>& sessions,
                                             std::vector<std::string>* missing) {
   std::vector<SessionCloud> result;
+  const workspace::Layout ws(workspace);
   for (const std::string& session : sessions) {
     SessionCloud item;
     item.session = session;
-    const fs::path fused = fs::path(workspace) / "fused" / session / "sparse.ply";
+    const fs::path fused = ws.FusedSparse(session);
     std::error_code ec;
     if (fs::is_regular_file(fused, ec)) {
       item.cloud = io::ReadPly(fused.string());
       item.source = fused.string();
       item.files = {fused.string()};
     } else {
-      const fs::path rows = fs::path(workspace) / "sessions" / session / "rows";
-      if (fs::is_directory(rows, ec)) {
-        for (const fs::directory_entry& entry : fs::directory_iterator(rows)) {
-          const fs::path ply = entry.path() / "landmarks.ply";
-          if (entry.is_directory() && fs::is_regular_file(ply, ec)) {
-            item.files.push_back(ply.string());
-          }
-        }
+      for (const std::string& pass : ws.PassFolders(session)) {
+        const fs::path ply = ws.PassLandmarks(session, pass);
+        if (fs::is_regular_file(ply, ec)) item.files.push_back(ply.string());
       }
       std::sort(item.files.begin(), item.files.end());
       for (const std::string& file : item.files) {
@@ -333,7 +366,7 @@ std::vector<SessionCloud> LoadSessionClouds(const std::string& workspace,
           item.cloud.colors.clear();
         }
       }
-      item.source = (rows / "*" / "landmarks.ply").string();
+      item.source = ws.PassLandmarks(session, "*").string();
     }
     if (item.files.empty()) {
       if (missing != nullptr) missing->push_back(session);

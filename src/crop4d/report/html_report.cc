@@ -155,11 +155,12 @@ void Builder::ListSessions() {
   auto add = [&](const std::string& s) {
     if (!s.empty() && seen.insert(s).second) extra.push_back(s);
   };
-  for (const fs::path& d : ListDir(WsPath("sessions"), true)) add(d.filename().string());
-  for (const fs::path& d : ListDir(WsPath("fused"), true)) {
-    if (IsFile(d / "poses.tum") || IsFile(d / "sparse.ply")) add(d.filename().string());
+  for (const fs::path& d : ListDir(layout_.SessionsDir(), true)) add(d.filename().string());
+  for (const fs::path& d : ListDir(layout_.FusedDir(), true)) {
+    const std::string session = d.filename().string();
+    if (IsFile(layout_.FusedPoses(session)) || IsFile(layout_.FusedSparse(session))) add(session);
   }
-  for (const fs::path& f : ListDir(WsPath("dense"), false)) {
+  for (const fs::path& f : ListDir(layout_.DenseDir(), false)) {
     if (f.extension() == ".json") add(f.stem().string());
   }
   std::sort(extra.begin(), extra.end());
@@ -229,29 +230,28 @@ Section Builder::RunSection() {
       "WS/run.json not found (the workspace was not made by <code>crop4d run</code>): status and "
       "timings below come from the stages' own summary files (time: the sum over their items).");
   std::vector<fs::path> slam_files, association_files, dense_files;
-  for (const fs::path& sd : ListDir(WsPath("sessions"), true)) {
-    for (const fs::path& pd : ListDir(sd / "rows", true)) slam_files.push_back(pd / "summary.json");
+  for (const fs::path& sd : ListDir(layout_.SessionsDir(), true)) {
+    const std::string session = sd.filename().string();
+    for (const fs::path& pd : ListDir(layout_.RowsDir(session), true)) {
+      slam_files.push_back(layout_.PassSummary(session, pd.filename().string()));
+    }
   }
-  for (const fs::path& md : ListDir(WsPath("associations"), true)) {
+  for (const fs::path& md : ListDir(layout_.AssociationsRoot(), true)) {
     for (const fs::path& f : ListDir(md, false)) {
       if (f.extension() != ".json" || f.filename() == "summary.json") continue;
       association_files.push_back(f);
     }
   }
-  for (const fs::path& f : ListDir(WsPath("dense"), false)) {
+  for (const fs::path& f : ListDir(layout_.DenseDir(), false)) {
     if (f.extension() == ".json") dense_files.push_back(f);
   }
   const DerivedStage stages[] = {
       {"slam", slam_files, TotalSeconds, "row pass", "es"},
       {"associate", association_files, Seconds, "pass pair", "s"},
-      {"fuse", {WsPath("fused/summary.json")}, TotalSeconds, "joint problem", nullptr},
+      {"fuse", {layout_.FusedSummary()}, TotalSeconds, "joint problem", nullptr},
       {"densify", dense_files, TotalElseSeconds, "session", "s"},
-      {"analyze",
-       {WsPath("analysis/summary.json")},
-       SecondsElseTotal,
-       "canopy heights, growth",
-       nullptr},
-      {"eval", {WsPath("eval/metrics.json")}, Seconds, "metrics against ground truth", nullptr},
+      {"analyze", {layout_.AnalysisSummary()}, SecondsElseTotal, "canopy heights, growth", nullptr},
+      {"eval", {layout_.EvalMetrics()}, Seconds, "metrics against ground truth", nullptr},
   };
   std::vector<std::vector<std::string>> rows;
   double total = 0;
@@ -296,13 +296,12 @@ std::vector<std::vector<std::string>> Builder::UntrustedPasses() {
        "fewer than 20 landmarks in the solve: the poses are the motion model's and the GPS's"},
   };
   std::vector<std::vector<std::string>> rows;
-  std::error_code ec;
-  const fs::path sessions = WsPath("sessions");
   std::vector<fs::path> summaries;
-  for (fs::directory_iterator s(sessions, ec), end; !ec && s != end; s.increment(ec)) {
-    std::error_code ec2;
-    for (fs::directory_iterator p(s->path() / "rows", ec2); !ec2 && p != end; p.increment(ec2)) {
-      if (fs::exists(p->path() / "summary.json")) summaries.push_back(p->path() / "summary.json");
+  for (const std::string& session : layout_.SessionsWithRows()) {
+    for (const std::string& pass : layout_.PassFolders(session)) {
+      if (fs::exists(layout_.PassSummary(session, pass))) {
+        summaries.push_back(layout_.PassSummary(session, pass));
+      }
     }
   }
   std::sort(summaries.begin(), summaries.end());
@@ -351,7 +350,7 @@ Section Builder::SkippedSection() {
   // The sessions' grades (fuse writes them whether or not `crop4d run` ran).
   std::vector<std::vector<std::string>> degraded;
   bool any_trusted = true;
-  if (const auto quality = ReadJson(WsPath("fused/quality.json"))) {
+  if (const auto quality = ReadJson(layout_.FusedQuality())) {
     any_trusted = quality->value("any_trusted", true);
     if (const json* ss = At(*quality, {"sessions"}); ss != nullptr && ss->is_array()) {
       for (const json& g : *ss) {
@@ -474,7 +473,7 @@ constexpr const char* kScript = R"js(
 std::string Builder::Build(HtmlReportResult* result) {
   LoadField();
   ListSessions();
-  run_ = ReadJson(WsPath("run.json"));
+  run_ = ReadJson(layout_.RunRecord());
   if (run_ && !run_->is_object()) {
     Skip("WS/run.json: not a JSON object; left out");
     run_.reset();
@@ -562,11 +561,16 @@ std::string Builder::Build(HtmlReportResult* result) {
 
 }  // namespace html::detail
 
-bool HtmlReportOptions::Check() const {
-  return std::isfinite(cross_section_thickness_m) && cross_section_thickness_m > 0 &&
-         std::isfinite(cross_section_half_length_m) && cross_section_half_length_m > 0 &&
-         map_max_width_px >= 100 && map_max_width_px <= 10000 && map_max_height_px >= 100 &&
-         map_max_height_px <= 10000 && map_max_points_per_session >= 2;
+OptionCheck HtmlReportOptions::Check() const {
+  OptionChecker c;
+  c.Finite("cross_section_thickness_m", cross_section_thickness_m)
+      .Greater("cross_section_thickness_m", cross_section_thickness_m, 0.0)
+      .Finite("cross_section_half_length_m", cross_section_half_length_m)
+      .Greater("cross_section_half_length_m", cross_section_half_length_m, 0.0)
+      .InRange("map_max_width_px", map_max_width_px, 100, 10000)
+      .InRange("map_max_height_px", map_max_height_px, 100, 10000)
+      .AtLeast("map_max_points_per_session", map_max_points_per_session, 2);
+  return c.Result();
 }
 
 std::string Base64Encode(const std::string& bytes) {
@@ -638,8 +642,7 @@ HtmlReportResult WriteHtmlReport(const std::string& workspace, const std::string
                                  const std::string& output_html, const HtmlReportOptions& options) {
   HtmlReportResult result;
   const std::string html = BuildHtmlReport(workspace, field_folder, options, &result);
-  result.path = output_html.empty() ? (std::filesystem::path(workspace) / "report.html").string()
-                                    : output_html;
+  result.path = output_html.empty() ? workspace::Layout(workspace).Report().string() : output_html;
   io::WriteFileAtomic(result.path, html);
   result.bytes = html.size();
   return result;

@@ -15,9 +15,13 @@
 #include <utility>
 #include <vector>
 
+#include "crop4d/core/error.h"
 #include "crop4d/io/dataset.h"
 #include "crop4d/report/html_blocks.h"
 #include "crop4d/report/html_report.h"
+#include "crop4d/workspace/analysis_summary.h"
+#include "crop4d/workspace/analysis_tables.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::report::html::detail {
 
@@ -35,6 +39,9 @@ struct Csv {
 
 // ---- the report ------------------------------------------------------------------------------
 
+struct MapTrack;  // html_report_map.cc
+struct MapFrame;
+
 struct Section {
   HtmlReportSection info;
   std::string html;
@@ -44,14 +51,12 @@ struct Section {
 class Builder {
  public:
   Builder(std::string workspace, std::string field, const HtmlReportOptions& options)
-      : ws_(std::move(workspace)), field_(std::move(field)), opt_(options) {}
+      : ws_(std::move(workspace)), field_(std::move(field)), opt_(options), layout_(ws_) {}
 
   std::string Build(HtmlReportResult* result);
 
  private:
-  // "WS/<rel>" for messages, and the real path.
-  std::string WsLabel(const std::string& rel) const { return "WS/" + rel; }
-  fs::path WsPath(const std::string& rel) const { return fs::path(ws_) / rel; }
+  // "WS/<path relative to the workspace>" for messages (the path itself when outside it).
   std::string RelToWs(const fs::path& p) const {
     std::error_code ec;
     const fs::path r = fs::relative(p, ws_, ec);
@@ -73,6 +78,18 @@ class Builder {
   std::optional<json> ReadJson(const fs::path& p);
 
   std::optional<Csv> ReadCsv(const fs::path& p, const std::string& label);
+  // A workspace artefact read with its typed reader (workspace/); nullopt when it is missing,
+  // or (skipped, with the reader's reason) malformed or of another version.
+  template <typename Read>
+  auto ReadArtefact(const fs::path& p, Read&& read) -> std::optional<decltype(read(p))> {
+    if (!IsFile(p)) return std::nullopt;
+    try {
+      return read(p);
+    } catch (const InputError& e) {
+      Skip(Why(e) + "; left out");
+      return std::nullopt;
+    }
+  }
 
   void LoadField();
   void ListSessions();
@@ -83,17 +100,24 @@ class Builder {
   // Passes whose summary.json says what row SLAM could not observe (trust flags).
   std::vector<std::vector<std::string>> UntrustedPasses();
   Section MapSection();
+  std::vector<MapTrack> MapTracks();
+  std::string MapTracksSvg(const MapFrame& f, const std::vector<MapTrack>& tracks) const;
+  std::string MapLegend(const std::vector<MapTrack>& tracks) const;
   Section SlamSection();
   Section AssociationSection();
   Section FusionSection();
   Section DenseSection();
   Section CrossSectionSection();
   Section HeightsSection();
+  std::string AnalysisSessionsHtml(const workspace::AnalysisSummary& summary) const;
+  std::string HeightsTableHtml(const std::vector<workspace::SiteHeight>& heights,
+                               const std::optional<Csv>& measured);
   Section GrowthSection();
   Section EvalSection();
 
   std::string ws_, field_;
   const HtmlReportOptions& opt_;
+  workspace::Layout layout_;  // the paths of ws_
   std::optional<io::FieldInfo> field_info_;
   std::vector<std::string> sessions_;
   std::optional<json> run_;

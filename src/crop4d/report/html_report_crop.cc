@@ -16,6 +16,9 @@
 
 #include "crop4d/io/dataset.h"
 #include "crop4d/report/html_report_builder.h"
+#include "crop4d/workspace/analysis_summary.h"
+#include "crop4d/workspace/analysis_tables.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::report::html::detail {
 
@@ -23,8 +26,11 @@ namespace crop4d::report::html::detail {
 
 Section Builder::HeightsSection() {
   Section s{{"heights", "Canopy height per site", false}, ""};
-  auto summary = ReadJson(WsPath("analysis/summary.json"));
-  auto heights = ReadCsv(WsPath("analysis/site_heights.csv"), "WS/analysis/site_heights.csv");
+  const workspace::Layout ws(ws_);
+  const auto summary = ReadArtefact(
+      ws.AnalysisSummary(), [](const fs::path& p) { return workspace::ReadAnalysisSummary(p); });
+  const auto heights = ReadArtefact(
+      ws.SiteHeights(), [](const fs::path& p) { return workspace::ReadSiteHeights(p); });
   std::optional<Csv> measured;
   if (!field_.empty()) {
     measured = ReadCsv(fs::path(field_) / "ground_truth" / "site_measurements.csv",
@@ -39,29 +45,8 @@ Section Builder::HeightsSection() {
     return s;
   }
   s.info.has_data = true;
-  if (summary) {
-    std::vector<std::vector<std::string>> rows;
-    if (const json* ss = At(*summary, {"sessions"}); ss != nullptr && ss->is_array()) {
-      for (const json& x : *ss) {
-        rows.push_back({E(Str(x, {"session"})), E(Str(x, {"date"})), Code(Str(x, {"cloud"})),
-                        I(Num(x, {"points"})), I(Num(x, {"plants"})),
-                        Percent(Num(x, {"vegetation_fraction"}), 2)});
-      }
-    }
-    if (!rows.empty()) {
-      s.html += Table({"session", "date", "cloud", "points", "plants found", "vegetation points"},
-                      rows, "lllrrr");
-    }
-    if (const json* notes = At(*summary, {"site_notes"});
-        notes != nullptr && notes->is_array() && !notes->empty()) {
-      s.html += "<ul class=\"notes\">";
-      for (const json& n : *notes) {
-        s.html += "<li>" + E(n.is_string() ? n.get<std::string>() : n.dump()) + "</li>";
-      }
-      s.html += "</ul>\n";
-    }
-  }
-  const fs::path plot = WsPath("analysis/plots/heights.png");
+  if (summary) s.html += AnalysisSessionsHtml(*summary);
+  const fs::path plot = ws.PlotsDir() / "heights.png";
   if (IsFile(plot)) {
     if (auto png = ReadBytes(plot); png && png->size() > 8 && png->compare(1, 3, "PNG") == 0) {
       s.html +=
@@ -74,89 +59,113 @@ Section Builder::HeightsSection() {
   } else {
     s.html += Empty("No plot (WS/analysis/plots/heights.png); the table below has the numbers.");
   }
-  if (heights) {
-    const int cs = heights->Col("site_id"), cd = heights->Col("date"),
-              ch = heights->Col("height_m"), cn = heights->Col("n_points");
-    if (cs < 0 || cd < 0 || ch < 0) {
-      Skip("WS/analysis/site_heights.csv: no site_id, date or height_m column; table left out");
-    } else {
-      std::map<std::pair<std::string, std::string>, std::string> est, meas;
-      std::set<std::string> dates;
-      std::vector<std::string> sites;
-      std::set<std::string> site_set;
-      auto add_site = [&](const std::string& id) {
-        if (site_set.insert(id).second) sites.push_back(id);
-      };
-      if (field_info_) {
-        for (const io::Site& site : field_info_->sites) add_site(site.id);
-      }
-      for (const auto& r : heights->rows) {
-        add_site(r[cs]);
-        dates.insert(r[cd]);
-        const std::optional<double> h = ParseNum(r[ch]);
-        std::string cell = h ? fmt::format("{:.3f}", *h) : "<span class=\"muted\">none</span>";
-        if (cn >= 0 && !h) cell += " <span class=\"muted\">(" + E(r[cn]) + " pts)</span>";
-        est[{r[cs], r[cd]}] = cell;
-      }
-      int n_meas = 0;
-      if (measured) {
-        const int ms = measured->Col("site_id"), md = measured->Col("date"),
-                  mh = measured->Col("height_m");
-        if (ms < 0 || md < 0 || mh < 0) {
-          Skip(
-              "FIELD/ground_truth/site_measurements.csv: no site_id, date or height_m column; "
-              "measurements left out");
-        } else {
-          for (const auto& r : measured->rows) {
-            if (auto h = ParseNum(r[mh])) {
-              meas[{r[ms], r[md]}] = fmt::format("{:.3f}", *h);
-              dates.insert(r[md]);
-              add_site(r[ms]);
-              ++n_meas;
-            }
-          }
-        }
-      }
-      std::vector<std::string> head = {"site"};
-      for (const std::string& d : dates) head.push_back(E(d));
-      std::vector<std::vector<std::string>> rows;
-      for (const std::string& site : sites) {
-        std::vector<std::string> row = {E(site)};
-        for (const std::string& d : dates) {
-          std::string cell;
-          auto e = est.find({site, d});
-          cell = e != est.end() ? e->second : std::string(kDash);
-          auto m = meas.find({site, d});
-          if (m != meas.end()) cell += "<br><span class=\"meas\">meas. " + m->second + "</span>";
-          row.push_back(cell);
-        }
-        rows.push_back(row);
-      }
-      s.html += "<h3>Canopy height [m] per site and date</h3>\n";
-      s.html += n_meas > 0
-                    ? "<p>Estimates of crop4d; below them, in italics, the heights a person "
-                      "measured (FIELD/ground_truth/site_measurements.csv).</p>\n"
-                    : std::string(field_.empty()
-                                      ? "<p class=\"muted\">No field given: no measurements.</p>\n"
-                                      : "<p class=\"muted\">No measurements "
-                                        "(FIELD/ground_truth/site_measurements.csv).</p>\n");
-      s.html += Table(head, rows, "l" + std::string(dates.size(), 'r'), "heights");
-    }
-  }
-  if (auto single = ReadCsv(WsPath("analysis/site_heights_single_plane.csv"),
-                            "WS/analysis/site_heights_single_plane.csv")) {
+  if (heights) s.html += HeightsTableHtml(*heights, measured);
+  if (const auto single = ReadArtefact(ws.SiteHeightsSinglePlane(), [](const fs::path& p) {
+        return workspace::ReadSiteHeights(p);
+      })) {
     std::vector<std::vector<std::string>> rows;
-    for (const auto& r : single->rows) {
+    for (const workspace::SiteHeight& r : *single) {
       std::vector<std::string> row;
-      for (const std::string& c : r) row.push_back(E(c));
+      for (const std::string& c : workspace::SiteHeightCells(r)) row.push_back(E(c));
       rows.push_back(row);
     }
     std::vector<std::string> head;
-    for (const std::string& c : single->header) head.push_back(E(c));
+    for (const std::string& c : workspace::SiteHeightsColumns()) head.push_back(E(c));
     s.html += Details("Heights above a single ground plane (the paper's simpler terrain model)",
                       Table(head, rows, "ll" + std::string(head.size(), 'r')));
   }
   return s;
+}
+
+// The sessions the analysis measured, and why sites have no height.
+std::string Builder::AnalysisSessionsHtml(const workspace::AnalysisSummary& summary) const {
+  std::string html;
+  std::vector<std::vector<std::string>> rows;
+  for (const workspace::AnalysisSessionRecord& x : summary.sessions) {
+    rows.push_back({E(x.session), E(x.date), Code(x.cloud), I(static_cast<double>(x.points)),
+                    I(static_cast<double>(x.plants)), Percent(x.vegetation_fraction, 2)});
+  }
+  if (!rows.empty()) {
+    html += Table({"session", "date", "cloud", "points", "plants found", "vegetation points"}, rows,
+                  "lllrrr");
+  }
+  if (!summary.site_notes.empty()) {
+    html += "<ul class=\"notes\">";
+    for (const workspace::AnalysisSiteNote& n : summary.site_notes) {
+      const json note = {{"site_id", n.site_id}, {"session", n.session}, {"note", n.note}};
+      html += "<li>" + E(note.dump()) + "</li>";
+    }
+    html += "</ul>\n";
+  }
+  return html;
+}
+
+// Canopy height per site and date: the estimates, and below them the heights a person measured
+// where the field has them.
+std::string Builder::HeightsTableHtml(const std::vector<workspace::SiteHeight>& heights,
+                                      const std::optional<Csv>& measured) {
+  std::map<std::pair<std::string, std::string>, std::string> est, meas;
+  std::set<std::string> dates;
+  std::vector<std::string> sites;
+  std::set<std::string> site_set;
+  auto add_site = [&](const std::string& id) {
+    if (site_set.insert(id).second) sites.push_back(id);
+  };
+  if (field_info_) {
+    for (const io::Site& site : field_info_->sites) add_site(site.id);
+  }
+  for (const workspace::SiteHeight& r : heights) {
+    add_site(r.site_id);
+    dates.insert(r.date);
+    const bool h = std::isfinite(r.height_m);
+    std::string cell = h ? fmt::format("{:.3f}", r.height_m) : "<span class=\"muted\">none</span>";
+    if (!h) {
+      const std::string n = r.n_points >= 0 ? std::to_string(r.n_points) : std::string();
+      cell += " <span class=\"muted\">(" + E(n) + " pts)</span>";
+    }
+    est[{r.site_id, r.date}] = cell;
+  }
+  int n_meas = 0;
+  if (measured) {
+    const int ms = measured->Col("site_id"), md = measured->Col("date"),
+              mh = measured->Col("height_m");
+    if (ms < 0 || md < 0 || mh < 0) {
+      Skip(
+          "FIELD/ground_truth/site_measurements.csv: no site_id, date or height_m column; "
+          "measurements left out");
+    } else {
+      for (const auto& r : measured->rows) {
+        if (auto h = ParseNum(r[mh])) {
+          meas[{r[ms], r[md]}] = fmt::format("{:.3f}", *h);
+          dates.insert(r[md]);
+          add_site(r[ms]);
+          ++n_meas;
+        }
+      }
+    }
+  }
+  std::vector<std::string> head = {"site"};
+  for (const std::string& d : dates) head.push_back(E(d));
+  std::vector<std::vector<std::string>> rows;
+  for (const std::string& site : sites) {
+    std::vector<std::string> row = {E(site)};
+    for (const std::string& d : dates) {
+      auto e = est.find({site, d});
+      std::string cell = e != est.end() ? e->second : std::string(kDash);
+      auto m = meas.find({site, d});
+      if (m != meas.end()) cell += "<br><span class=\"meas\">meas. " + m->second + "</span>";
+      row.push_back(cell);
+    }
+    rows.push_back(row);
+  }
+  std::string html = "<h3>Canopy height [m] per site and date</h3>\n";
+  html += n_meas > 0 ? "<p>Estimates of crop4d; below them, in italics, the heights a person "
+                       "measured (FIELD/ground_truth/site_measurements.csv).</p>\n"
+                     : std::string(field_.empty()
+                                       ? "<p class=\"muted\">No field given: no measurements.</p>\n"
+                                       : "<p class=\"muted\">No measurements "
+                                         "(FIELD/ground_truth/site_measurements.csv).</p>\n");
+  return html + Table(head, rows, "l" + std::string(dates.size(), 'r'), "heights");
 }
 
 namespace {
@@ -188,26 +197,27 @@ std::string PrettyColumn(std::string c) {
 
 Section Builder::GrowthSection() {
   Section s{{"growth", "Growth rates", false}, ""};
-  auto csv = ReadCsv(WsPath("analysis/growth.csv"), "WS/analysis/growth.csv");
-  if (!csv) {
+  const workspace::Layout ws(ws_);
+  const auto growth =
+      ReadArtefact(ws.Growth(), [](const fs::path& p) { return workspace::ReadGrowth(p); });
+  if (!growth) {
     s.html = Empty("No growth rates: no WS/analysis/growth.csv (crop4d analyze).");
     return s;
   }
-  s.info.has_data = !csv->rows.empty();
+  s.info.has_data = !growth->rows.empty();
   std::vector<std::string> head;
   std::string align;
-  for (std::size_t i = 0; i < csv->header.size(); ++i) {
-    head.push_back(PrettyColumn(csv->header[i]));
-    const std::string& h = csv->header[i];
+  for (const std::string& h : workspace::GrowthColumns(*growth)) {
+    head.push_back(PrettyColumn(h));
     align += (h == "site_id" || h == "status" ||
               (h.find("date") != std::string::npos && h.rfind("growth_", 0) != 0))
                  ? 'l'
                  : 'r';
   }
   std::vector<std::vector<std::string>> rows;
-  for (const auto& r : csv->rows) {
+  for (const workspace::GrowthRow& r : growth->rows) {
     std::vector<std::string> row;
-    for (const std::string& c : r) row.push_back(E(c));
+    for (const std::string& c : workspace::GrowthCells(r)) row.push_back(E(c));
     rows.push_back(row);
   }
   s.html +=
@@ -230,17 +240,11 @@ std::string AteCells(const json& m, const char* key) {
 
 }  // namespace
 
-Section Builder::EvalSection() {
-  Section s{{"evaluation", "Evaluation against ground truth", false}, ""};
-  auto j = ReadJson(WsPath("eval/metrics.json"));
-  if (!j) {
-    s.html = Empty(
-        "No evaluation: no WS/eval/metrics.json (crop4d eval needs a field with ground truth, "
-        "e.g. a simulated one).");
-    return s;
-  }
-  s.info.has_data = true;
-  const json& m = *j;
+namespace {
+
+// The trajectory errors of row SLAM and of the 4D fusion, and the worst pass.
+std::string TrajectoriesHtml(const json& m) {
+  std::string html;
   auto mm = [&](std::initializer_list<const char*> k) {
     std::optional<double> v = Num(m, k);
     return v ? std::optional<double>(1000 * *v) : std::nullopt;
@@ -266,17 +270,22 @@ Section Builder::EvalSection() {
                     F(Num(m, {"fused", "overall", "rpe", "translation_percent", "rmse"}), 2)});
   }
   if (!traj.empty()) {
-    s.html += "<h3>Trajectories</h3>\n";
-    s.html += Table({"estimate", "evaluated", "poses", "ATE raw RMSE [mm]", "ATE aligned RMSE [mm]",
-                     "rotation RMSE [deg]", "RPE RMSE [%]"},
-                    traj, "lrrrrrr");
+    html += "<h3>Trajectories</h3>\n";
+    html += Table({"estimate", "evaluated", "poses", "ATE raw RMSE [mm]", "ATE aligned RMSE [mm]",
+                   "rotation RMSE [deg]", "RPE RMSE [%]"},
+                  traj, "lrrrrrr");
     if (At(m, {"overall", "worst_pass"}) != nullptr) {
-      s.html +=
-          "<p class=\"muted\">Worst pass: " + E(Str(m, {"overall", "worst_pass", "session"})) +
-          " " + E(Str(m, {"overall", "worst_pass", "pass"})) + ", ATE raw RMSE " +
-          F(mm({"overall", "worst_pass", "ate_raw_rmse_m"}), 1) + " mm.</p>\n";
+      html += "<p class=\"muted\">Worst pass: " + E(Str(m, {"overall", "worst_pass", "session"})) +
+              " " + E(Str(m, {"overall", "worst_pass", "pass"})) + ", ATE raw RMSE " +
+              F(mm({"overall", "worst_pass", "ate_raw_rmse_m"}), 1) + " mm.</p>\n";
     }
   }
+  return html;
+}
+
+// Every pass: its trajectory errors or why it could not be evaluated.
+std::string PassesHtml(const json& m) {
+  std::string html;
   std::vector<std::vector<std::string>> passes;
   if (const json* ps = At(m, {"passes"}); ps != nullptr && ps->is_array()) {
     for (const json& p : *ps) {
@@ -291,12 +300,17 @@ Section Builder::EvalSection() {
     }
   }
   if (!passes.empty()) {
-    s.html += Details(fmt::format("Every pass ({})", passes.size()),
-                      Table({"session", "pass", "sensors", "poses", "ATE raw [mm]",
-                             "ATE aligned [mm]", "rotation [deg]", "error"},
-                            passes, "lllrrrrl"));
+    html += Details(fmt::format("Every pass ({})", passes.size()),
+                    Table({"session", "pass", "sensors", "poses", "ATE raw [mm]",
+                           "ATE aligned [mm]", "rotation [deg]", "error"},
+                          passes, "lllrrrrl"));
   }
-  // Cross matches.
+  return html;
+}
+
+// The cross matches per method and pair type, judged against the truth.
+std::string CrossMatchesHtml(const json& m) {
+  std::string html;
   if (const json* bm = At(m, {"association", "by_method"}); bm != nullptr && bm->is_array()) {
     std::vector<std::vector<std::string>> rows;
     for (const json& x : *bm) {
@@ -312,13 +326,18 @@ Section Builder::EvalSection() {
       }
     }
     if (!rows.empty()) {
-      s.html += "<h3>Cross matches</h3>\n";
-      s.html += Table({"method", "pair type", "pairs", "matches", "correct", "incorrect", "unknown",
-                       "precision"},
-                      rows, "llrrrrrr");
+      html += "<h3>Cross matches</h3>\n";
+      html += Table({"method", "pair type", "pairs", "matches", "correct", "incorrect", "unknown",
+                     "precision"},
+                    rows, "llrrrrrr");
     }
   }
-  // Ground misalignment between sessions.
+  return html;
+}
+
+// The ground of one session against the others.
+std::string GroundMisalignmentHtml(const json& m) {
+  std::string html;
   if (const json* g = At(m, {"ground_misalignment"}); g != nullptr && g->is_object()) {
     std::vector<std::vector<std::string>> rows;
     for (const char* which : {"row_slam", "fused"}) {
@@ -332,13 +351,18 @@ Section Builder::EvalSection() {
                       F(gmm("p90_m"), 1), F(gmm("signed_median_m"), 1)});
     }
     if (!rows.empty()) {
-      s.html += "<h3>Ground of one session against the others</h3>\n";
-      s.html += Table({"clouds", "ground points", "median distance [mm]", "90th percentile [mm]",
-                       "signed median [mm]"},
-                      rows, "lrrrr");
+      html += "<h3>Ground of one session against the others</h3>\n";
+      html += Table({"clouds", "ground points", "median distance [mm]", "90th percentile [mm]",
+                     "signed median [mm]"},
+                    rows, "lrrrr");
     }
   }
-  // Canopy height.
+  return html;
+}
+
+// Canopy height against the truth per method and session, and the plants of the sites.
+std::string CanopyEvalHtml(const json& m) {
+  std::string html;
   if (const json* c = At(m, {"canopy"}); c != nullptr && c->is_object()) {
     std::vector<std::vector<std::string>> rows;
     for (const char* which : {"ours", "single_plane"}) {
@@ -356,13 +380,13 @@ Section Builder::EvalSection() {
                       err.empty() ? "" : "<span class=\"badt\">" + E(err) + "</span>"});
     }
     if (!rows.empty()) {
-      s.html += "<h3>Canopy height</h3>\n";
-      s.html += Table({"estimate", "file", "site-dates", "RMSE [mm]", "bias [mm]", "MAE [mm]",
-                       "max |error| [mm]",
-                       fmt::format("errors &gt; {:.0f} mm",
-                                   1000 * Num(*c, {"options", "max_error_m"}).value_or(NAN)),
-                       "error"},
-                      rows, "llrrrrrrl");
+      html += "<h3>Canopy height</h3>\n";
+      html += Table({"estimate", "file", "site-dates", "RMSE [mm]", "bias [mm]", "MAE [mm]",
+                     "max |error| [mm]",
+                     fmt::format("errors &gt; {:.0f} mm",
+                                 1000 * Num(*c, {"options", "max_error_m"}).value_or(NAN)),
+                     "error"},
+                    rows, "llrrrrrrl");
     }
     if (const json* ss = At(*c, {"ours", "sessions"}); ss != nullptr && ss->is_array()) {
       std::vector<std::vector<std::string>> srows;
@@ -376,7 +400,7 @@ Section Builder::EvalSection() {
                          I(Num(x, {"num_failures"}))});
       }
       if (!srows.empty()) {
-        s.html += Details(
+        html += Details(
             "Canopy height error per session (crop4d)",
             Table({"session", "sites", "RMSE [mm]", "bias [mm]", "max |error| [mm]", "failures"},
                   srows, "lrrrrr"));
@@ -388,8 +412,8 @@ Section Builder::EvalSection() {
         std::optional<double> v = Num(*p, {k});
         return v ? std::optional<double>(1000 * *v) : std::nullopt;
       };
-      s.html += "<h3>Plants of the sites</h3>\n";
-      s.html +=
+      html += "<h3>Plants of the sites</h3>\n";
+      html +=
           Table({"true plants", "found", "recall", "listed", "precision", "median stem offset [mm]",
                  "tops", "top RMSE [mm]", "top bias [mm]",
                  fmt::format("tops off &gt; {:.0f} mm",
@@ -401,6 +425,27 @@ Section Builder::EvalSection() {
                 "rrrrrrrrrr");
     }
   }
+  return html;
+}
+
+}  // namespace
+
+Section Builder::EvalSection() {
+  Section s{{"evaluation", "Evaluation against ground truth", false}, ""};
+  auto j = ReadJson(layout_.EvalMetrics());
+  if (!j) {
+    s.html = Empty(
+        "No evaluation: no WS/eval/metrics.json (crop4d eval needs a field with ground truth, "
+        "e.g. a simulated one).");
+    return s;
+  }
+  s.info.has_data = true;
+  const json& m = *j;
+  s.html += TrajectoriesHtml(m);
+  s.html += PassesHtml(m);
+  s.html += CrossMatchesHtml(m);
+  s.html += GroundMisalignmentHtml(m);
+  s.html += CanopyEvalHtml(m);
   return s;
 }
 

@@ -28,11 +28,10 @@ Section Builder::SlamSection() {
   Section s{{"slam", "Row SLAM", false}, ""};
   std::vector<std::vector<std::string>> per_session, per_pass;
   for (const std::string& session : sessions_) {
-    const fs::path sd = WsPath("sessions") / session;
-    if (!IsDir(sd)) continue;
+    if (!IsDir(layout_.SessionDir(session))) continue;
     int listed = -1;
     std::vector<std::string> listed_passes;
-    if (auto csv = ReadCsv(sd / "passes.csv", WsLabel("sessions/" + session + "/passes.csv"))) {
+    if (auto csv = ReadCsv(layout_.PassList(session), RelToWs(layout_.PassList(session)))) {
       listed = static_cast<int>(csv->rows.size());
       const int c = csv->Col("pass");
       for (const auto& row : csv->rows) {
@@ -43,8 +42,8 @@ Section Builder::SlamSection() {
     double images = 0, landmarks = 0, seconds = 0, rms_sum = 0;
     int rms_n = 0;
     std::set<std::string> have;
-    for (const fs::path& pd : ListDir(sd / "rows", true)) {
-      auto j = ReadJson(pd / "summary.json");
+    for (const fs::path& pd : ListDir(layout_.RowsDir(session), true)) {
+      auto j = ReadJson(layout_.PassSummary(session, pd.filename().string()));
       if (!j) continue;
       ++solved;
       const std::string pass = pd.filename().string();
@@ -114,8 +113,8 @@ Section Builder::AssociationSection() {
     bool prealigned = false;
   };
   std::map<std::string, std::vector<Pair>> by_method;
-  std::vector<fs::path> files = ListDir(WsPath("associations"), false);
-  for (const fs::path& md : ListDir(WsPath("associations"), true)) {
+  std::vector<fs::path> files = ListDir(layout_.AssociationsRoot(), false);
+  for (const fs::path& md : ListDir(layout_.AssociationsRoot(), true)) {
     for (const fs::path& f : ListDir(md, false)) files.push_back(f);
   }
   for (const fs::path& f : files) {
@@ -195,7 +194,7 @@ Section Builder::FusionSection() {
   const auto Cm = [](std::optional<double> m) {
     return m ? std::optional<double>(100.0 * *m) : std::nullopt;
   };
-  auto j = ReadJson(WsPath("fused/summary.json"));
+  auto j = ReadJson(layout_.FusedSummary());
   if (!j) {
     s.html = Empty("4D fusion has not run: no WS/fused/summary.json.");
     return s;
@@ -270,7 +269,7 @@ Section Builder::DenseSection() {
   Section s{{"dense", "Dense clouds", false}, ""};
   std::vector<std::vector<std::string>> rows;
   double total = 0;
-  for (const fs::path& f : ListDir(WsPath("dense"), false)) {
+  for (const fs::path& f : ListDir(layout_.DenseDir(), false)) {
     if (f.extension() != ".json") continue;
     auto j = ReadJson(f);
     if (!j) continue;
@@ -281,7 +280,7 @@ Section Builder::DenseSection() {
     total += secs.value_or(0);
     std::optional<double> mb;
     std::error_code ec;
-    const fs::path ply = f.parent_path() / (f.stem().string() + ".ply");
+    const fs::path ply = layout_.DenseCloud(f.stem().string());
     const auto bytes = fs::file_size(ply, ec);
     if (!ec) mb = bytes / 1e6;
     rows.push_back({"<span class=\"swatch\" style=\"background:" + SessionColor(session) +
@@ -338,7 +337,7 @@ Section Builder::CrossSectionSection() {
   const Eigen::Vector2d dir = slice.direction.normalized();
   const Eigen::Vector2d left(-dir.y(), dir.x());
   for (const std::string& session : sessions_) {
-    const fs::path dense = WsPath("dense") / (session + ".ply");
+    const fs::path dense = layout_.DenseCloud(session);
     if (opt_.cross_section_dense && IsFile(dense)) {
       try {
         io::PlyPointCloud all = io::ReadPly(dense.string());
@@ -358,7 +357,7 @@ Section Builder::CrossSectionSection() {
         Skip("cross-section: " + Why(e) + "; the sparse cloud is used instead");
       }
     }
-    if (!IsDir(WsPath("sessions") / session) && !IsDir(WsPath("fused") / session)) continue;
+    if (!IsDir(layout_.SessionDir(session)) && !IsDir(layout_.FusedSessionDir(session))) continue;
     try {
       std::vector<std::string> missing;
       std::vector<SessionCloud> one = LoadSessionClouds(ws_, {session}, &missing);

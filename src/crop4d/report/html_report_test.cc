@@ -15,6 +15,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/workspace/analysis_summary.h"
 
 namespace crop4d::report {
 namespace {
@@ -118,10 +119,19 @@ void MakeWorkspace(const TempDir& dir) {
                 "images": {"used": 82, "mean_views_per_tile": 6.5},
                 "seconds": {"total": 20.0}})");
   WriteText(ws + "/dense/2016-06-15.json", "{ this is not json");
-  WriteText(ws + "/analysis/summary.json",
-            R"({"seconds": 3.5, "sessions": [{"session": "2016-06-01", "date": "2016-06-01",
-                "cloud": "dense/2016-06-01.ply", "points": 123456, "plants": 40,
-                "vegetation_fraction": 0.01}], "site_notes": ["r01s1: few points on 2016-06-01"]})");
+  {
+    workspace::AnalysisSummary summary;
+    summary.seconds = 3.5;
+    workspace::AnalysisSessionRecord session;
+    session.session = session.date = "2016-06-01";
+    session.cloud = "dense/2016-06-01.ply";
+    session.points = 123456;
+    session.plants = 40;
+    session.vegetation_fraction = 0.01;
+    summary.sessions = {session};
+    summary.site_notes = {{"r01s1", "2016-06-01", "few points on 2016-06-01"}};
+    WriteText(ws + "/analysis/summary.json", workspace::AnalysisSummaryJson(summary).dump(2));
+  }
   WriteText(ws + "/analysis/site_heights.csv",
             "site_id,session,date,height_m,cover,volume_m3,n_points\n"
             "r00s1,2016-06-01,2016-06-01,0.1234,0.02,0.0006,78\n"
@@ -290,7 +300,8 @@ TEST(HtmlReportTest, BadInputIsNamedNotFatal) {
             ReadText(ws + "/fused/2016-06-01/poses.tum") + "1.0 not a pose\n");
   WriteText(ws + "/run.json", "[1, 2]");
   WriteText(ws + "/analysis/site_heights.csv",
-            "site_id,session,date,height_m\nr00s1,2016-06-01,2016-06-01,0.1\nr00s1,oops\n");
+            "site_id,session,date,height_m,cover,volume_m3,n_points\n"
+            "r00s1,2016-06-01,2016-06-01,0.1,,,\nr00s1,oops\n");
   WriteText(ws + "/analysis/plots/heights.png", "not a png");
   WriteText(ws + "/fused/summary.json", "");
   HtmlReportResult r;
@@ -303,7 +314,9 @@ TEST(HtmlReportTest, BadInputIsNamedNotFatal) {
   }();
   EXPECT_NE(all.find("WS/fused/2016-06-01/poses.tum:"), std::string::npos) << all;
   EXPECT_NE(all.find("WS/run.json: not a JSON object"), std::string::npos) << all;
-  EXPECT_NE(all.find("WS/analysis/site_heights.csv:3: 2 columns"), std::string::npos) << all;
+  EXPECT_NE(all.find("WS/analysis/site_heights.csv:3: expected 7 fields, found 2"),
+            std::string::npos)
+      << all;
   EXPECT_NE(all.find("heights.png: not a readable PNG"), std::string::npos) << all;
   EXPECT_NE(all.find("WS/fused/summary.json: not valid JSON"), std::string::npos) << all;
   EXPECT_NE(all.find("FIELD/field.yaml"), std::string::npos) << all;

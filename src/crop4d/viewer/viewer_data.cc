@@ -21,6 +21,8 @@
 #include "crop4d/io/geotiff.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/workspace/analysis_tables.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::viewer {
 namespace {
@@ -37,50 +39,6 @@ std::string ReadFile(const fs::path& path) {
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();
-}
-
-// A table with a header line: column name → index; rows of strings.
-struct Table {
-  std::map<std::string, std::size_t> columns;
-  std::vector<std::vector<std::string>> rows;
-  std::vector<std::int64_t> lines;
-
-  const std::string* Get(std::size_t row, const std::string& column) const {
-    const auto it = columns.find(column);
-    if (it == columns.end() || it->second >= rows[row].size()) return nullptr;
-    return &rows[row][it->second];
-  }
-};
-
-Table ReadTable(const fs::path& path) {
-  Table table;
-  if (!fs::is_regular_file(path)) return table;
-  io::CsvReader reader(path.string());
-  io::CsvRecord record;
-  bool header = true;
-  while (reader.Next(&record)) {
-    if (header) {
-      for (std::size_t i = 0; i < record.fields.size(); ++i)
-        table.columns[std::string(record.fields[i])] = i;
-      header = false;
-      continue;
-    }
-    std::vector<std::string> row;
-    for (std::string_view f : record.fields) row.emplace_back(f);
-    table.rows.push_back(std::move(row));
-    table.lines.push_back(record.line);
-  }
-  return table;
-}
-
-double NumberAt(const Table& table, std::size_t row, const std::string& column,
-                const fs::path& path) {
-  const std::string* text = table.Get(row, column);
-  double value = 0;
-  if (text == nullptr || !io::ParseDouble(*text, &value))
-    throw InputError(path.string(), table.lines[row],
-                     "column " + column + " is missing or not a number");
-  return value;
 }
 
 // The cells of a lattice of `cell` metres: cell (i, j) covers [i·cell, (i+1)·cell) × ....
@@ -205,22 +163,24 @@ json BuildSession(const fs::path& cloud_path, const fs::path& folder,
   return index;
 }
 
-json Trajectory(const fs::path& ws, const std::string& id, int max_points) {
+// The session's fused trajectory, else the poses of its row passes in the order of their names.
+json Trajectory(const workspace::Layout& ws, const std::string& id, int max_points) {
   std::vector<Eigen::Vector3d> positions;
-  const fs::path fused = ws / "fused" / id / "poses.tum";
+  const fs::path fused = ws.FusedPoses(id);
   if (fs::is_regular_file(fused)) {
     for (const io::StampedPose& p : io::ReadTum(fused.string()))
       positions.push_back(p.pose.translation());
-  } else if (fs::is_directory(ws / "sessions" / id / "rows")) {
+  } else if (fs::is_directory(ws.RowsDir(id))) {
     std::set<fs::path> rows;
-    for (const auto& e : fs::directory_iterator(ws / "sessions" / id / "rows"))
-      if (fs::is_regular_file(e.path() / "poses.tum")) rows.insert(e.path() / "poses.tum");
+    for (const std::string& pass : ws.PassFolders(id))
+      if (fs::is_regular_file(ws.PassPoses(id, pass))) rows.insert(ws.PassPoses(id, pass));
     for (const fs::path& row : rows)
       for (const io::StampedPose& p : io::ReadTum(row.string()))
         positions.push_back(p.pose.translation());
   }
   json out = json::array();
-  const std::size_t step = std::max<std::size_t>(1, (positions.size() + max_points - 1) / max_points);
+  const std::size_t step =
+      std::max<std::size_t>(1, (positions.size() + max_points - 1) / max_points);
   for (std::size_t i = 0; i < positions.size(); i += step) {
     const Eigen::Vector3d& p = positions[i];
     out.push_back({std::round(p.x() * 1000) / 1000, std::round(p.y() * 1000) / 1000,
@@ -230,22 +190,17 @@ json Trajectory(const fs::path& ws, const std::string& id, int max_points) {
 }
 
 // Sites: position from the plants found in them (site_plants.csv), canopy height per date
-// (site_heights.csv), growth fit (growth.csv).
-json Sites(const fs::path& ws, const std::vector<io::Site>& declared) {
-  const fs::path plants_path = ws / "analysis" / "site_plants.csv";
-  const fs::path heights_path = ws / "analysis" / "site_heights.csv";
-  const fs::path growth_path = ws / "analysis" / "growth.csv";
+// (site_heights.csv), growth fit (growth.csv); each table only when the analysis wrote it.
+json Sites(const workspace::Layout& ws, const std::vector<io::Site>& declared) {
   std::map<std::string, json> sites;
-  const Table plants = ReadTable(plants_path);
   std::map<std::string, std::pair<Eigen::Vector2d, int>> sums;
-  for (std::size_t r = 0; r < plants.rows.size(); ++r) {
-    const std::string* id = plants.Get(r, "site_id");
-    if (id == nullptr) continue;
-    auto& s = sums[*id];
-    if (s.second == 0) s.first.setZero();
-    s.first += Eigen::Vector2d(NumberAt(plants, r, "x_m", plants_path),
-                               NumberAt(plants, r, "y_m", plants_path));
-    ++s.second;
+  if (fs::is_regular_file(ws.SitePlants())) {
+    for (const workspace::SitePlantRow& p : workspace::ReadSitePlants(ws.SitePlants())) {
+      auto& s = sums[p.site_id];
+      if (s.second == 0) s.first.setZero();
+      s.first += Eigen::Vector2d(p.x_m, p.y_m);
+      ++s.second;
+    }
   }
   for (const auto& [id, s] : sums) {
     const Eigen::Vector2d c = s.first / s.second;
@@ -258,25 +213,20 @@ json Sites(const fs::path& ws, const std::vector<io::Site>& declared) {
                       {"radius", site.radius_m},
                       {"heights", json::object()}};
   }
-  const Table heights = ReadTable(heights_path);
-  for (std::size_t r = 0; r < heights.rows.size(); ++r) {
-    const std::string* id = heights.Get(r, "site_id");
-    const std::string* date = heights.Get(r, "date");
-    if (id == nullptr || date == nullptr || !sites.count(*id)) continue;
-    const double h = NumberAt(heights, r, "height_m", heights_path);
-    if (std::isfinite(h)) sites[*id]["heights"][*date] = h;
+  if (fs::is_regular_file(ws.SiteHeights())) {
+    for (const workspace::SiteHeight& h : workspace::ReadSiteHeights(ws.SiteHeights())) {
+      if (sites.count(h.site_id) && std::isfinite(h.height_m)) {
+        sites[h.site_id]["heights"][h.date] = h.height_m;
+      }
+    }
   }
-  const Table growth = ReadTable(growth_path);
-  for (std::size_t r = 0; r < growth.rows.size(); ++r) {
-    const std::string* id = growth.Get(r, "site_id");
-    const std::string* status = growth.Get(r, "status");
-    const std::string* midpoint = growth.Get(r, "midpoint_date");
-    if (id == nullptr || !sites.count(*id) || status == nullptr || *status != "fitted" ||
-        midpoint == nullptr)
-      continue;
-    sites[*id]["growth"] = {{"asymptote_m", NumberAt(growth, r, "asymptote_m", growth_path)},
-                            {"rate_per_day", NumberAt(growth, r, "rate_per_day", growth_path)},
-                            {"midpoint_date", *midpoint}};
+  if (fs::is_regular_file(ws.Growth())) {
+    for (const workspace::GrowthRow& g : workspace::ReadGrowth(ws.Growth()).rows) {
+      if (!sites.count(g.site_id) || g.status != "fitted") continue;
+      sites[g.site_id]["growth"] = {{"asymptote_m", g.asymptote_m},
+                                    {"rate_per_day", g.rate_per_day},
+                                    {"midpoint_date", g.midpoint_date}};
+    }
   }
   json out = json::array();
   for (auto& [id, site] : sites) out.push_back(site);
@@ -284,15 +234,148 @@ json Sites(const fs::path& ws, const std::vector<io::Site>& declared) {
 }
 
 // Session id → date, from the analysis tables; a session without one is dated by its id.
-std::map<std::string, std::string> SessionDates(const fs::path& ws) {
+std::map<std::string, std::string> SessionDates(const workspace::Layout& ws) {
   std::map<std::string, std::string> dates;
-  const Table heights = ReadTable(ws / "analysis" / "site_heights.csv");
-  for (std::size_t r = 0; r < heights.rows.size(); ++r) {
-    const std::string* s = heights.Get(r, "session");
-    const std::string* d = heights.Get(r, "date");
-    if (s != nullptr && d != nullptr && !d->empty()) dates[*s] = *d;
+  if (!fs::is_regular_file(ws.SiteHeights())) return dates;
+  for (const workspace::SiteHeight& h : workspace::ReadSiteHeights(ws.SiteHeights())) {
+    if (!h.date.empty()) dates[h.session] = h.date;
   }
   return dates;
+}
+
+// The clouds to show, by session: the dense cloud, else the fused sparse cloud. Throws when
+// there is none.
+std::map<std::string, fs::path> SessionClouds(const workspace::Layout& layout) {
+  std::map<std::string, fs::path> clouds;
+  if (fs::is_directory(layout.FusedDir()))
+    for (const auto& e : fs::directory_iterator(layout.FusedDir())) {
+      const std::string id = e.path().filename().string();
+      if (fs::is_regular_file(layout.FusedSparse(id))) clouds[id] = layout.FusedSparse(id);
+    }
+  if (fs::is_directory(layout.DenseDir()))
+    for (const auto& e : fs::directory_iterator(layout.DenseDir())) {
+      const std::string id = e.path().stem().string();
+      if (e.path() == layout.DenseCloud(id) && fs::is_regular_file(e.path())) clouds[id] = e.path();
+    }
+  if (clouds.empty())
+    throw InputError(layout.root().string(), 0,
+                     "no cloud to show: neither dense/<session>.ply nor fused/<session>/sparse.ply "
+                     "(run crop4d densify or crop4d fuse first)");
+  return clouds;
+}
+
+// A session's octree (its index.json) and where it comes from.
+struct Entry {
+  std::string id, date;
+  fs::path cloud;
+  json index;
+};
+
+// One grid over every session's cells (lattice of `cell` metres from (x0, y0) · cell), its
+// cells grouped by `factor` into gx × gy when the field needs more than max_grid_cells.
+struct SharedGrid {
+  std::int64_t x0 = 0, y0 = 0;
+  double cell = 0.0;
+  int factor = 1, gx = 0, gy = 0;
+};
+
+SharedGrid CommonGrid(const std::vector<Entry>& entries, const ViewerDataOptions& options) {
+  std::int64_t x0 = std::numeric_limits<std::int64_t>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (const Entry& e : entries) {
+    const json& g = e.index["grid"];
+    x0 = std::min(x0, g["ix0"].get<std::int64_t>());
+    y0 = std::min(y0, g["iy0"].get<std::int64_t>());
+    x1 = std::max(x1, g["ix0"].get<std::int64_t>() + g["nx"].get<std::int64_t>() - 1);
+    y1 = std::max(y1, g["iy0"].get<std::int64_t>() + g["ny"].get<std::int64_t>() - 1);
+  }
+  SharedGrid grid;
+  grid.x0 = x0, grid.y0 = y0, grid.cell = options.grid_cell_m;
+  const int nx = int(x1 - x0 + 1), ny = int(y1 - y0 + 1);
+  while (std::size_t((nx + grid.factor - 1) / grid.factor) *
+             std::size_t((ny + grid.factor - 1) / grid.factor) >
+         options.max_grid_cells)
+    ++grid.factor;
+  grid.gx = (nx + grid.factor - 1) / grid.factor, grid.gy = (ny + grid.factor - 1) / grid.factor;
+  return grid;
+}
+
+// A session's grid layer (`file` of its octree folder) on the shared grid: per shared cell the
+// lowest (`take_min`) or highest of its cells.
+std::vector<float> Layer(const SharedGrid& grid, const Entry& e, const fs::path& dir,
+                         const char* file, bool take_min) {
+  const json& g = e.index["grid"];
+  const int sx = g["nx"], sy = g["ny"];
+  const fs::path path = dir / "clouds" / e.id / file;
+  const std::vector<float> values = Floats(ReadFile(path), std::size_t(sx) * sy, path);
+  std::vector<float> layer(std::size_t(grid.gx) * grid.gy, std::numeric_limits<float>::quiet_NaN());
+  const std::int64_t ox = g["ix0"].get<std::int64_t>() - grid.x0,
+                     oy = g["iy0"].get<std::int64_t>() - grid.y0;
+  for (int j = 0; j < sy; ++j)
+    for (int i = 0; i < sx; ++i) {
+      const float v = values[std::size_t(j) * sx + i];
+      if (std::isnan(v)) continue;
+      float& c = layer[std::size_t((oy + j) / grid.factor) * grid.gx +
+                       std::size_t((ox + i) / grid.factor)];
+      c = std::isnan(c) ? v : (take_min ? std::min(c, v) : std::max(c, v));
+    }
+  return layer;
+}
+
+// Holes (no point of the earliest session) take the mean of their filled neighbours, pass by
+// pass, so the surface is closed.
+void CloseHoles(int gx, int gy, std::vector<float>* terrain) {
+  for (int pass = 0; pass < gx + gy; ++pass) {
+    std::vector<float> next = *terrain;
+    bool hole = false;
+    for (int j = 0; j < gy; ++j)
+      for (int i = 0; i < gx; ++i) {
+        if (!std::isnan((*terrain)[std::size_t(j) * gx + i])) continue;
+        double sum = 0;
+        int n = 0;
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const int a = i + di, b = j + dj;
+            if (a < 0 || b < 0 || a >= gx || b >= gy) continue;
+            const float v = (*terrain)[std::size_t(b) * gx + a];
+            if (!std::isnan(v)) sum += v, ++n;
+          }
+        if (n > 0)
+          next[std::size_t(j) * gx + i] = float(sum / n);
+        else
+          hole = true;
+      }
+    terrain->swap(next);
+    if (!hole) break;
+  }
+}
+
+// The analysis terrain model (WS/analysis/dtm.tif) where it has data, placed with the field's
+// origin; returns whether any cell took it.
+bool PlaceAnalysisTerrain(const SharedGrid& grid, const io::FieldInfo& field,
+                          const fs::path& dtm_path, std::vector<float>* terrain) {
+  const io::FieldUtm utm(field.origin);
+  const io::GeoTiffRaster dtm = io::ReadGeoTiff(dtm_path.string());
+  if (dtm.grid.epsg != utm.epsg())
+    throw InputError(dtm_path.string(), 0,
+                     "in EPSG:" + std::to_string(dtm.grid.epsg) +
+                         ", the field's UTM zone is EPSG:" + std::to_string(utm.epsg()));
+  const double side = grid.cell * grid.factor;
+  bool placed = false;
+  for (int j = 0; j < grid.gy; ++j)
+    for (int i = 0; i < grid.gx; ++i) {
+      float& z = (*terrain)[std::size_t(j) * grid.gx + i];
+      const Eigen::Vector3d centre(double(grid.x0) * grid.cell + (i + 0.5) * side,
+                                   double(grid.y0) * grid.cell + (j + 0.5) * side, z);
+      const Eigen::Vector2d en = utm.UtmFromEnu(centre);
+      const double col = std::floor((en.x() - dtm.grid.min_easting) / dtm.grid.cell_m);
+      const double row = std::floor((dtm.grid.max_northing - en.y()) / dtm.grid.cell_m);
+      if (col < 0 || row < 0 || col >= dtm.grid.width || row >= dtm.grid.height) continue;
+      const float h = dtm.values[std::size_t(row) * dtm.grid.width + std::size_t(col)];
+      if (!std::isfinite(h) || (dtm.nodata && h == *dtm.nodata)) continue;
+      z = float(utm.EnuFromUtm(en.x(), en.y(), h).z());
+      placed = true;
+    }
+  return placed;
 }
 
 }  // namespace
@@ -314,28 +397,13 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
                                   const ViewerDataOptions& options) {
   std::string why;
   CROP4D_CHECK_MSG(options.Check(&why), why);
-  const fs::path ws(workspace), dir(out);
-  // Sessions: dense clouds first, the fused sparse cloud where there is no dense one.
-  std::map<std::string, fs::path> clouds;
-  if (fs::is_directory(ws / "fused"))
-    for (const auto& e : fs::directory_iterator(ws / "fused"))
-      if (fs::is_regular_file(e.path() / "sparse.ply"))
-        clouds[e.path().filename().string()] = e.path() / "sparse.ply";
-  if (fs::is_directory(ws / "dense"))
-    for (const auto& e : fs::directory_iterator(ws / "dense"))
-      if (e.path().extension() == ".ply" && fs::is_regular_file(e.path()))
-        clouds[e.path().stem().string()] = e.path();
-  if (clouds.empty())
-    throw InputError(workspace, 0,
-                     "no cloud to show: neither dense/<session>.ply nor fused/<session>/sparse.ply "
-                     "(run crop4d densify or crop4d fuse first)");
+  const workspace::Layout layout(workspace);
+  const fs::path& ws = layout.root();
+  const fs::path dir(out);
+  const std::map<std::string, fs::path> clouds = SessionClouds(layout);
 
-  const std::map<std::string, std::string> dates = SessionDates(ws);
-  struct Entry {
-    std::string id, date;
-    fs::path cloud;
-    json index;
-  };
+  // Each session's octree, in date order.
+  const std::map<std::string, std::string> dates = SessionDates(layout);
   std::vector<Entry> entries;
   ViewerDataSummary summary;
   for (const auto& [id, cloud] : clouds) {
@@ -353,98 +421,26 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
   std::stable_sort(summary.sessions.begin(), summary.sessions.end(),
                    [](const auto& a, const auto& b) { return a.date < b.date; });
 
-  // One grid over every session's cells; the terrain from the earliest session.
-  std::int64_t x0 = std::numeric_limits<std::int64_t>::max(), y0 = x0, x1 = -x0, y1 = -x0;
-  for (const Entry& e : entries) {
-    const json& g = e.index["grid"];
-    x0 = std::min(x0, g["ix0"].get<std::int64_t>());
-    y0 = std::min(y0, g["iy0"].get<std::int64_t>());
-    x1 = std::max(x1, g["ix0"].get<std::int64_t>() + g["nx"].get<std::int64_t>() - 1);
-    y1 = std::max(y1, g["iy0"].get<std::int64_t>() + g["ny"].get<std::int64_t>() - 1);
-  }
-  const double cell = options.grid_cell_m;
-  const int nx = int(x1 - x0 + 1), ny = int(y1 - y0 + 1);
-  // Cells shared by every layer, grouped by `factor` when the field needs too many.
-  int factor = 1;
-  while (std::size_t((nx + factor - 1) / factor) * std::size_t((ny + factor - 1) / factor) >
-         options.max_grid_cells)
-    ++factor;
-  const int gx = (nx + factor - 1) / factor, gy = (ny + factor - 1) / factor;
-  const auto layer_of = [&](const Entry& e, const char* file, bool take_min) {
-    const json& g = e.index["grid"];
-    const int sx = g["nx"], sy = g["ny"];
-    const fs::path path = dir / "clouds" / e.id / file;
-    const std::vector<float> values = Floats(ReadFile(path), std::size_t(sx) * sy, path);
-    std::vector<float> layer(std::size_t(gx) * gy, std::numeric_limits<float>::quiet_NaN());
-    const std::int64_t ox = g["ix0"].get<std::int64_t>() - x0, oy = g["iy0"].get<std::int64_t>() - y0;
-    for (int j = 0; j < sy; ++j)
-      for (int i = 0; i < sx; ++i) {
-        const float v = values[std::size_t(j) * sx + i];
-        if (std::isnan(v)) continue;
-        float& c = layer[std::size_t((oy + j) / factor) * gx + std::size_t((ox + i) / factor)];
-        c = std::isnan(c) ? v : (take_min ? std::min(c, v) : std::max(c, v));
-      }
-    return layer;
-  };
-  std::vector<float> terrain = layer_of(entries.front(), "low.f32", true);
-  // Holes (no point of the earliest session) take the mean of their filled neighbours, pass by
-  // pass, so the surface is closed.
-  for (int pass = 0; pass < gx + gy; ++pass) {
-    std::vector<float> next = terrain;
-    bool hole = false;
-    for (int j = 0; j < gy; ++j)
-      for (int i = 0; i < gx; ++i) {
-        if (!std::isnan(terrain[std::size_t(j) * gx + i])) continue;
-        double sum = 0;
-        int n = 0;
-        for (int dj = -1; dj <= 1; ++dj)
-          for (int di = -1; di <= 1; ++di) {
-            const int a = i + di, b = j + dj;
-            if (a < 0 || b < 0 || a >= gx || b >= gy) continue;
-            const float v = terrain[std::size_t(b) * gx + a];
-            if (!std::isnan(v)) sum += v, ++n;
-          }
-        if (n > 0) next[std::size_t(j) * gx + i] = float(sum / n);
-        else hole = true;
-      }
-    terrain.swap(next);
-    if (!hole) break;
-  }
-  // The analysis terrain model where it has data, placed with the field's origin.
+  // One grid over every session's cells; the terrain from the earliest session, else the
+  // analysis' terrain model where it has data.
+  const SharedGrid grid = CommonGrid(entries, options);
+  std::vector<float> terrain = Layer(grid, entries.front(), dir, "low.f32", true);
+  CloseHoles(grid.gx, grid.gy, &terrain);
   summary.terrain_source = "the earliest cloud";
   std::vector<io::Site> declared_sites;
   if (!options.field.empty()) {
-    const io::FieldInfo field = io::ReadFieldYaml((fs::path(options.field) / "field.yaml").string());
+    const io::FieldInfo field =
+        io::ReadFieldYaml((fs::path(options.field) / "field.yaml").string());
     declared_sites = field.sites;
-    const fs::path dtm_path = ws / "analysis" / "dtm.tif";
-    if (fs::is_regular_file(dtm_path)) {
-      const io::FieldUtm utm(field.origin);
-      const io::GeoTiffRaster dtm = io::ReadGeoTiff(dtm_path.string());
-      if (dtm.grid.epsg != utm.epsg())
-        throw InputError(dtm_path.string(), 0,
-                         "in EPSG:" + std::to_string(dtm.grid.epsg) + ", the field's UTM zone is EPSG:" +
-                             std::to_string(utm.epsg()));
-      const double side = cell * factor;
-      for (int j = 0; j < gy; ++j)
-        for (int i = 0; i < gx; ++i) {
-          float& z = terrain[std::size_t(j) * gx + i];
-          const Eigen::Vector3d centre(double(x0) * cell + (i + 0.5) * side,
-                                       double(y0) * cell + (j + 0.5) * side, z);
-          const Eigen::Vector2d en = utm.UtmFromEnu(centre);
-          const double col = std::floor((en.x() - dtm.grid.min_easting) / dtm.grid.cell_m);
-          const double row = std::floor((dtm.grid.max_northing - en.y()) / dtm.grid.cell_m);
-          if (col < 0 || row < 0 || col >= dtm.grid.width || row >= dtm.grid.height) continue;
-          const float h = dtm.values[std::size_t(row) * dtm.grid.width + std::size_t(col)];
-          if (!std::isfinite(h) || (dtm.nodata && h == *dtm.nodata)) continue;
-          z = float(utm.EnuFromUtm(en.x(), en.y(), h).z());
-          summary.terrain_source = "analysis/dtm.tif";
-        }
+    if (fs::is_regular_file(layout.Dtm()) &&
+        PlaceAnalysisTerrain(grid, field, layout.Dtm(), &terrain)) {
+      summary.terrain_source = layout.Dtm().lexically_relative(ws).generic_string();
     }
   }
   std::string grids = FloatBytes(terrain);
   json layers = json::array({"terrain"});
   for (const Entry& e : entries) {
-    grids += FloatBytes(layer_of(e, "top.f32", false));
+    grids += FloatBytes(Layer(grid, e, dir, "top.f32", false));
     layers.push_back("top:" + e.id);
   }
   io::WriteFileAtomic((dir / "grids.bin").string(), grids);
@@ -456,23 +452,24 @@ ViewerDataSummary WriteViewerData(const std::string& workspace, const std::strin
                         {"source", e.cloud.lexically_relative(ws).string()},
                         {"points", e.index["points"]},
                         {"octree", "clouds/" + e.id + "/index.json"},
-                        {"trajectory", Trajectory(ws, e.id, options.max_trajectory_points)}});
+                        {"trajectory", Trajectory(layout, e.id, options.max_trajectory_points)}});
   }
-  const json sites = Sites(ws, declared_sites);
+  const json sites = Sites(layout, declared_sites);
   summary.sites = sites.size();
-  const json scene = {
-      {"format", kDataFormat},
-      {"sessions", sessions},
-      {"grid",
-       {{"min", {double(x0) * cell, double(y0) * cell}},
-        {"cell", cell * factor},
-        {"nx", gx},
-        {"ny", gy},
-        {"file", "grids.bin"},
-        {"layers", layers}}},
-      {"sites", sites},
-      {"terrain", summary.terrain_source},
-      {"report", fs::is_regular_file(ws / "report.html") ? json("report.html") : json(nullptr)}};
+  const json scene = {{"format", kDataFormat},
+                      {"sessions", sessions},
+                      {"grid",
+                       {{"min", {double(grid.x0) * grid.cell, double(grid.y0) * grid.cell}},
+                        {"cell", grid.cell * grid.factor},
+                        {"nx", grid.gx},
+                        {"ny", grid.gy},
+                        {"file", "grids.bin"},
+                        {"layers", layers}}},
+                      {"sites", sites},
+                      {"terrain", summary.terrain_source},
+                      {"report", fs::is_regular_file(layout.Report())
+                                     ? json(layout.Report().lexically_relative(ws).generic_string())
+                                     : json(nullptr)}};
   io::WriteFileAtomic((dir / "scene.json").string(), scene.dump());
   // Sessions whose cloud is gone leave no tiles behind.
   if (fs::is_directory(dir / "clouds"))

@@ -43,7 +43,8 @@ TEST(ViewerDataTest, TilesHoldEveryPointOfEachSessionAndSceneDescribesTheSeason)
   for (const json& session : scene["sessions"]) {
     const io::PlyPointCloud cloud =
         io::ReadPly(ws + "/dense/" + session["id"].get<std::string>() + ".ply");
-    const json index = json::parse(ReadText(ws + "/viewer/" + session["octree"].get<std::string>()));
+    const json index =
+        json::parse(ReadText(ws + "/viewer/" + session["octree"].get<std::string>()));
     std::size_t total = 0;
     Eigen::AlignedBox3d decoded;
     for (const json& node : index["nodes"]) {
@@ -187,7 +188,8 @@ TEST(ViewerDataTest, MalformedTablesNameTheFileAndLine) {
   const std::string ws = dir / "ws";
   testing::WriteSmallWorkspace(ws);
   io::testing::WriteText(ws + "/analysis/site_heights.csv",
-                         "site_id,session,date,height_m\ns1,2016-06-10,2016-06-10,tall\n");
+                         "site_id,session,date,height_m,cover,volume_m3,n_points\n"
+                         "s1,2016-06-10,2016-06-10,tall,,,\n");
   try {
     WriteViewerData(ws, ws + "/viewer", SmallTiles());
     FAIL() << "no error";

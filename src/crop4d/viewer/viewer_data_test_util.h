@@ -44,9 +44,9 @@ inline void WriteSmallWorkspace(const std::string& ws, int points_per_session = 
                  FieldCloud(points_per_session, 0.1 + 0.3 * double(s), 11 + s));
     std::vector<io::StampedPose> poses;
     for (int i = 0; i < 20; ++i)
-      poses.push_back({1465570348000000000LL + i * 100000000LL,
-                       geometry::Rigid3(Eigen::Quaterniond::Identity(),
-                                        Eigen::Vector3d(1.0, 0.5 * i, 1.2))});
+      poses.push_back(
+          {1465570348000000000LL + i * 100000000LL,
+           geometry::Rigid3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1.0, 0.5 * i, 1.2))});
     io::WriteTum(ws + "/fused/" + sessions[s] + "/poses.tum", poses);
   }
   WriteText(ws + "/analysis/site_plants.csv",
@@ -54,12 +54,15 @@ inline void WriteSmallWorkspace(const std::string& ws, int points_per_session = 
             "s1,1,0.9,2.0,2016-06-10,2016-06-10,0.1\ns1,2,1.1,2.2,2016-06-10,2016-06-10,0.1\n"
             "s2,1,1.0,6.0,2016-06-10,2016-06-10,0.1\n");
   WriteText(ws + "/analysis/site_heights.csv",
-            "site_id,session,date,height_m\ns1,2016-06-10,2016-06-10,0.10\n"
-            "s1,2016-06-24,2016-06-24,0.40\ns2,2016-06-10,2016-06-10,0.09\n"
-            "s2,2016-06-24,2016-06-24,0.38\n");
+            "site_id,session,date,height_m,cover,volume_m3,n_points\n"
+            "s1,2016-06-10,2016-06-10,0.1000,0.300,0.00100,40\n"
+            "s1,2016-06-24,2016-06-24,0.4000,0.600,0.00900,90\n"
+            "s2,2016-06-10,2016-06-10,0.0900,0.200,0.00080,30\n"
+            "s2,2016-06-24,2016-06-24,0.3800,0.500,0.00800,80\n");
   WriteText(ws + "/analysis/growth.csv",
-            "site_id,status,asymptote_m,rate_per_day,midpoint_date\n"
-            "s1,fitted,0.55,0.06,2016-06-20\ns2,too_few,nan,nan,\n");
+            "site_id,status,asymptote_m,rate_per_day,midpoint_date,max_growth_m_per_day,rmse_m,n\n"
+            "s1,fitted,0.5500,0.06000,2016-06-20,0.00825,0.0100,2\n"
+            "s2,too_few_points,,,,,,1\n");
   WriteText(ws + "/report.html", "<!doctype html><title>report</title>\n");
 }
 

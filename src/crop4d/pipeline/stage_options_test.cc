@@ -155,7 +155,9 @@ int CheckEveryLeaf(const StageUnderTest<S>& stage) {
   fields::VisitLeaves(defaults, [&](const std::string& path, auto&, fields::Role role) {
     leaves.emplace_back(path, role);
   });
-  for (const auto& [path, role] : leaves) {
+  for (const auto& leaf : leaves) {
+    const std::string& path = leaf.first;
+    const fields::Role role = leaf.second;
     S changed = defaults;
     int hits = 0;
     fields::VisitLeaves(changed, [&](const std::string& p, auto& field, fields::Role) {
@@ -167,7 +169,7 @@ int CheckEveryLeaf(const StageUnderTest<S>& stage) {
     const bool differs = stage.fingerprint_text(changed) != base;
     if (stage.resolved.count(path) != 0 || role == fields::Role::kControl) {
       EXPECT_FALSE(differs) << stage.name << "." << path
-                            << " changes the fingerprint but does not change results";
+                            << " is kControl or resolved by the stage, yet changes the fingerprint";
     } else {
       EXPECT_TRUE(differs) << stage.name << "." << path
                            << " changes results but not the fingerprint: the stage would not rerun";

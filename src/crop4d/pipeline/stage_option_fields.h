@@ -85,10 +85,11 @@ template <class V>
 void VisitFields(AssociateStageOptions& o, V&& visit) {
   using fields::Role;
   visit("method", o.method);
+  // Which pass pairs are matched, not how: a pair's associations do not depend on them.
   visit("session", o.session, Role::kControl);
-  visit("same_session", o.same_session);
-  visit("cross_session", o.cross_session);
-  visit("session_gap", o.session_gap);
+  visit("same_session", o.same_session, Role::kControl);
+  visit("cross_session", o.cross_session, Role::kControl);
+  visit("session_gap", o.session_gap, Role::kControl);
   visit("image_pairs", o.image_pairs);
   visit("min_track_length", o.min_track_length);
   visit("max_landmark_distance_m", o.max_landmark_distance_m);

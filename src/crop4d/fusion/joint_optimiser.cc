@@ -1,5 +1,6 @@
 #include "crop4d/fusion/joint_optimiser.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
 
@@ -13,6 +14,8 @@
 #include <set>
 #include <span>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/fusion/ground_tie_factor.h"
@@ -56,28 +59,40 @@ class JointProblem {
     for (std::size_t p = 0; p < passes.size(); ++p) {
       blocks_.emplace_back(storage_.data() + begin, passes[p].initial_states.size());
       begin += passes[p].initial_states.size();
-      graphs_.push_back(std::make_unique<slam::PassGraph>(options_, passes_[p], blocks_[p]));
+      // The pass's options: the joint ones, with its own choice of estimating td.
+      auto pass_options = std::make_unique<slam::RowOptimiser::Options>(options_);
+      pass_options->estimate_time_offset =
+          passes[p].camera != nullptr &&
+          options.estimate_time_offset.value_or(passes[p].time_offset_s.has_value());
+      graphs_.push_back(std::make_unique<slam::PassGraph>(*pass_options, passes_[p], blocks_[p]));
+      pass_options_.push_back(std::move(pass_options));
     }
   }
+
+  // The time offset of pass p as the reprojection factors use it (unset when they do not), and
+  // whether the solve refines it.
+  std::optional<double> TimeOffset(std::size_t p) const {
+    if (!graphs_[p]->uses_time_offset()) return std::nullopt;
+    return graphs_[p]->time_offset_s();
+  }
+  bool EstimatesTimeOffset(std::size_t p) const { return graphs_[p]->estimates_time_offset(); }
 
   void Preintegrate() {
     for (auto& graph : graphs_) graph->Preintegrate(nullptr);
   }
 
-  // world_from_camera of every state of every pass (identity for camera-less passes).
+  // world_from_camera of every state of every pass at its capture instant (world_from_body for
+  // camera-less passes).
   std::vector<std::vector<geometry::Rigid3>> CameraPoses() const {
     std::vector<std::vector<geometry::Rigid3>> poses(passes_.size());
-    for (std::size_t p = 0; p < passes_.size(); ++p) {
-      poses[p] = slam::CameraPoses(blocks_[p], passes_[p].body_from_camera);
-    }
+    for (std::size_t p = 0; p < passes_.size(); ++p) poses[p] = graphs_[p]->CapturePoses();
     return poses;
   }
 
   double Error(const JointObservation& obs, const Eigen::Vector3d& point) const {
     const JointOptimiser::Pass& pass = passes_[obs.pass];
     return slam::ReprojectionError(*pass.camera, pass.body_from_camera,
-                                   slam::BlockToPose(blocks_[obs.pass][obs.state].pose), point,
-                                   obs.pixel);
+                                   graphs_[obs.pass]->BodyAtCapture(obs.state), point, obs.pixel);
   }
 
   // Builds and solves the problem with the kept observations of `landmarks`.
@@ -93,12 +108,7 @@ class JointProblem {
       for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
         if (!keep[l][o]) continue;
         const JointObservation& obs = landmark.observations[o];
-        const JointOptimiser::Pass& pass = passes_[obs.pass];
-        problem.AddResidualBlock(
-            slam::ReprojectionFactor::Create(*pass.camera, pass.body_from_camera, obs.pixel,
-                                             options_.reprojection_sigma_px),
-            graphs_[obs.pass]->reprojection_loss(), blocks_[obs.pass][obs.state].pose,
-            (*landmarks)[l].data());
+        graphs_[obs.pass]->AddObservation(&problem, obs.state, obs.pixel, (*landmarks)[l].data());
         ++count;
       }
     }
@@ -117,6 +127,8 @@ class JointProblem {
           if (problem.HasParameterBlock(block)) problem.SetParameterBlockConstant(block);
         }
       }
+      double* td = graphs_[p]->time_offset_block();
+      if (problem.HasParameterBlock(td)) problem.SetParameterBlockConstant(td);
     }
     return slam::RunSolver(options_, &problem, landmarks);
   }
@@ -157,6 +169,8 @@ class JointProblem {
   // lie wherever the heap put them, which depends on what the process did before).
   std::vector<slam::StateBlocks> storage_;
   std::vector<std::span<slam::StateBlocks>> blocks_;
+  // Each pass's options (the graphs hold references to them) and graph.
+  std::vector<std::unique_ptr<slam::RowOptimiser::Options>> pass_options_;
   std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
 };
 
@@ -394,8 +408,23 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
   return sigmas[sigmas.size() / 2];
 }
 
+std::string JointOptimiser::Options::Error() const {
+  if (std::string why = row.Error(); !why.empty()) return "row." + why;
+  if (!alignment.Check()) return "alignment: invalid pass alignment options";
+  for (const auto& [name, value] :
+       {std::pair{"precise_gps_sigma_m", precise_gps_sigma_m},
+        std::pair{"ground_tie_sigma_across_m", ground_tie_sigma_across_m},
+        std::pair{"ground_tie_sigma_vertical_m", ground_tie_sigma_vertical_m},
+        std::pair{"ground_tie_loss_scale", ground_tie_loss_scale}}) {
+    if (!(value > 0)) return fmt::format("{}: must be > 0 (got {})", name, value);
+  }
+  return {};
+}
+
 JointOptimiser::JointOptimiser(Options options) : options_(std::move(options)) {
-  if (!options_.Check()) throw std::invalid_argument("JointOptimiser: invalid options");
+  if (const std::string why = options_.Error(); !why.empty()) {
+    throw std::invalid_argument("JointOptimiser: " + why);
+  }
 }
 
 JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
@@ -554,6 +583,18 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
     summary.converged = s.termination_type == ceres::CONVERGENCE;
   }
   summary.final_solve_seconds = SecondsSince(start);
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const std::optional<double> td = problem.TimeOffset(p);
+    result.time_offsets_s.push_back(td);
+    if (!td) continue;
+    if (problem.EstimatesTimeOffset(p) && (fixed_passes.empty() || !fixed_passes[p])) {
+      ++summary.num_time_offsets_estimated;
+      spdlog::debug("joint problem: pass {} camera-IMU time offset {:+.2f} ms (given {:+.2f} ms)",
+                    p, 1e3 * *td, 1e3 * passes[p].time_offset_s.value_or(0.0));
+    } else {
+      ++summary.num_time_offsets_held;
+    }
+  }
 
   // Statistics of the final solve.
   double sum_sq = 0, cross_sq = 0;
@@ -584,6 +625,7 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   summary.ground_tie_rms_vertical_m = tie_rms.y();
 
   result.states = problem.States();
+  result.cameras = problem.CameraPoses();
   result.landmarks_world = std::move(kept_points);
   result.landmark_ids = std::move(kept_ids);
   result.observations_kept = std::move(kept_masks);

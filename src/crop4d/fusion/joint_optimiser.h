@@ -21,6 +21,8 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "crop4d/fusion/ground_ties.h"
@@ -72,16 +74,24 @@ class JointOptimiser {
     double ground_tie_sigma_across_m = 0.05;
     double ground_tie_sigma_vertical_m = 0.01;
     double ground_tie_loss_scale = 3.0;
+    // The camera–IMU time offset td of each pass (slam/time_offset_reprojection_factor.h: capture
+    // instant = image stamp + td), one parameter per pass: the clock drifts, so the offset of a
+    // session's passes differs by a few milliseconds. Unset: refined jointly for the passes
+    // whose row SLAM estimated it (Pass::time_offset_s, the starting value), none for the
+    // others. True: refined for every pass with a camera (from 0 where row SLAM gave none).
+    // False: row SLAM's values held. `row.estimate_time_offset` is not used here; its prior
+    // sigma and bounds are.
+    std::optional<bool> estimate_time_offset;
 
-    bool Check() const {
-      return row.Check() && alignment.Check() && precise_gps_sigma_m > 0 &&
-             ground_tie_sigma_across_m > 0 && ground_tie_sigma_vertical_m > 0 &&
-             ground_tie_loss_scale > 0;
-    }
+    bool Check() const { return Error().empty(); }
+    // Empty when the options are valid, otherwise the first invalid option and why, as
+    // "name: must be ..." ("row.name: ..." for the row-SLAM options).
+    std::string Error() const;
   };
 
   // One pass: its row-SLAM problem (initial_states from row SLAM; `tracks` is ignored, the
-  // landmarks are given jointly). A pass without a camera takes part through its motion only.
+  // landmarks are given jointly; time_offset_s: row SLAM's estimated time offset, if any). A
+  // pass without a camera takes part through its motion only.
   using Pass = slam::RowOptimiser::Input;
 
   struct Summary {
@@ -114,6 +124,9 @@ class JointOptimiser {
     double solve_seconds = 0;
     double final_solve_seconds = 0;
     bool converged = false;
+    // Passes whose time offset the joint problem refined, and those whose given offset it held.
+    int num_time_offsets_estimated = 0;
+    int num_time_offsets_held = 0;
   };
 
   struct Result {
@@ -124,6 +137,12 @@ class JointOptimiser {
     std::vector<Eigen::Vector3d> landmarks_world;
     std::vector<int> landmark_ids;
     std::vector<std::vector<bool>> observations_kept;
+    // world_from_camera of every state of every pass at its capture instant (with the pass's
+    // time offset; world_from_body for a pass without camera).
+    std::vector<std::vector<geometry::Rigid3>> cameras;
+    // Each pass's camera–IMU time offset after the solve, s (refined or held; unset when the
+    // reprojection factors of the pass did not use one).
+    std::vector<std::optional<double>> time_offsets_s;
     Summary summary;
   };
 

@@ -63,6 +63,11 @@ RowState FromBlocks(Timestamp t, const StateBlocks& b) {
 PassGraph::PassGraph(const RowOptimiser::Options& options, const RowOptimiser::Input& input,
                      std::span<StateBlocks> blocks)
     : options_(options), input_(input), blocks_(blocks) {
+  time_offset_s_ = input.time_offset_s.value_or(0.0);
+  if (estimates_time_offset()) {
+    time_offset_s_ =
+        std::clamp(time_offset_s_, -options.max_abs_time_offset_s, options.max_abs_time_offset_s);
+  }
   reprojection_loss_ = std::make_unique<ceres::HuberLoss>(options.reprojection_loss_scale);
   gps_loss_ = std::make_unique<ceres::HuberLoss>(options.gps_loss_scale);
 }
@@ -255,49 +260,56 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
                                      std::vector<Eigen::Vector3d>* landmarks,
                                      const std::vector<int>& tracks,
                                      const std::vector<std::vector<bool>>& keep) const {
-  const bool time_offset = estimates_time_offset() && !landmarks->empty();
-  if (time_offset) {
-    problem->AddParameterBlock(&time_offset_s_, 1);
-    problem->SetParameterLowerBound(&time_offset_s_, 0, -options_.max_abs_time_offset_s);
-    problem->SetParameterUpperBound(&time_offset_s_, 0, options_.max_abs_time_offset_s);
-    const Eigen::Matrix<double, 1, 1> information(1.0 / options_.time_offset_prior_sigma_s);
-    problem->AddResidualBlock(
-        new ceres::NormalPrior(information, Eigen::Matrix<double, 1, 1>::Zero()), nullptr,
-        &time_offset_s_);
-  }
   std::int64_t count = 0;
   for (std::size_t l = 0; l < landmarks->size(); ++l) {
     const LandmarkTrack& track = input_.tracks[tracks[l]];
     for (std::size_t o = 0; o < track.observations.size(); ++o) {
       if (!keep[l][o]) continue;
       const LandmarkObservation& obs = track.observations[o];
-      StateBlocks& b = blocks_[obs.state];
-      if (time_offset) {
-        // The state's velocity and rate as they are when the problem is built: a factor on them
-        // too would couple them all through the landmarks' Schur complement, for an effect of
-        // order td · (their change) (time_offset_reprojection_factor.h).
-        TimeOffsetReprojectionFactor::FixedMotion motion;
-        motion.vel_world = Eigen::Map<const Eigen::Vector3d>(b.vel);
-        motion.rate_body = Eigen::Map<const Eigen::Vector3d>(b.rate);
-        problem->AddResidualBlock(
-            TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,
-                                                 options_.reprojection_sigma_px, motion),
-            reprojection_loss_.get(), b.pose, (*landmarks)[l].data(), &time_offset_s_);
-      } else {
-        problem->AddResidualBlock(
-            ReprojectionFactor::Create(*input_.camera, input_.body_from_camera, obs.pixel,
-                                       options_.reprojection_sigma_px),
-            reprojection_loss_.get(), b.pose, (*landmarks)[l].data());
-      }
+      AddObservation(problem, obs.state, obs.pixel, (*landmarks)[l].data());
       ++count;
     }
   }
   return count;
 }
 
+void PassGraph::AddObservation(ceres::Problem* problem, std::size_t state,
+                               const Eigen::Vector2d& pixel, double* point_world) const {
+  StateBlocks& b = blocks_[state];
+  if (!uses_time_offset()) {
+    problem->AddResidualBlock(ReprojectionFactor::Create(*input_.camera, input_.body_from_camera,
+                                                         pixel, options_.reprojection_sigma_px),
+                              reprojection_loss_.get(), b.pose, point_world);
+    return;
+  }
+  if (!problem->HasParameterBlock(&time_offset_s_)) {
+    problem->AddParameterBlock(&time_offset_s_, 1);
+    if (estimates_time_offset()) {
+      problem->SetParameterLowerBound(&time_offset_s_, 0, -options_.max_abs_time_offset_s);
+      problem->SetParameterUpperBound(&time_offset_s_, 0, options_.max_abs_time_offset_s);
+      const Eigen::Matrix<double, 1, 1> information(1.0 / options_.time_offset_prior_sigma_s);
+      problem->AddResidualBlock(
+          new ceres::NormalPrior(information, Eigen::Matrix<double, 1, 1>::Zero()), nullptr,
+          &time_offset_s_);
+    } else {
+      problem->SetParameterBlockConstant(&time_offset_s_);
+    }
+  }
+  // The state's velocity and rate as they are when the problem is built: a factor on them too
+  // would couple them all through the landmarks' Schur complement, for an effect of order
+  // td · (their change) (time_offset_reprojection_factor.h).
+  TimeOffsetReprojectionFactor::FixedMotion motion;
+  motion.vel_world = Eigen::Map<const Eigen::Vector3d>(b.vel);
+  motion.rate_body = Eigen::Map<const Eigen::Vector3d>(b.rate);
+  problem->AddResidualBlock(
+      TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera, pixel,
+                                           options_.reprojection_sigma_px, motion),
+      reprojection_loss_.get(), b.pose, point_world, &time_offset_s_);
+}
+
 geometry::Rigid3 PassGraph::BodyAtCapture(std::size_t k) const {
   const StateBlocks& b = blocks_[k];
-  if (!estimates_time_offset()) return BlockToPose(b.pose);
+  if (!uses_time_offset()) return BlockToPose(b.pose);
   return slam::BodyAtCapture(BlockToPose(b.pose), Eigen::Map<const Eigen::Vector3d>(b.vel),
                              Eigen::Map<const Eigen::Vector3d>(b.rate), time_offset_s_);
 }

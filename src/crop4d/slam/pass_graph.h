@@ -46,11 +46,17 @@ class PassGraph {
   // States, motion factors (IMU, bias walk, rate, GP prior), GPS and the priors.
   void AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summary) const;
   // Reprojection factors of the landmarks (landmark l is Input::tracks[tracks[l]]; observations
-  // with keep[l][o] true); returns their number. With estimates_time_offset(): the factors of
-  // time_offset_reprojection_factor.h on the pass's time offset, its prior and its bounds.
+  // with keep[l][o] true); returns their number. With uses_time_offset(): the factors of
+  // time_offset_reprojection_factor.h on the pass's time offset (AddObservation).
   std::int64_t AddLandmarks(ceres::Problem* problem, std::vector<Eigen::Vector3d>* landmarks,
                             const std::vector<int>& tracks,
                             const std::vector<std::vector<bool>>& keep) const;
+  // One reprojection factor: the landmark `point_world` (a 3-vector parameter block) seen at
+  // `pixel` in the image of state `state`. With uses_time_offset(), the first observation of a
+  // problem adds the time offset's block: with estimates_time_offset() its prior and bounds,
+  // otherwise held constant.
+  void AddObservation(ceres::Problem* problem, std::size_t state, const Eigen::Vector2d& pixel,
+                      double* point_world) const;
   // The GPS residuals at the current states, whitened (error / σ: east, north, up), one per fix
   // inside the states' span: how well the solve fits the fixes' stated sigmas.
   std::vector<Eigen::Vector3d> GpsNormalisedResiduals() const;
@@ -59,8 +65,15 @@ class PassGraph {
   bool estimates_time_offset() const {
     return options_.estimate_time_offset && input_.camera != nullptr;
   }
+  // True when the reprojection factors use the capture instants: the offset is estimated, or
+  // known (Input::time_offset_s), with a camera.
+  bool uses_time_offset() const {
+    return input_.camera != nullptr &&
+           (options_.estimate_time_offset || input_.time_offset_s.has_value());
+  }
   // The pass's time offset td (capture instant = image stamp + td), s: its parameter block (one
-  // double, owned by the graph) and its value; 0 unless estimates_time_offset().
+  // double, owned by the graph) and its value; Input::time_offset_s (clamped to the bounds
+  // when estimated) or 0 until a solve changes it.
   double* time_offset_block() const { return &time_offset_s_; }
   double time_offset_s() const { return time_offset_s_; }
   // world_from_body of state k at its capture instant (time_offset_reprojection_factor.h), and

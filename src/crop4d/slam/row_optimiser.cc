@@ -13,6 +13,7 @@
 #include <optional>
 #include <stdexcept>
 #include <thread>
+#include <utility>
 
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/slam/pass_graph.h"
@@ -100,24 +101,51 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
 }  // namespace
 
 std::string RowOptimiser::Options::Error() const {
-  if (!(time_offset_prior_sigma_s > 0)) {
-    return fmt::format("time_offset_prior_sigma_s must be > 0 s (got {})",
-                       time_offset_prior_sigma_s);
+  const auto positive = [](const char* name, double value) -> std::string {
+    return value > 0 ? std::string() : fmt::format("{}: must be > 0 (got {})", name, value);
+  };
+  for (const auto& [name, value] :
+       {std::pair{"reprojection_sigma_px", reprojection_sigma_px},
+        std::pair{"reprojection_loss_scale", reprojection_loss_scale},
+        std::pair{"max_reprojection_error_px", max_reprojection_error_px},
+        std::pair{"gps_loss_scale", gps_loss_scale},
+        std::pair{"bias_prior_sigma_gyro", bias_prior_sigma_gyro},
+        std::pair{"bias_prior_sigma_accel", bias_prior_sigma_accel},
+        std::pair{"anchor_sigma_position", anchor_sigma_position},
+        std::pair{"anchor_sigma_rotation", anchor_sigma_rotation},
+        std::pair{"anchor_sigma_velocity", anchor_sigma_velocity},
+        std::pair{"motion_constraint_sigma", motion_constraint_sigma},
+        std::pair{"level_prior_sigma_rad", level_prior_sigma_rad},
+        std::pair{"max_imu_gap_s", max_imu_gap_s},
+        std::pair{"time_offset_prior_sigma_s", time_offset_prior_sigma_s}}) {
+    if (std::string why = positive(name, value); !why.empty()) return why;
   }
+  if (min_observations < 2) {
+    return fmt::format("min_observations: must be >= 2 (got {})", min_observations);
+  }
+  if (max_outliers_per_track < 0) {
+    return fmt::format("max_outliers_per_track: must be >= 0 (got {})", max_outliers_per_track);
+  }
+  if (max_iterations <= 0)
+    return fmt::format("max_iterations: must be > 0 (got {})", max_iterations);
+  if (max_linear_iterations <= 0) {
+    return fmt::format("max_linear_iterations: must be > 0 (got {})", max_linear_iterations);
+  }
+  if (!(function_tolerance > 0 && function_tolerance < 1)) {
+    return fmt::format("function_tolerance: must be in (0, 1) (got {})", function_tolerance);
+  }
+  if (num_threads < 0) return fmt::format("num_threads: must be >= 0 (got {})", num_threads);
   // Beyond a second the first-order prediction of the pose from its state is meaningless.
   if (!(max_abs_time_offset_s > 0 && max_abs_time_offset_s <= 1.0)) {
-    return fmt::format("max_abs_time_offset_s must be in (0, 1] s (got {})",
+    return fmt::format("max_abs_time_offset_s: must be in (0, 1] s (got {})",
                        max_abs_time_offset_s);
   }
-  const bool ok =
-      reprojection_sigma_px > 0 && reprojection_loss_scale > 0 && max_reprojection_error_px > 0 &&
-      min_observations >= 2 && max_outliers_per_track >= 0 && triangulation.Check() &&
-      gps_loss_scale > 0 && gp.Check() && bias_prior_sigma_gyro > 0 && bias_prior_sigma_accel > 0 &&
-      level_prior_sigma_rad > 0 && anchor_sigma_position > 0 && anchor_sigma_rotation > 0 &&
-      anchor_sigma_velocity > 0 && motion_constraint_sigma > 0 && max_imu_gap_s > 0 &&
-      max_iterations > 0 && max_linear_iterations > 0 && function_tolerance > 0 &&
-      function_tolerance < 1 && num_threads >= 0 && camera_height.Check() && standstill.Check();
-  return ok ? std::string() : std::string("invalid options");
+  // The nested options of other modules report validity only.
+  if (!triangulation.Check()) return "triangulation: invalid triangulation options";
+  if (!gp.Check()) return "gp: invalid GP prior options";
+  if (!camera_height.Check()) return "camera_height: invalid camera height options";
+  if (!standstill.Check()) return "standstill: invalid standstill options";
+  return {};
 }
 
 bool RowOptimiser::Options::Check() const { return Error().empty(); }

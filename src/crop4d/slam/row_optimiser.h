@@ -125,7 +125,8 @@ class RowOptimiser {
     double max_abs_time_offset_s = 0.2;
 
     bool Check() const;
-    // Empty when the options are valid, otherwise the first invalid option and why.
+    // Empty when the options are valid, otherwise the first invalid option and why, as
+    // "name: must be ..." (the field's name; the stages prefix their section).
     std::string Error() const;
   };
 
@@ -180,6 +181,12 @@ class RowOptimiser {
     // unset.
     std::optional<double> length_prior_m;
     double length_prior_sigma_m = 0;
+    // The pass's camera–IMU time offset td when it is known beforehand, s (the joint 4D problem
+    // gives row SLAM's estimate here). Set, with a camera: the reprojection factors use the
+    // capture instants from the start, td starts from this value and is refined with
+    // Options::estimate_time_offset, held at it otherwise. Unset: td starts at 0 and enters only
+    // with Options::estimate_time_offset.
+    std::optional<double> time_offset_s;
   };
 
   struct Summary {

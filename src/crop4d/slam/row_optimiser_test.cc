@@ -148,8 +148,8 @@ CapturedTracks TracksCapturedAt(const Scenario& s, double td) {
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::vector<geometry::Rigid3> world_from_camera, camera_from_world;
   for (Timestamp t : s.times) {
-    world_from_camera.push_back(
-        s.record.trajectory->WorldFromBody(s.record.Seconds(t) + td) * s.body_from_camera);
+    world_from_camera.push_back(s.record.trajectory->WorldFromBody(s.record.Seconds(t) + td) *
+                                s.body_from_camera);
     camera_from_world.push_back(world_from_camera.back().Inverse());
   }
   // Points on the ground (0–10 cm high) where the ray of a random pixel of a random image meets
@@ -304,6 +304,22 @@ TEST(RowOptimiser, TimeOffsetOptionsAreChecked) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("max_abs_time_offset_s"), std::string::npos);
   }
+}
+
+TEST(RowOptimiser, OptionErrorsNameTheOptionAndWhy) {
+  RowOptimiser::Options options;
+  EXPECT_EQ(options.Error(), "");
+  options.max_iterations = 0;
+  EXPECT_EQ(options.Error(), "max_iterations: must be > 0 (got 0)");
+  options = RowOptimiser::Options();
+  options.gps_loss_scale = -1;
+  EXPECT_EQ(options.Error(), "gps_loss_scale: must be > 0 (got -1)");
+  options = RowOptimiser::Options();
+  options.function_tolerance = 1;
+  EXPECT_EQ(options.Error(), "function_tolerance: must be in (0, 1) (got 1)");
+  options = RowOptimiser::Options();
+  options.min_observations = 1;
+  EXPECT_EQ(options.Error(), "min_observations: must be >= 2 (got 1)");
 }
 
 }  // namespace

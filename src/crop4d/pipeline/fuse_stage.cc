@@ -160,6 +160,11 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
       throw InputError(where + ": a length prior that is not positive");
     }
   }
+  // Row SLAM's camera-IMU time offset (null: not estimated): the joint problem starts from it.
+  if (const json& back_end = summary.at("back_end");
+      back_end.contains("time_offset_s") && back_end.at("time_offset_s").is_number()) {
+    input.time_offset_s = back_end.at("time_offset_s").get<double>();
+  }
   const std::vector<double> mean = problem.at("bias_prior_mean");
   for (int k = 0; k < 6; ++k) input.bias_prior_mean(k) = mean.at(k);
   if (!problem.at("bias_prior_sigma").is_null()) {
@@ -529,13 +534,16 @@ json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Res
   }
   summary["ground_ties"] = tie_list;
   json pass_list = json::array();
-  for (const FusePassReport& pr : report.passes) {
+  for (std::size_t p = 0; p < report.passes.size(); ++p) {
+    const FusePassReport& pr = report.passes[p];
     pass_list.push_back(
         {{"session", pr.session},
          {"pass", pr.pass},
          {"images", pr.images},
          {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
          {"rotation_change_deg", pr.rotation_change_deg}});
+    // The camera-IMU time offset the joint problem used (docs/fusion.md), when there is one.
+    if (result.time_offsets_s[p]) pass_list.back()["time_offset_s"] = *result.time_offsets_s[p];
   }
   summary["passes"] = pass_list;
   summary["seconds"] = {{"triangulation", s.triangulation_seconds},
@@ -593,6 +601,9 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
         optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties);
     for (std::size_t k = 0; k < trusted.original_pass.size(); ++k) {
       inputs[trusted.original_pass[k]].initial_states = first.states[k];
+      if (first.time_offsets_s[k]) {
+        inputs[trusted.original_pass[k]].time_offset_s = first.time_offsets_s[k];
+      }
     }
   }
   return optimiser.Solve(inputs, landmarks, ties, two_steps ? protects : std::vector<bool>{});
@@ -611,8 +622,7 @@ std::vector<std::vector<geometry::Rigid3>> FusedCameras(
     pr.images = static_cast<int>(result.states[p].size());
     double rot_sq = 0;
     for (std::size_t k = 0; k < result.states[p].size(); ++k) {
-      const geometry::Rigid3 pose =
-          result.states[p][k].nav.world_from_body * passes[p]->input.body_from_camera;
+      const geometry::Rigid3& pose = result.cameras[p][k];  // at the capture instant
       cameras[p].push_back(pose);
       pr.mean_shift += pose.translation() - passes[p]->data.poses[k].translation();
       const double a =

@@ -318,6 +318,21 @@ const std::vector<Key>& Keys() {
         [](RunConfig& c, const std::string& w) {
           FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") = w == "iterative";
         }));
+    k.push_back(Choice(
+        "fuse", "estimate_time_offset",
+        "refine each pass's camera-IMU time offset in the joint problem: auto (the passes whose "
+        "row SLAM estimated one, slam.estimate_time_offset), true (every pass) or false (row "
+        "SLAM's held)",
+        "fuse.optimiser.estimate_time_offset", {"auto", "true", "false"},
+        [](RunConfig& c) -> std::string {
+          const std::optional<bool>& v =
+              FieldOf<std::optional<bool>>(c, "fuse.optimiser.estimate_time_offset");
+          return !v ? "auto" : (*v ? "true" : "false");
+        },
+        [](RunConfig& c, const std::string& w) {
+          FieldOf<std::optional<bool>>(c, "fuse.optimiser.estimate_time_offset") =
+              w == "auto" ? std::nullopt : std::optional<bool>(w == "true");
+        }));
     k.push_back(Bool("fuse", "colmap", "write the COLMAP text model of the fused reconstruction",
                      "fuse.write_colmap"));
     k.push_back(Bool("fuse", "ground_ties",

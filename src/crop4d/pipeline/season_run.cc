@@ -489,7 +489,7 @@ RunResult RunSeason(const std::string& field_folder, const std::string& workspac
   const io::WorkspaceLock lock(workspace, "crop4d run",
                                options.wait_for_workspace ? io::WorkspaceLock::IfBusy::kWait
                                                           : io::WorkspaceLock::IfBusy::kFail);
-  ScopedLogFile log_file((fs::path(workspace) / "crop4d.log").string());
+  ScopedLogFile log_file(workspace::Layout(workspace).Log().string());
   SeasonRun run(field_folder, workspace, options);
   return run.Run();
 }

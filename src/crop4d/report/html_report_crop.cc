@@ -36,7 +36,8 @@ Section Builder::HeightsSection() {
     measured = ReadCsv(fs::path(field_) / "ground_truth" / "site_measurements.csv",
                        "FIELD/ground_truth/site_measurements.csv");
   }
-  if (!summary && !heights) {
+  // The analysis ran when it left its summary or its table, even one that cannot be read.
+  if (!IsFile(ws.AnalysisSummary()) && !IsFile(ws.SiteHeights())) {
     s.html = Empty(
         "Analysis has not run: no WS/analysis/summary.json or WS/analysis/site_heights.csv." +
         std::string(measured ? " The measurements of FIELD/ground_truth/site_measurements.csv "

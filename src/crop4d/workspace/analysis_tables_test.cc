@@ -101,9 +101,8 @@ TEST(AnalysisTablesTest, AnotherSchemaOrHeaderAsksToRerunAnalyze) {
   const std::string v2 =
       "# crop4d schema 2\n"
       "site_id,session,date,height_m,cover,volume_m3,n_points,extra\n";
-  for (const InputError& e :
-       {ErrorOf([&] { Heights(v2); }), ErrorOf([&] { Plants(v2); }),
-        ErrorOf([&] { Growth(v2); })}) {
+  for (const InputError& e : {ErrorOf([&] { Heights(v2); }), ErrorOf([&] { Plants(v2); }),
+                              ErrorOf([&] { Growth(v2); })}) {
     EXPECT_NE(std::string(e.what()).find("schema 2"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("crop4d analyze"), std::string::npos) << e.what();
     EXPECT_EQ(e.line(), 1);
@@ -117,15 +116,15 @@ TEST(AnalysisTablesTest, AnotherSchemaOrHeaderAsksToRerunAnalyze) {
   EXPECT_NE(std::string(e.what()).find("crop4d analyze"), std::string::npos) << e.what();
   EXPECT_NE(std::string(ErrorOf([] { Growth("site_id,status\n"); }).what()).find("header"),
             std::string::npos);
-  EXPECT_NE(std::string(ErrorOf([] {
-              Growth(
-                  "site_id,status,asymptote_m,rate_per_day,midpoint_date,max_growth_m_per_day,"
-                  "rmse_m,n,rate_a_b\n");
-            }).what())
+  EXPECT_NE(std::string(
+                ErrorOf([] {
+                  Growth(
+                      "site_id,status,asymptote_m,rate_per_day,midpoint_date,max_growth_m_per_day,"
+                      "rmse_m,n,rate_a_b\n");
+                }).what())
                 .find("header"),
             std::string::npos);
-  EXPECT_NE(std::string(ErrorOf([] { Heights(""); }).what()).find("empty file"),
-            std::string::npos);
+  EXPECT_NE(std::string(ErrorOf([] { Heights(""); }).what()).find("empty file"), std::string::npos);
 }
 
 TEST(AnalysisTablesTest, TruncatedAndMalformedRowsNameTheLine) {
@@ -147,9 +146,8 @@ TEST(AnalysisTablesTest, TruncatedAndMalformedRowsNameTheLine) {
             3);
 
   const std::string plants = "site_id,plant,x_m,y_m,session,date,top_m\n";
-  const InputError moved = ErrorOf([&] {
-    Plants(plants + "a,1,1.000,2.000,s1,,0.1\na,1,1.500,2.000,s2,,0.2\n");
-  });
+  const InputError moved =
+      ErrorOf([&] { Plants(plants + "a,1,1.000,2.000,s1,,0.1\na,1,1.500,2.000,s2,,0.2\n"); });
   EXPECT_EQ(moved.line(), 3);
   EXPECT_NE(std::string(moved.what()).find("moved"), std::string::npos) << moved.what();
   EXPECT_EQ(ErrorOf([&] { Plants(plants + "a,0,1,2,s1,,\n"); }).line(), 2);
@@ -158,15 +156,18 @@ TEST(AnalysisTablesTest, TruncatedAndMalformedRowsNameTheLine) {
 
   const std::string growth =
       "site_id,status,asymptote_m,rate_per_day,midpoint_date,max_growth_m_per_day,rmse_m,n\n";
-  EXPECT_EQ(ErrorOf([&] { Growth(growth + "a,fitted,0.5,0.1,2016-06-01,0.01,0.001,3\na,fitted,"
-                                          "0.5,0.1,2016-06-01,0.01,0.001,3\n"); })
-                .line(),
+  EXPECT_EQ(ErrorOf([&] {
+              Growth(growth +
+                     "a,fitted,0.5,0.1,2016-06-01,0.01,0.001,3\na,fitted,"
+                     "0.5,0.1,2016-06-01,0.01,0.001,3\n");
+            }).line(),
             3);
   EXPECT_EQ(ErrorOf([&] { Growth(growth + ",fitted,,,,,,0\n"); }).line(), 2);
 }
 
 TEST(AnalysisTablesTest, AMissingFileIsNamed) {
-  const InputError e = ErrorOf([] { ReadSiteHeights(std::filesystem::path("/nonexistent/x.csv")); });
+  const InputError e =
+      ErrorOf([] { ReadSiteHeights(std::filesystem::path("/nonexistent/x.csv")); });
   EXPECT_EQ(e.file(), "/nonexistent/x.csv");
 }
 

@@ -56,12 +56,21 @@ const char* CanopyTopName(CanopyTop top) {
   return "?";
 }
 
-bool CanopyOptions::Check() const {
-  return min_height_m >= 0.0 && min_height_any_colour_m >= min_height_m && cell_m > 0.0 &&
-         crown_radius_m >= 0.0 && top_radius_m >= 0.0 && plant_top_quantile >= 0.0 &&
-         plant_top_quantile <= 1.0 && std::isfinite(max_shrink_m) && min_peak_fraction >= 0.0 &&
-         min_peak_fraction <= 1.0 && top_quantile > 0.0 && top_quantile <= 1.0 &&
-         min_canopy_cells >= 1;
+OptionCheck CanopyOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("min_height_m", min_height_m, 0.0)
+      .Require(min_height_any_colour_m >= min_height_m, "min_height_any_colour_m",
+               "must be >= min_height_m", min_height_any_colour_m)
+      .Greater("cell_m", cell_m, 0.0)
+      .AtLeast("crown_radius_m", crown_radius_m, 0.0)
+      .AtLeast("top_radius_m", top_radius_m, 0.0)
+      .InRange("plant_top_quantile", plant_top_quantile, 0.0, 1.0)
+      .Finite("max_shrink_m", max_shrink_m)
+      .InRange("min_peak_fraction", min_peak_fraction, 0.0, 1.0)
+      .Greater("top_quantile", top_quantile, 0.0)
+      .AtMost("top_quantile", top_quantile, 1.0)
+      .AtLeast("min_canopy_cells", min_canopy_cells, 1);
+  return c.Result();
 }
 
 SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "crop4d/analysis/terrain.h"
+#include "crop4d/core/option_check.h"
 #include "crop4d/io/dataset.h"
 
 namespace crop4d::analysis {
@@ -98,7 +99,7 @@ struct CanopyOptions {
   // A site needs this many canopy cells for a height.
   int min_canopy_cells = 3;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct SiteCanopy {

@@ -46,9 +46,15 @@ void SquareExtreme(std::vector<float>* grid, int width, int height, int half, bo
 
 }  // namespace
 
-bool GroundFilterOptions::Check() const {
-  return window_m >= 0.0 && cell_m > 0.0 && max_height_m > 0.0 && std::isfinite(window_m) &&
-         std::isfinite(cell_m) && std::isfinite(max_height_m);
+OptionCheck GroundFilterOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("window_m", window_m, 0.0)
+      .Finite("window_m", window_m)
+      .Greater("cell_m", cell_m, 0.0)
+      .Finite("cell_m", cell_m)
+      .Greater("max_height_m", max_height_m, 0.0)
+      .Finite("max_height_m", max_height_m);
+  return c.Result();
 }
 
 std::vector<std::uint8_t> GroundBelowOpening(const std::vector<Eigen::Vector3d>& points,

@@ -18,6 +18,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::analysis {
 
 struct GroundFilterOptions {
@@ -28,7 +30,7 @@ struct GroundFilterOptions {
   // Candidates higher than this above the opened surface are rejected, m.
   double max_height_m = 0.06;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // 1 for the points of `points` that pass the test, 0 for those above the opened surface.

@@ -125,10 +125,16 @@ const char* GrowthStatusName(GrowthFit::Status status) {
   return "?";
 }
 
-bool GrowthOptions::Check() const {
-  return std::isfinite(robust_loss_m) && robust_loss_m >= 0.0 && max_iterations >= 1 &&
-         std::isfinite(max_asymptote_factor) && max_asymptote_factor >= 1.0 &&
-         std::isfinite(max_rate_per_day) && max_rate_per_day > 0.0;
+OptionCheck GrowthOptions::Check() const {
+  OptionChecker c;
+  c.Finite("robust_loss_m", robust_loss_m)
+      .AtLeast("robust_loss_m", robust_loss_m, 0.0)
+      .AtLeast("max_iterations", max_iterations, 1)
+      .Finite("max_asymptote_factor", max_asymptote_factor)
+      .AtLeast("max_asymptote_factor", max_asymptote_factor, 1.0)
+      .Finite("max_rate_per_day", max_rate_per_day)
+      .Greater("max_rate_per_day", max_rate_per_day, 0.0);
+  return c.Result();
 }
 
 GrowthFit FitGrowth(std::vector<GrowthObservation> observations, const GrowthOptions& options) {

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::analysis {
 
 struct GrowthObservation {
@@ -89,7 +91,7 @@ struct GrowthOptions {
   // realistic sampling; it keeps a step-like series finite.
   double max_rate_per_day = 2.0;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // Fits the logistic curve to the valid observations (finite day and height; any order) and

@@ -10,10 +10,17 @@
 
 namespace crop4d::analysis {
 
-bool PlantDetectionOptions::Check() const {
-  return cell_m > 0.0 && min_cells >= 1 && max_area_m2 > 0.0 && top_fraction > 0.0 &&
-         top_fraction <= 1.0 && min_spacing_m >= 0.0 && min_prominence_m >= 0.0 &&
-         min_prominence_fraction >= 0.0;
+OptionCheck PlantDetectionOptions::Check() const {
+  OptionChecker c;
+  c.Greater("cell_m", cell_m, 0.0)
+      .AtLeast("min_cells", min_cells, 1)
+      .Greater("max_area_m2", max_area_m2, 0.0)
+      .Greater("top_fraction", top_fraction, 0.0)
+      .AtMost("top_fraction", top_fraction, 1.0)
+      .AtLeast("min_spacing_m", min_spacing_m, 0.0)
+      .AtLeast("min_prominence_m", min_prominence_m, 0.0)
+      .AtLeast("min_prominence_fraction", min_prominence_fraction, 0.0);
+  return c.Result();
 }
 
 std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "crop4d/analysis/canopy.h"
+#include "crop4d/core/option_check.h"
 
 namespace crop4d::analysis {
 
@@ -39,7 +40,7 @@ struct PlantDetectionOptions {
   // metres.
   double min_spacing_m = 0.08;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct DetectedPlant {

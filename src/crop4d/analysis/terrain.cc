@@ -224,8 +224,14 @@ std::size_t FillHoles(const GridSpec& grid, double max_distance, std::vector<flo
 
 }  // namespace
 
-bool GridSpec::Check() const {
-  return origin.allFinite() && std::isfinite(cell_m) && cell_m > 0.0 && width > 0 && height > 0;
+OptionCheck GridSpec::Check() const {
+  OptionChecker c;
+  c.Require(origin.allFinite(), "origin", "must be finite")
+      .Finite("cell_m", cell_m)
+      .Greater("cell_m", cell_m, 0.0)
+      .Greater("width", width, 0)
+      .Greater("height", height, 0);
+  return c.Result();
 }
 
 GridSpec GridSpec::Covering(const Eigen::AlignedBox2d& box, double cell_m) {
@@ -267,11 +273,20 @@ double TerrainModel::Coverage() const {
   return static_cast<double>(known) / heights_.size();
 }
 
-bool TerrainOptions::Check() const {
-  return cell_m > 0.0 && fit_radius_m > cell_m && min_points >= 6 && min_points_per_quadrant >= 0 &&
-         outlier_sigmas > 0.0 && noise_floor_m > 0.0 && iterations >= 1 &&
-         later_tolerance_m > 0.0 && vegetation_clearance_m >= 0.0 && max_fill_distance_m >= 0.0 &&
-         ground_filter.Check();
+OptionCheck TerrainOptions::Check() const {
+  OptionChecker c;
+  c.Greater("cell_m", cell_m, 0.0)
+      .Require(fit_radius_m > cell_m, "fit_radius_m", "must be > cell_m", fit_radius_m)
+      .AtLeast("min_points", min_points, 6)
+      .AtLeast("min_points_per_quadrant", min_points_per_quadrant, 0)
+      .Greater("outlier_sigmas", outlier_sigmas, 0.0)
+      .Greater("noise_floor_m", noise_floor_m, 0.0)
+      .AtLeast("iterations", iterations, 1)
+      .Greater("later_tolerance_m", later_tolerance_m, 0.0)
+      .AtLeast("vegetation_clearance_m", vegetation_clearance_m, 0.0)
+      .AtLeast("max_fill_distance_m", max_fill_distance_m, 0.0)
+      .Nested("ground_filter", ground_filter.Check());
+  return c.Result();
 }
 
 TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
@@ -345,8 +360,12 @@ TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
   return TerrainModel(grid, std::move(heights));
 }
 
-bool PlaneOptions::Check() const {
-  return inlier_threshold_m > 0.0 && iterations >= 1 && min_points >= 3;
+OptionCheck PlaneOptions::Check() const {
+  OptionChecker c;
+  c.Greater("inlier_threshold_m", inlier_threshold_m, 0.0)
+      .AtLeast("iterations", iterations, 1)
+      .AtLeast("min_points", min_points, 3);
+  return c.Result();
 }
 
 std::optional<GroundPlane> FitSiteGroundPlane(const GroundCloud& earliest,

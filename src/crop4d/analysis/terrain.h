@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "crop4d/analysis/ground_filter.h"
+#include "crop4d/core/option_check.h"
 
 namespace crop4d::analysis {
 
@@ -48,7 +49,7 @@ struct GridSpec {
   int width = 0;
   int height = 0;
 
-  bool Check() const;
+  OptionCheck Check() const;
   std::size_t size() const { return static_cast<std::size_t>(width) * height; }
   Eigen::Vector2d Node(int i, int j) const { return origin + cell_m * Eigen::Vector2d(i, j); }
   // The grid of `cell_m` nodes whose nodes cover `box` (edges snapped to multiples of cell_m).
@@ -115,7 +116,7 @@ struct TerrainOptions {
   // far fewer, and the median of a cell is robust to its noise.
   double thin_cell_m = 0.02;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct TerrainSummary {
@@ -153,7 +154,7 @@ struct PlaneOptions {
   // Seed of the sampler: the result is reproducible.
   std::uint64_t seed = 1;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // The paper's ground: one plane by RANSAC through the earliest session's soil points (not

@@ -119,12 +119,17 @@ double MeanIn(const std::vector<float>& values, double lo, double hi) {
 
 }  // namespace
 
-bool VegetationOptions::Check() const {
-  const bool index_ok = index == GreennessIndex::kExG || index == GreennessIndex::kExGR;
-  return index_ok && (std::isnan(threshold) || std::isfinite(threshold)) &&
-         std::isfinite(min_threshold) && std::isfinite(min_separability) &&
-         min_separability >= 0.0 && min_separability <= 1.0 && histogram_bins >= 2 &&
-         histogram_bins <= (1 << 20);
+OptionCheck VegetationOptions::Check() const {
+  OptionChecker c;
+  c.Require(index == GreennessIndex::kExG || index == GreennessIndex::kExGR, "index",
+            "must be exg or exgr")
+      .Require(std::isnan(threshold) || std::isfinite(threshold), "threshold",
+               "must be finite or NaN (automatic)", threshold)
+      .Finite("min_threshold", min_threshold)
+      .Finite("min_separability", min_separability)
+      .InRange("min_separability", min_separability, 0.0, 1.0)
+      .InRange("histogram_bins", histogram_bins, 2, 1 << 20);
+  return c.Result();
 }
 
 double VegetationClassification::Fraction() const {

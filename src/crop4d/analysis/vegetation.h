@@ -19,6 +19,8 @@
 #include <limits>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::analysis {
 
 enum class GreennessIndex {
@@ -69,7 +71,7 @@ struct VegetationOptions {
   // Histogram bins for Otsu's method (over the range of the index values).
   int histogram_bins = 256;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct VegetationClassification {

@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "crop4d/core/error.h"
+#include "crop4d/core/file_bytes_test_util.h"
 
 namespace crop4d::association {
 namespace {
@@ -44,14 +45,8 @@ class AssociationFileTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  std::string ReadBytes() const {
-    std::ifstream in(path_, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  }
-  void WriteBytes(const std::string& bytes) const {
-    std::ofstream out(path_, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  }
+  std::string ReadBytes() const { return crop4d::testing::ReadFileBytes(path_); }
+  void WriteBytes(const std::string& bytes) const { crop4d::testing::WriteFileBytes(path_, bytes); }
   AssociationFileStatus Read(std::string* detail = nullptr) const {
     PassAssociation read;
     read.method = "left over";

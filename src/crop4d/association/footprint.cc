@@ -111,20 +111,31 @@ double ViewOverlapOf(const GroundView& view_a, const geometry::PinholeRadTan& ca
 
 }  // namespace
 
-bool FootprintOptions::Check() const {
-  return max_range_m > 0 && std::isfinite(max_range_m) && samples_per_side >= 1;
+OptionCheck FootprintOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_range_m", max_range_m, 0.0)
+      .Finite("max_range_m", max_range_m)
+      .AtLeast("samples_per_side", samples_per_side, 1);
+  return c.Result();
 }
 
-bool PairSelectionOptions::Check() const {
-  return footprint.Check() && min_overlap >= 0 && min_overlap <= 1 && max_pairs_per_image >= 1 &&
-         stride >= 1 && max_axis_angle_deg > 0 && max_scale_change >= 0 &&
-         (max_scale_change == 0 || max_scale_change >= 1) && view_samples >= 1;
+OptionCheck PairSelectionOptions::Check() const {
+  OptionChecker c;
+  c.Nested("footprint", footprint.Check())
+      .InRange("min_overlap", min_overlap, 0.0, 1.0)
+      .AtLeast("max_pairs_per_image", max_pairs_per_image, 1)
+      .AtLeast("stride", stride, 1)
+      .Greater("max_axis_angle_deg", max_axis_angle_deg, 0.0)
+      .Require(max_scale_change == 0 || max_scale_change >= 1, "max_scale_change",
+               "must be 0 (off) or >= 1", max_scale_change)
+      .AtLeast("view_samples", view_samples, 1);
+  return c.Result();
 }
 
 Footprint GroundFootprint(const geometry::PinholeRadTan& camera,
                           const geometry::Rigid3& world_from_camera, double ground_z,
                           const FootprintOptions& options) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid FootprintOptions");
+  CROP4D_CHECK_OPTIONS(options, "FootprintOptions");
   Footprint footprint;
   const Eigen::Vector3d center = world_from_camera.translation();
   const double height = center.z() - ground_z;
@@ -192,7 +203,7 @@ double ViewOverlap(const geometry::PinholeRadTan& camera_a,
                    const geometry::PinholeRadTan& camera_b,
                    const geometry::Rigid3& world_from_camera_b, double ground_z,
                    const PairSelectionOptions& options) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid PairSelectionOptions");
+  CROP4D_CHECK_OPTIONS(options, "PairSelectionOptions");
   return std::min(ViewOverlapOf(SampleGroundView(camera_a, world_from_camera_a, ground_z, options),
                                 camera_b, world_from_camera_b, options),
                   ViewOverlapOf(SampleGroundView(camera_b, world_from_camera_b, ground_z, options),
@@ -215,7 +226,7 @@ std::vector<ImagePair> SelectImagePairs(const std::vector<geometry::Rigid3>& pos
                                         const geometry::PinholeRadTan& camera_a,
                                         const geometry::PinholeRadTan& camera_b, double ground_z,
                                         const PairSelectionOptions& options) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid PairSelectionOptions");
+  CROP4D_CHECK_OPTIONS(options, "PairSelectionOptions");
   std::vector<ImagePair> pairs;
   if (poses_a.empty() || poses_b.empty()) return pairs;
 

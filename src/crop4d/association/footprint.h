@@ -25,6 +25,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
 
@@ -37,7 +38,7 @@ struct FootprintOptions {
   // is sampled at 8× as many azimuths.
   int samples_per_side = 16;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // A convex polygon of world xy, counter-clockwise; empty when the camera sees no ground (or is
@@ -89,7 +90,7 @@ struct PairSelectionOptions {
   // Pixel samples across each image's width for the view overlap (rows in proportion).
   int view_samples = 24;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // The view overlap of two images: the smaller of the shares of each image's view of the ground

@@ -57,9 +57,16 @@ LocalPlane FitPlane(const std::vector<Eigen::Vector3d>& neighbors,
 
 }  // namespace
 
-bool LocalPlanes::Options::Check() const {
-  return num_neighbors >= 3 && min_neighbors >= 3 && min_neighbors <= num_neighbors &&
-         max_neighbor_distance_m > 0 && max_surface_variation >= 0 && min_spread_ratio >= 0;
+OptionCheck LocalPlanes::Options::Check() const {
+  OptionChecker c;
+  c.AtLeast("num_neighbors", num_neighbors, 3)
+      .AtLeast("min_neighbors", min_neighbors, 3)
+      .Require(min_neighbors <= num_neighbors, "min_neighbors", "must be <= num_neighbors",
+               min_neighbors)
+      .Greater("max_neighbor_distance_m", max_neighbor_distance_m, 0.0)
+      .AtLeast("max_surface_variation", max_surface_variation, 0.0)
+      .AtLeast("min_spread_ratio", min_spread_ratio, 0.0);
+  return c.Result();
 }
 
 LocalPlanes::LocalPlanes(std::vector<Eigen::Vector3d> points)
@@ -67,7 +74,7 @@ LocalPlanes::LocalPlanes(std::vector<Eigen::Vector3d> points)
 
 LocalPlanes::LocalPlanes(std::vector<Eigen::Vector3d> points, Options options)
     : options_(options), points_(std::move(points)), index_(std::make_unique<Index>()) {
-  CROP4D_CHECK_MSG(options_.Check(), "invalid LocalPlanes::Options");
+  CROP4D_CHECK_OPTIONS(options_, "LocalPlanes::Options");
   index_->cloud.points.reserve(points_.size());
   for (const Eigen::Vector3d& p : points_) {
     if (p.allFinite()) index_->cloud.points.push_back(p);

@@ -17,6 +17,8 @@
 #include <memory>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::association {
 
 struct LocalPlane {
@@ -45,7 +47,7 @@ class LocalPlanes {
     // Smallest λ1 / λ2: below it the neighbours lie along a line and no plane is defined.
     double min_spread_ratio = 0.02;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   // Builds a k-d tree over the finite points (non-finite ones, e.g. untriangulated tracks, are

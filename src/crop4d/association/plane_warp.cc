@@ -147,17 +147,23 @@ bool PlaneTransfer::BToA(const Eigen::Vector2d& pixel_b, Eigen::Vector2d* pixel_
   return camera_a_->Project(w, pixel_a);
 }
 
-bool PlaneWarpOptions::Check() const {
-  return descriptor_sigma >= 0.6 && descriptor_sigma <= 8 && patches_per_batch >= 1 &&
-         map_node_spacing_px >= 1 && min_view_cosine >= 0 && min_view_cosine < 1 &&
-         max_area_change >= 1 && max_pyramid_level >= 0;
+OptionCheck PlaneWarpOptions::Check() const {
+  OptionChecker c;
+  c.InRange("descriptor_sigma", descriptor_sigma, 0.6, 8.0)
+      .AtLeast("patches_per_batch", patches_per_batch, 1)
+      .AtLeast("map_node_spacing_px", map_node_spacing_px, 1)
+      .AtLeast("min_view_cosine", min_view_cosine, 0.0)
+      .Less("min_view_cosine", min_view_cosine, 1.0)
+      .AtLeast("max_area_change", max_area_change, 1.0)
+      .AtLeast("max_pyramid_level", max_pyramid_level, 0);
+  return c.Result();
 }
 
 std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input,
                                                      const std::vector<WarpRequest>& requests,
                                                      const PlaneWarpOptions& options,
                                                      std::vector<std::uint8_t>* descriptors) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid PlaneWarpOptions");
+  CROP4D_CHECK_OPTIONS(options, "PlaneWarpOptions");
   CROP4D_CHECK(input.camera_a != nullptr && input.camera_b != nullptr &&
                input.features_a != nullptr && descriptors != nullptr);
   const std::size_t n = requests.size();

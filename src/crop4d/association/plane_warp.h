@@ -40,6 +40,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
@@ -104,7 +105,7 @@ struct PlaneWarpOptions {
   // descriptors of I2's keypoints (ComputeUprightDescriptors).
   bool upright = false;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One keypoint of I1 to describe as seen from C2, on the plane nᵀY = d of camera a's frame.

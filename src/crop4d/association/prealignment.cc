@@ -9,13 +9,14 @@
 
 namespace crop4d::association {
 
-std::string PreAlignmentOptions::Check() const {
-  if (stride < 1) return "stride: must be >= 1";
-  if (!(radius_m > 0)) return "radius_m: must be > 0";
-  if (!(max_landmark_distance_m > 0)) return "max_landmark_distance_m: must be > 0";
-  if (!naive.Check()) return "naive: invalid matcher options";
-  if (!alignment.Check()) return "alignment: invalid alignment options";
-  return {};
+OptionCheck PreAlignmentOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("stride", stride, 1)
+      .Greater("radius_m", radius_m, 0.0)
+      .Greater("max_landmark_distance_m", max_landmark_distance_m, 0.0)
+      .Nested("naive", naive.Check())
+      .Nested("alignment", alignment.Check());
+  return c.Result();
 }
 
 std::vector<std::pair<int, int>> PreAlignmentImagePairs(

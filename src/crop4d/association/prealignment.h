@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/features/matcher.h"
 #include "crop4d/fusion/pass_alignment.h"
@@ -46,7 +47,7 @@ struct PreAlignmentOptions {
   fusion::PassAlignmentOptions alignment;
 
   // Empty when the options are valid, else which option is wrong and why.
-  std::string Check() const;
+  OptionCheck Check() const;
 };
 
 // A pass as the pre-alignment sees it. The pointers must outlive the call.

@@ -104,17 +104,29 @@ struct Query {
 
 }  // namespace
 
-bool RobustMatcher::Options::Check() const {
-  return min_search_radius_px >= 0 && search_sigmas >= 0 && sigma_position_m >= 0 &&
-         sigma_rotation_rad >= 0 && max_search_radius_px >= min_search_radius_px &&
-         min_depth_m > 0 && max_scale_ratio >= 0 &&
-         (max_scale_ratio == 0 || max_scale_ratio >= 1) && warp_min_baseline_m >= 0 &&
-         warp.Check() && max_ratio > 0 && max_ratio <= 1 && max_descriptor_distance > 0 &&
-         same_point_radius_px >= 0 && verification.Check();
+OptionCheck RobustMatcher::Options::Check() const {
+  OptionChecker c;
+  c.AtLeast("min_search_radius_px", min_search_radius_px, 0.0)
+      .AtLeast("search_sigmas", search_sigmas, 0.0)
+      .AtLeast("sigma_position_m", sigma_position_m, 0.0)
+      .AtLeast("sigma_rotation_rad", sigma_rotation_rad, 0.0)
+      .Require(max_search_radius_px >= min_search_radius_px, "max_search_radius_px",
+               "must be >= min_search_radius_px", max_search_radius_px)
+      .Greater("min_depth_m", min_depth_m, 0.0)
+      .Require(max_scale_ratio == 0 || max_scale_ratio >= 1, "max_scale_ratio",
+               "must be 0 (off) or >= 1", max_scale_ratio)
+      .AtLeast("warp_min_baseline_m", warp_min_baseline_m, 0.0)
+      .Nested("warp", warp.Check())
+      .Greater("max_ratio", max_ratio, 0.0)
+      .AtMost("max_ratio", max_ratio, 1.0)
+      .Greater("max_descriptor_distance", max_descriptor_distance, 0.0)
+      .AtLeast("same_point_radius_px", same_point_radius_px, 0.0)
+      .Nested("verification", verification.Check());
+  return c.Result();
 }
 
 RobustMatcher::RobustMatcher(Options options) : options_(std::move(options)) {
-  CROP4D_CHECK_MSG(options_.Check(), "invalid RobustMatcher::Options");
+  CROP4D_CHECK_OPTIONS(options_, "RobustMatcher::Options");
 }
 
 AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
@@ -371,7 +383,7 @@ AssociationResult NaiveMatch(const geometry::PinholeRadTan& camera_a,
                              const features::DescriptorIndex& index_b,
                              const features::PairMatcher::Options& options) {
   const Clock::time_point start = Clock::now();
-  CROP4D_CHECK_MSG(options.Check(), "invalid PairMatcher::Options");
+  CROP4D_CHECK_OPTIONS(options, "PairMatcher::Options");
   AssociationResult result;
   AssociationStats& stats = result.stats;
   stats.num_candidates =

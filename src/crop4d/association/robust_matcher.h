@@ -46,6 +46,7 @@
 
 #include "crop4d/association/local_planes.h"
 #include "crop4d/association/plane_warp.h"
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/features/matcher.h"
 #include "crop4d/geometry/camera.h"
@@ -198,7 +199,7 @@ class RobustMatcher {
     bool verify = true;
     features::EpipolarVerificationOptions verification;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   explicit RobustMatcher(Options options);

@@ -9,10 +9,16 @@
 
 namespace crop4d::association {
 
-bool SurfacePointOptions::Check() const {
-  return num_neighbors >= 1 && num_neighbors <= 16 && max_pixel_distance_px > 0 &&
-         min_sigma_m > 0 && max_sigma_m >= min_sigma_m && min_incidence_cos > 0 &&
-         min_incidence_cos <= 1 && max_range_m > 0;
+OptionCheck SurfacePointOptions::Check() const {
+  OptionChecker c;
+  c.InRange("num_neighbors", num_neighbors, 1, 16)
+      .Greater("max_pixel_distance_px", max_pixel_distance_px, 0.0)
+      .Greater("min_sigma_m", min_sigma_m, 0.0)
+      .Require(max_sigma_m >= min_sigma_m, "max_sigma_m", "must be >= min_sigma_m", max_sigma_m)
+      .Greater("min_incidence_cos", min_incidence_cos, 0.0)
+      .AtMost("min_incidence_cos", min_incidence_cos, 1.0)
+      .Greater("max_range_m", max_range_m, 0.0);
+  return c.Result();
 }
 
 std::vector<LandmarkObservation> SurfacePoints(const geometry::PinholeRadTan& camera,
@@ -21,7 +27,7 @@ std::vector<LandmarkObservation> SurfacePoints(const geometry::PinholeRadTan& ca
                                                const std::vector<LandmarkObservation>& landmarks,
                                                const LocalPlanes& planes,
                                                const SurfacePointOptions& options) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid SurfacePointOptions");
+  CROP4D_CHECK_OPTIONS(options, "SurfacePointOptions");
   std::vector<LandmarkObservation> out;
   if (landmarks.empty()) return out;
   std::vector<bool> has_landmark(features.size(), false);

@@ -22,6 +22,7 @@
 
 #include "crop4d/association/local_planes.h"
 #include "crop4d/association/robust_matcher.h"
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
@@ -46,7 +47,7 @@ struct SurfacePointOptions {
   // AssociateStageOptions::max_landmark_distance_m).
   double max_range_m = 5.0;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // The surface points of image I1: one for every feature of `features` that no observation of

@@ -7,8 +7,12 @@
 
 namespace crop4d::dense {
 
-bool GroundLevels::Options::Check() const {
-  return tile_m > 0 && quantile >= 0 && quantile <= 1 && min_points >= 1;
+OptionCheck GroundLevels::Options::Check() const {
+  OptionChecker c;
+  c.Greater("tile_m", tile_m, 0.0)
+      .InRange("quantile", quantile, 0.0, 1.0)
+      .AtLeast("min_points", min_points, 1);
+  return c.Result();
 }
 
 GroundLevels::GroundLevels(const std::vector<Eigen::Vector3d>& points,

@@ -13,6 +13,8 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::dense {
 
 class GroundLevels {
@@ -25,7 +27,7 @@ class GroundLevels {
     // Tiles with fewer points take their neighbours' level.
     int min_points = 5;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   GroundLevels() = default;

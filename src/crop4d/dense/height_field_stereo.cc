@@ -523,178 +523,219 @@ bool DenseRegion::Contains(const Eigen::Vector2d& xy) const {
   return false;
 }
 
-bool HeightFieldStereo::Options::Check() const {
-  return cell_m > 0 && tile_cells >= 4 && patch_radius >= 1 && patch_radius <= 5 &&
-         fine_patch_radius >= 1 && fine_patch_radius <= 5 && top_surface_margin >= 0 &&
-         top_surface_min_reference_score >= -1 && top_surface_min_reference_score <= 1 &&
-         top_surface_min_height_m >= 0 && top_surface_min_excess_green >= -1 &&
-         below_ground_m >= 0 && max_canopy_height_m > 0 && coarse_step_m > 0 &&
-         fine_half_range_m > 0 && fine_step_m > 0 && fine_step_m < fine_half_range_m &&
-         max_views >= 2 && max_views <= 32 && max_view_distance_m > 0 && image_margin_px >= 0 &&
-         min_reference_separation_m >= 0 && min_views >= 1 && min_views < max_views &&
-         min_score > -1 && min_score < 1 && min_texture >= 0 && min_neighbours >= 0 &&
-         min_neighbours <= 8 && neighbour_tolerance_m > 0 &&
-         (max_canopy_height_m + below_ground_m) / coarse_step_m < 2000;
+OptionCheck HeightFieldStereo::Options::Check() const {
+  OptionChecker c;
+  c.Greater("cell_m", cell_m, 0.0)
+      .AtLeast("tile_cells", tile_cells, 4)
+      .InRange("patch_radius", patch_radius, 1, 5)
+      .InRange("fine_patch_radius", fine_patch_radius, 1, 5)
+      .AtLeast("top_surface_margin", top_surface_margin, 0.0)
+      .InRange("top_surface_min_reference_score", top_surface_min_reference_score, -1.0, 1.0)
+      .AtLeast("top_surface_min_height_m", top_surface_min_height_m, 0.0)
+      .AtLeast("top_surface_min_excess_green", top_surface_min_excess_green, -1.0)
+      .AtLeast("below_ground_m", below_ground_m, 0.0)
+      .Greater("max_canopy_height_m", max_canopy_height_m, 0.0)
+      .Greater("coarse_step_m", coarse_step_m, 0.0)
+      .Greater("fine_half_range_m", fine_half_range_m, 0.0)
+      .Greater("fine_step_m", fine_step_m, 0.0)
+      .Require(fine_step_m < fine_half_range_m, "fine_step_m", "must be < fine_half_range_m",
+               fine_step_m)
+      .InRange("max_views", max_views, 2, 32)
+      .Greater("max_view_distance_m", max_view_distance_m, 0.0)
+      .AtLeast("image_margin_px", image_margin_px, 0.0)
+      .AtLeast("min_reference_separation_m", min_reference_separation_m, 0.0)
+      .AtLeast("min_views", min_views, 1)
+      .Require(min_views < max_views, "min_views", "must be < max_views", min_views)
+      .Between("min_score", min_score, -1.0, 1.0)
+      .AtLeast("min_texture", min_texture, 0.0)
+      .InRange("min_neighbours", min_neighbours, 0, 8)
+      .Greater("neighbour_tolerance_m", neighbour_tolerance_m, 0.0)
+      .Require((max_canopy_height_m + below_ground_m) / coarse_step_m < 2000, "coarse_step_m",
+               "must leave < 2000 levels from below_ground_m to max_canopy_height_m",
+               coarse_step_m);
+  return c.Result();
 }
 
 HeightFieldStereo::HeightFieldStereo(const Options& options) : options_(options) {
   CROP4D_CHECK(options.Check());
 }
 
-HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& camera,
-                                                 const std::vector<DenseView>& views,
-                                                 const ImageLoader& load, const DenseRegion& region,
-                                                 const GroundLevels& ground) const {
-  const Clock::time_point start = Clock::now();
-  const Options& o = options_;
-  Result result;
-  Summary& summary = result.summary;
-  summary.num_views = static_cast<int>(views.size());
-  CROP4D_CHECK(camera.Check());
-  if (region.bounds.isEmpty() || !ground.valid() || views.empty()) {
-    summary.total_seconds = SecondsSince(start);
-    return result;
-  }
+namespace {
 
-  // The grid: cells of o.cell_m from a multiple of the cell size.
-  const double s = o.cell_m;
-  const Eigen::Vector2d grid_origin(std::floor(region.bounds.min().x() / s) * s,
-                                    std::floor(region.bounds.min().y() / s) * s);
-  const int gx = static_cast<int>(std::ceil((region.bounds.max().x() - grid_origin.x()) / s));
-  const int gy = static_cast<int>(std::ceil((region.bounds.max().y() - grid_origin.y()) / s));
-  const std::size_t num_grid = static_cast<std::size_t>(gx) * gy;
-  std::vector<std::uint8_t> state(num_grid, kOutside);
-  for (int j = 0; j < gy; ++j) {
-    for (int i = 0; i < gx; ++i) {
-      const Eigen::Vector2d xy = grid_origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
+using Options = HeightFieldStereo::Options;
+using Summary = HeightFieldStereo::Summary;
+
+// The cells of the region: a grid of cell_m cells from a multiple of the cell size, with the
+// state of each (kOutside for cells outside the region).
+struct CellGrid {
+  Eigen::Vector2d origin;
+  double s = 0;  // cell size
+  int gx = 0, gy = 0;
+  std::vector<std::uint8_t> state;
+
+  std::size_t size() const { return static_cast<std::size_t>(gx) * gy; }
+};
+
+CellGrid MakeCellGrid(double cell_m, const DenseRegion& region, std::int64_t* num_cells) {
+  CellGrid grid;
+  const double s = cell_m;
+  grid.s = s;
+  grid.origin = Eigen::Vector2d(std::floor(region.bounds.min().x() / s) * s,
+                                std::floor(region.bounds.min().y() / s) * s);
+  grid.gx = static_cast<int>(std::ceil((region.bounds.max().x() - grid.origin.x()) / s));
+  grid.gy = static_cast<int>(std::ceil((region.bounds.max().y() - grid.origin.y()) / s));
+  grid.state.assign(grid.size(), kOutside);
+  for (int j = 0; j < grid.gy; ++j) {
+    for (int i = 0; i < grid.gx; ++i) {
+      const Eigen::Vector2d xy = grid.origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
       if (region.Contains(xy)) {
-        state[static_cast<std::size_t>(j) * gx + i] = kNoViews;
-        ++summary.num_cells;
+        grid.state[static_cast<std::size_t>(j) * grid.gx + i] = kNoViews;
+        ++*num_cells;
       }
     }
   }
+  return grid;
+}
 
-  // Tiles that hold cells of the region.
-  const int T = o.tile_cells;
-  struct Tile {
-    int i0, j0, nx, ny;
-    TileViews views;
-  };
+// A tile of at most tile_cells × tile_cells cells, matched as one: its cells (i0, j0) ..
+// (i0 + nx − 1, j0 + ny − 1) and the views that match them.
+struct Tile {
+  int i0, j0, nx, ny;
+  TileViews views;
+};
+
+// The tiles that hold cells of the region.
+std::vector<Tile> MakeTiles(const CellGrid& grid, int tile_cells) {
+  const int T = tile_cells;
   std::vector<Tile> tiles;
-  for (int j0 = 0; j0 < gy; j0 += T) {
-    for (int i0 = 0; i0 < gx; i0 += T) {
-      Tile tile{i0, j0, std::min(T, gx - i0), std::min(T, gy - j0), {}};
+  for (int j0 = 0; j0 < grid.gy; j0 += T) {
+    for (int i0 = 0; i0 < grid.gx; i0 += T) {
+      Tile tile{i0, j0, std::min(T, grid.gx - i0), std::min(T, grid.gy - j0), {}};
       bool any = false;
       for (int j = j0; j < j0 + tile.ny && !any; ++j) {
         for (int i = i0; i < i0 + tile.nx && !any; ++i) {
-          any = state[static_cast<std::size_t>(j) * gx + i] != kOutside;
+          any = grid.state[static_cast<std::size_t>(j) * grid.gx + i] != kOutside;
         }
       }
       if (any) tiles.push_back(tile);
     }
   }
-  summary.num_tiles = static_cast<int>(tiles.size());
+  return tiles;
+}
 
+std::vector<ViewGeometry> MakeViewGeometry(const std::vector<DenseView>& views) {
   std::vector<ViewGeometry> geometry(views.size());
   for (std::size_t v = 0; v < views.size(); ++v) {
     geometry[v].camera_from_world = views[v].world_from_camera.RotationMatrix().transpose();
     geometry[v].center = views[v].world_from_camera.translation();
   }
+  return geometry;
+}
 
-  // View selection per tile, from the poses alone.
+// The views of a tile, from the poses alone: those that see the tile's ground corners (with a
+// margin), at most max_view_distance_m away. The references are the most top-down view and the
+// next most top-down one at least min_reference_separation_m from it; the others are chosen
+// greedily for parallax. No views when fewer than min_views besides a reference are found.
+TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camera,
+                          const std::vector<ViewGeometry>& geometry, const CellGrid& grid,
+                          const GroundLevels& ground, const Tile& tile) {
+  const double s = grid.s;
   const double margin = o.image_margin_px + o.patch_radius;
-  tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
-    Tile& tile = tiles[t];
-    const Eigen::Vector2d lo = grid_origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
-    const Eigen::Vector2d hi = lo + Eigen::Vector2d(tile.nx, tile.ny) * s;
-    const Eigen::Vector2d mid = 0.5 * (lo + hi);
-    const Eigen::Vector3d center(mid.x(), mid.y(), ground.At(mid.x(), mid.y()));
-    std::vector<Eigen::Vector3d> corners;
-    for (const Eigen::Vector2d& c :
-         {lo, Eigen::Vector2d(hi.x(), lo.y()), Eigen::Vector2d(lo.x(), hi.y()), hi}) {
-      corners.emplace_back(c.x(), c.y(), ground.At(c.x(), c.y()));
+  const Eigen::Vector2d lo = grid.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
+  const Eigen::Vector2d hi = lo + Eigen::Vector2d(tile.nx, tile.ny) * s;
+  const Eigen::Vector2d mid = 0.5 * (lo + hi);
+  const Eigen::Vector3d center(mid.x(), mid.y(), ground.At(mid.x(), mid.y()));
+  std::vector<Eigen::Vector3d> corners;
+  for (const Eigen::Vector2d& c :
+       {lo, Eigen::Vector2d(hi.x(), lo.y()), Eigen::Vector2d(lo.x(), hi.y()), hi}) {
+    corners.emplace_back(c.x(), c.y(), ground.At(c.x(), c.y()));
+  }
+  struct Candidate {
+    int view;
+    Eigen::Vector2d parallax;  // (camera xy − point xy) / (camera z − point z)
+  };
+  std::vector<Candidate> candidates;
+  for (std::size_t v = 0; v < geometry.size(); ++v) {
+    const ViewGeometry& g = geometry[v];
+    const Eigen::Vector3d d = g.center - center;
+    if (d.norm() > o.max_view_distance_m || d.z() < 0.2) continue;
+    bool inside = true;
+    for (const Eigen::Vector3d& c : corners) {
+      Eigen::Vector2d pixel;
+      inside = inside && camera.Project(g.camera_from_world * (c - g.center), &pixel) &&
+               camera.IsInImage(pixel, margin);
     }
-    struct Candidate {
-      int view;
-      Eigen::Vector2d parallax;  // (camera xy − point xy) / (camera z − point z)
-    };
-    std::vector<Candidate> candidates;
-    for (std::size_t v = 0; v < views.size(); ++v) {
-      const ViewGeometry& g = geometry[v];
-      const Eigen::Vector3d d = g.center - center;
-      if (d.norm() > o.max_view_distance_m || d.z() < 0.2) continue;
-      bool inside = true;
-      for (const Eigen::Vector3d& c : corners) {
-        Eigen::Vector2d pixel;
-        inside = inside && camera.Project(g.camera_from_world * (c - g.center), &pixel) &&
-                 camera.IsInImage(pixel, margin);
-      }
-      if (inside) candidates.push_back({static_cast<int>(v), d.head<2>() / d.z()});
-    }
-    if (candidates.size() < 2) return;
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-      const double na = a.parallax.squaredNorm(), nb = b.parallax.squaredNorm();
-      return na != nb ? na < nb : a.view < b.view;
-    });
-    std::vector<Candidate> chosen{candidates[0]};
-    std::vector<char> used(candidates.size(), 0);
-    used[0] = 1;
-    for (std::size_t k = 1; k < candidates.size(); ++k) {
-      if ((geometry[candidates[k].view].center - geometry[candidates[0].view].center).norm() >=
-          o.min_reference_separation_m) {
-        chosen.push_back(candidates[k]);
-        used[k] = 1;
-        break;
-      }
-    }
-    tile.views.num_references = static_cast<int>(chosen.size());
-    // The others: greedily the candidate farthest (in parallax) from those chosen, distances
-    // capped so that beyond a useful parallax the more top-down (sharper) view wins.
-    constexpr double kParallaxCap = 0.3;
-    constexpr double kTopDownWeight = 0.5;
-    while (static_cast<int>(chosen.size()) < o.max_views) {
-      double best = -1e9;
-      int best_k = -1;
-      for (std::size_t k = 0; k < candidates.size(); ++k) {
-        if (used[k]) continue;
-        double nearest = 1e9;
-        for (const Candidate& c : chosen) {
-          nearest = std::min(nearest, (candidates[k].parallax - c.parallax).norm());
-        }
-        const double score =
-            std::min(nearest, kParallaxCap) - kTopDownWeight * candidates[k].parallax.norm();
-        if (score > best) {
-          best = score;
-          best_k = static_cast<int>(k);
-        }
-      }
-      if (best_k < 0) break;
-      used[best_k] = 1;
-      chosen.push_back(candidates[best_k]);
-    }
-    for (const Candidate& c : chosen) tile.views.views.push_back(c.view);
-    if (static_cast<int>(tile.views.views.size()) - 1 < o.min_views) tile.views = {};
+    if (inside) candidates.push_back({static_cast<int>(v), d.head<2>() / d.z()});
+  }
+  if (candidates.size() < 2) return {};
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+    const double na = a.parallax.squaredNorm(), nb = b.parallax.squaredNorm();
+    return na != nb ? na < nb : a.view < b.view;
   });
+  std::vector<Candidate> chosen{candidates[0]};
+  std::vector<char> used(candidates.size(), 0);
+  used[0] = 1;
+  for (std::size_t k = 1; k < candidates.size(); ++k) {
+    if ((geometry[candidates[k].view].center - geometry[candidates[0].view].center).norm() >=
+        o.min_reference_separation_m) {
+      chosen.push_back(candidates[k]);
+      used[k] = 1;
+      break;
+    }
+  }
+  TileViews views;
+  views.num_references = static_cast<int>(chosen.size());
+  // The others: greedily the candidate farthest (in parallax) from those chosen, distances
+  // capped so that beyond a useful parallax the more top-down (sharper) view wins.
+  constexpr double kParallaxCap = 0.3;
+  constexpr double kTopDownWeight = 0.5;
+  while (static_cast<int>(chosen.size()) < o.max_views) {
+    double best = -1e9;
+    int best_k = -1;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+      if (used[k]) continue;
+      double nearest = 1e9;
+      for (const Candidate& c : chosen) {
+        nearest = std::min(nearest, (candidates[k].parallax - c.parallax).norm());
+      }
+      const double score =
+          std::min(nearest, kParallaxCap) - kTopDownWeight * candidates[k].parallax.norm();
+      if (score > best) {
+        best = score;
+        best_k = static_cast<int>(k);
+      }
+    }
+    if (best_k < 0) break;
+    used[best_k] = 1;
+    chosen.push_back(candidates[best_k]);
+  }
+  for (const Candidate& c : chosen) views.views.push_back(c.view);
+  if (static_cast<int>(views.views.size()) - 1 < o.min_views) views = {};
+  return views;
+}
 
-  // Load the selected images.
-  const Clock::time_point load_start = Clock::now();
+// Loads and prepares the images that some tile selected (in colour where a tile uses one as a
+// reference); drops unreadable ones from the tiles (and a tile's views when too few are left).
+std::vector<ViewImage> LoadTileImages(const Options& o, const geometry::PinholeRadTan& camera,
+                                      const Rectification& rect,
+                                      const std::vector<DenseView>& views,
+                                      const HeightFieldStereo::ImageLoader& load,
+                                      std::vector<Tile>* tiles, Summary* summary) {
   std::vector<char> needed(views.size(), 0), colour(views.size(), 0);
   double view_sum = 0;
-  for (const Tile& tile : tiles) {
+  for (const Tile& tile : *tiles) {
     for (std::size_t k = 0; k < tile.views.views.size(); ++k) {
       needed[tile.views.views[k]] = 1;
       if (static_cast<int>(k) < tile.views.num_references) colour[tile.views.views[k]] = 1;
     }
     view_sum += static_cast<double>(tile.views.views.size());
   }
-  summary.mean_views_per_tile = tiles.empty() ? 0 : view_sum / static_cast<double>(tiles.size());
+  summary->mean_views_per_tile = tiles->empty() ? 0 : view_sum / static_cast<double>(tiles->size());
   std::vector<int> to_load;
   for (std::size_t v = 0; v < views.size(); ++v) {
     if (needed[v]) to_load.push_back(static_cast<int>(v));
   }
   std::vector<ViewImage> images(views.size());
-  const Rectification rect = MakeRectification(
-      camera, static_cast<int>(std::ceil(2 * std::max(0.0, o.highpass_sigma_px))) + 1);
   {
     std::unique_ptr<Progress> progress;
     if (o.show_progress)
@@ -706,15 +747,15 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
       if (progress) progress->Add();
     });
   }
-  summary.num_images_used = static_cast<int>(to_load.size());
+  summary->num_images_used = static_cast<int>(to_load.size());
   for (int v : to_load) {
     if (!images[v].ok) {
-      ++summary.num_images_failed;
+      ++summary->num_images_failed;
       spdlog::warn("densify: image {} could not be read or has the wrong size; not used",
                    views[v].name);
     }
   }
-  for (Tile& tile : tiles) {
+  for (Tile& tile : *tiles) {
     TileViews kept;
     for (std::size_t k = 0; k < tile.views.views.size(); ++k) {
       if (!images[tile.views.views[k]].ok) continue;
@@ -726,342 +767,457 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
     }
     tile.views = kept;
   }
-  summary.load_seconds = SecondsSince(load_start);
+  return images;
+}
 
-  // The sweeps, tile by tile.
-  const Clock::time_point match_start = Clock::now();
-  const Sweeper sweeper(o, rect, geometry, images);
-  std::vector<float> height(num_grid, std::numeric_limits<float>::quiet_NaN());
-  std::vector<float> score(num_grid, 0.0f), unique(num_grid, 0.0f);
-  std::vector<std::uint8_t> num_views(num_grid, 0);
-  std::vector<std::array<std::uint8_t, 3>> rgb(num_grid, {0, 0, 0});
-  std::vector<int> reference_of(num_grid, -1);
-  std::vector<std::uint8_t> on_top_surface(num_grid, 0);
+// What the sweeps found per cell of the grid (beside CellGrid::state; set for kept cells).
+struct CellResults {
+  std::vector<float> height, score, unique;
+  std::vector<std::uint8_t> num_views;
+  std::vector<std::array<std::uint8_t, 3>> rgb;
+  std::vector<int> reference_of;
+  std::vector<std::uint8_t> on_top_surface;
   // |height of reference 1 alone − height of reference 2 alone| (−1: one of them did not score).
-  std::vector<float> disagreement(num_grid, -1.0f);
+  std::vector<float> disagreement;
+
+  explicit CellResults(std::size_t n)
+      : height(n, std::numeric_limits<float>::quiet_NaN()),
+        score(n, 0.0f),
+        unique(n, 0.0f),
+        num_views(n, 0),
+        rgb(n, {0, 0, 0}),
+        reference_of(n, -1),
+        on_top_surface(n, 0),
+        disagreement(n, -1.0f) {}
+};
+
+// Per cell of a tile, two candidate surfaces from the coarse sweep: [0] the best coarse peak,
+// [1] the top surface (a peak above it, see Options::top_surface_margin; the best where there
+// is none).
+struct CoarseSurfaces {
+  std::vector<float> z[2], score[2], uniqueness[2], refdiff[2];
+  std::vector<char> inconsistent[2];
+  std::vector<char> top_surface;  // the two differ
+};
+
+// A cell's fine result from one candidate surface.
+struct FineResult {
+  CellState state = kNoViews;
+  double z = 0;
+  float score = 0;
+  int reference = -1;  // view index
+  std::uint8_t num_views = 0;
+  std::array<std::uint8_t, 3> rgb{0, 0, 0};
+};
+
+// Matches the tiles one at a time (Match is called in parallel on different tiles): a coarse
+// sweep over the whole height range finds each cell's candidate surfaces, a fine sweep around
+// them refines them, and the tile's cells of the grid receive the results.
+class TileMatcher {
+ public:
+  TileMatcher(const Options& o, const geometry::PinholeRadTan& camera, const GroundLevels& ground,
+              const std::vector<ViewGeometry>& geometry, const std::vector<ViewImage>& images,
+              const Sweeper& sweeper, CellGrid* grid, CellResults* cells)
+      : o_(o),
+        camera_(camera),
+        ground_(ground),
+        geometry_(geometry),
+        images_(images),
+        sweeper_(sweeper),
+        grid_(*grid),
+        cells_(*cells),
+        exclusion_(std::max(1, static_cast<int>(std::lround(0.02 / o.coarse_step_m)))) {}
+
+  void Match(const Tile& tile) const;
+
+ private:
+  CoarseSurfaces FindCoarseSurfaces(const Tile& tile, const Eigen::Vector2d& lo,
+                                    const SweepVolume& cv,
+                                    const std::vector<float>& coarse_levels) const;
+  int FindTopSurface(const Tile& tile, const Eigen::Vector2d& lo, const SweepVolume& cv,
+                     const std::vector<float>& coarse_levels, int c, int best) const;
+  void FineSweep(const Tile& tile, const CoarseSurfaces& coarse, const SweepVolume& cv, int k,
+                 const SampleGrid& fine, const std::vector<float>& fine_offsets, float tile_median,
+                 std::vector<float>* window, std::vector<FineResult>* results) const;
+  void StoreTile(const Tile& tile, const CoarseSurfaces& coarse,
+                 const std::vector<FineResult>& fine_best,
+                 const std::vector<FineResult>& fine_top) const;
+
+  const Options& o_;
+  const geometry::PinholeRadTan& camera_;
+  const GroundLevels& ground_;
+  const std::vector<ViewGeometry>& geometry_;
+  const std::vector<ViewImage>& images_;
+  const Sweeper& sweeper_;
+  CellGrid& grid_;
+  CellResults& cells_;
+  // Levels closer than 2 cm to a peak belong to it (uniqueness, top surface, cross-check).
+  const int exclusion_;
+};
+
+void TileMatcher::Match(const Tile& tile) const {
+  if (tile.views.views.empty()) return;
+  const Options& o = o_;
+  const double s = grid_.s;
   const int r = o.patch_radius;
-  std::unique_ptr<Progress> progress;
-  if (o.show_progress)
-    progress = std::make_unique<Progress>("densify: match", tiles.size(), "tile");
-  tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
-    const Tile& tile = tiles[t];
-    if (tile.views.views.empty()) {
-      if (progress) progress->Add();
-      return;
-    }
-    const Eigen::Vector2d lo = grid_origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
-    double ground_lo, ground_hi;
-    ground.Range(Eigen::AlignedBox2d(lo, lo + Eigen::Vector2d(tile.nx, tile.ny) * s), &ground_lo,
-                 &ground_hi);
-    const double z_lo = ground_lo - o.below_ground_m, z_hi = ground_hi + o.max_canopy_height_m;
+  const Eigen::Vector2d lo = grid_.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
+  double ground_lo, ground_hi;
+  ground_.Range(Eigen::AlignedBox2d(lo, lo + Eigen::Vector2d(tile.nx, tile.ny) * s), &ground_lo,
+                &ground_hi);
+  const double z_lo = ground_lo - o.below_ground_m, z_hi = ground_hi + o.max_canopy_height_m;
 
-    // Coarse: every height of the range in steps of coarse_step_m, horizontal patches.
-    SampleGrid grid;
-    grid.spacing = s;
-    grid.r = r;
-    grid.nx = tile.nx + 2 * r;
-    grid.ny = tile.ny + 2 * r;
-    grid.origin = lo + Eigen::Vector2d::Constant((0.5 - r) * s);
-    const int ns = grid.nx * grid.ny;
-    std::vector<float> coarse_levels;
-    for (double z = z_lo; z <= z_hi + 1e-9; z += o.coarse_step_m) {
-      coarse_levels.push_back(static_cast<float>(z));
-    }
-    const SweepVolume cv =
-        sweeper.Run(grid, std::vector<float>(ns, 0.0f), coarse_levels, tile.views);
-    const int fcells_c = tile.nx * tile.ny;
-    // Per cell two candidate surfaces: [0] the best coarse peak, [1] the top surface (a peak
-    // above it, see Options::top_surface_margin; the best where there is none).
-    std::vector<float> coarse_z[2], coarse_score[2], uniqueness[2], refdiff[2];
-    std::vector<char> inconsistent[2];
-    for (int k = 0; k < 2; ++k) {
-      coarse_z[k].assign(fcells_c, std::numeric_limits<float>::quiet_NaN());
-      coarse_score[k].assign(fcells_c, kNoScore);
-      uniqueness[k].assign(fcells_c, 0.0f);
-      refdiff[k].assign(fcells_c, -1.0f);
-      inconsistent[k].assign(fcells_c, 0);
-    }
-    std::vector<char> top_surface(fcells_c, 0);
-    const int exclusion = std::max(1, static_cast<int>(std::lround(0.02 / o.coarse_step_m)));
-    const float* by_reference[2] = {
-        cv.score_by_reference.data(),
-        cv.score_by_reference.data() + static_cast<std::size_t>(cv.levels) * fcells_c};
-    for (int c = 0; c < fcells_c; ++c) {
-      auto at = [&](int l) { return cv.score[static_cast<std::size_t>(l) * fcells_c + c]; };
-      auto ref_at = [&](int ref, int l) {
-        return by_reference[ref][static_cast<std::size_t>(l) * fcells_c + c];
-      };
-      int best = -1;
-      for (int l = 0; l < cv.levels; ++l) {
-        if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
-      }
-      if (best < 0) continue;
-      int top = best;
-      if (o.top_surface_margin > 0 && tile.views.num_references > 1) {
-        const float least = at(best) - static_cast<float>(o.top_surface_margin);
-        const float least_reference = static_cast<float>(o.top_surface_min_reference_score);
-        const Eigen::Vector2d xy = lo + Eigen::Vector2d(c % tile.nx + 0.5, c / tile.nx + 0.5) * s;
-        const double lowest = ground.At(xy.x(), xy.y()) + o.top_surface_min_height_m;
-        for (int l = cv.levels - 2; l > best + exclusion; --l) {
-          if (at(l) < least || at(l) < at(l - 1) || at(l) < at(l + 1)) continue;
-          if (coarse_levels[l] < lowest) break;
-          if (ref_at(0, l) < least_reference || ref_at(1, l) < least_reference) continue;
-          // A leaf: green where both references see it (a soil cell beside a leaf, whose
-          // patch holds the leaf, is not).
-          bool green = true;
-          for (int ref = 0; ref < 2 && green; ++ref) {
-            const int view = tile.views.views[ref];
-            std::array<std::uint8_t, 3> colour;
-            Eigen::Vector2d pixel;
-            green = camera.Project(geometry[view].camera_from_world *
-                                       (Eigen::Vector3d(xy.x(), xy.y(), coarse_levels[l]) -
-                                        geometry[view].center),
-                                   &pixel) &&
-                    images[view].SampleRgb(static_cast<float>(pixel.x()),
-                                           static_cast<float>(pixel.y()), &colour) &&
-                    ExcessGreen(colour) >= o.top_surface_min_excess_green;
-          }
-          if (!green) continue;
-          top = l;
-          break;
-        }
-      }
-      top_surface[c] = top != best;
-      for (int k = 0; k < 2; ++k) {
-        const int peak = k == 0 ? best : top;
-        // Uniqueness: the margin over the best score more than 2 cm away (for a top surface,
-        // the best above it: the surface below it is expected).
-        float second = -1.0f;
-        for (int l = 0; l < cv.levels; ++l) {
-          if (std::abs(l - peak) > exclusion && (peak == best || l > peak)) {
-            second = std::max(second, at(l));
-          }
-        }
-        uniqueness[k][c] = at(peak) - second;
-        coarse_score[k][c] = at(peak);
-        if (tile.views.num_references > 1) {
-          // Each reference alone must find the same height (where both see the cell); for a
-          // top surface, the same height from it up.
-          const int first = peak == best ? 0 : peak - exclusion;
-          int arg[2] = {-1, -1};
-          for (int ref = 0; ref < 2; ++ref) {
-            for (int l = first; l < cv.levels; ++l) {
-              const float v = ref_at(ref, l);
-              if (v > kNoScore && (arg[ref] < 0 || v > ref_at(ref, arg[ref]))) arg[ref] = l;
-            }
-          }
-          if (arg[0] >= 0 && arg[1] >= 0)
-            refdiff[k][c] = static_cast<float>(std::abs(arg[0] - arg[1]) * o.coarse_step_m);
-          if (o.cross_check_m > 0 && arg[0] >= 0 && arg[1] >= 0 &&
-              std::abs(arg[0] - arg[1]) * o.coarse_step_m > o.cross_check_m) {
-            inconsistent[k][c] = 1;
-          }
-        }
-        double offset = 0;
-        if (peak > 0 && peak + 1 < cv.levels && at(peak - 1) > kNoScore &&
-            at(peak + 1) > kNoScore) {
-          offset = ParabolicOffset(at(peak - 1), at(peak), at(peak + 1));
-        }
-        coarse_z[k][c] = static_cast<float>(coarse_levels[peak] + offset * o.coarse_step_m);
-      }
-    }
-    std::vector<float> all, window;
-    for (int c = 0; c < fcells_c; ++c) {
-      if (coarse_score[0][c] >= o.min_score) all.push_back(coarse_z[0][c]);
-    }
-    if (all.empty()) {
-      for (int c = 0; c < fcells_c; ++c) {
-        if (!std::isnan(coarse_z[0][c])) all.push_back(coarse_z[0][c]);
-      }
-    }
-    if (all.empty()) {
-      for (int j = 0; j < tile.ny; ++j) {
-        for (int i = 0; i < tile.nx; ++i) {
-          const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * gx + tile.i0 + i;
-          if (state[g] != kOutside) {
-            state[g] = cv.low_texture[j * tile.nx + i] ? kLowTexture : kNoViews;
-          }
-        }
-      }
-      if (progress) progress->Add();
-      return;
-    }
-    const float tile_median = Median(&all);
-    SampleGrid fine = grid;
-    const int rf = o.fine_patch_radius;
-    fine.r = rf;
-    fine.nx = tile.nx + 2 * rf;
-    fine.ny = tile.ny + 2 * rf;
-    fine.origin = lo + Eigen::Vector2d::Constant((0.5 - rf) * s);
-    std::vector<float> fine_offsets;
-    const int half_levels = static_cast<int>(std::lround(o.fine_half_range_m / o.fine_step_m));
-    for (int k = -half_levels; k <= half_levels; ++k) {
-      fine_offsets.push_back(static_cast<float>(k * o.fine_step_m));
-    }
-    // A cell's fine result from one candidate surface.
-    struct FineResult {
-      CellState state = kNoViews;
-      double z = 0;
-      float score = 0;
-      int reference = -1;  // view index
-      std::uint8_t num_views = 0;
-      std::array<std::uint8_t, 3> rgb{0, 0, 0};
-    };
-    const int fcells = tile.nx * tile.ny;
-    auto fine_sweep = [&](int k, std::vector<FineResult>* results) {
-      // The surface the fine sweep follows: 3 × 3 median of the confident coarse heights (holes
-      // take their neighbours' median, or the tile's).
-      std::vector<float> base(static_cast<std::size_t>(fine.nx) * fine.ny);
-      for (int b = 0; b < fine.ny; ++b) {
-        for (int a = 0; a < fine.nx; ++a) {
-          const int i = std::clamp(a - rf, 0, tile.nx - 1), j = std::clamp(b - rf, 0, tile.ny - 1);
-          float& out = base[static_cast<std::size_t>(b) * fine.nx + a];
-          window.clear();
-          for (int dj = -1; dj <= 1; ++dj) {
-            for (int di = -1; di <= 1; ++di) {
-              const int ii = i + di, jj = j + dj;
-              if (ii < 0 || jj < 0 || ii >= tile.nx || jj >= tile.ny) continue;
-              const int c = jj * tile.nx + ii;
-              if (coarse_score[k][c] >= o.min_score) window.push_back(coarse_z[k][c]);
-            }
-          }
-          out = window.empty() ? tile_median : Median(&window);
-        }
-      }
-      // Fine: ± fine_half_range_m around that surface.
-      const SweepVolume fv = sweeper.Run(fine, base, fine_offsets, tile.views);
-      results->assign(fcells, FineResult{});
-      for (int j = 0; j < tile.ny; ++j) {
-        for (int i = 0; i < tile.nx; ++i) {
-          const int c = j * tile.nx + i;
-          FineResult& res = (*results)[c];
-          auto at = [&](int l) { return fv.score[static_cast<std::size_t>(l) * fcells + c]; };
-          int best = -1;
-          for (int l = 0; l < fv.levels; ++l) {
-            if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
-          }
-          if (best < 0) {
-            res.state = (fv.low_texture[c] || cv.low_texture[c]) ? kLowTexture : kNoViews;
-            continue;
-          }
-          if (at(best) < o.min_score) {
-            res.state = kLowScore;
-            continue;
-          }
-          if (uniqueness[k][c] < o.min_uniqueness || inconsistent[k][c]) {
-            res.state = kNotUnique;
-            continue;
-          }
-          if (best == 0 || best + 1 == fv.levels || at(best - 1) <= kNoScore ||
-              at(best + 1) <= kNoScore) {
-            res.state = kAtRangeEdge;
-            continue;
-          }
-          const double offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
-          res.state = kKept;
-          res.z = base[static_cast<std::size_t>(j + rf) * fine.nx + i + rf] + fine_offsets[best] +
-                  offset * o.fine_step_m;
-          res.score = at(best);
-          const std::size_t ib = static_cast<std::size_t>(best) * fcells + c;
-          res.num_views = static_cast<std::uint8_t>(fv.num_views[ib] + 1);
-          res.reference = tile.views.views[fv.reference[ib]];
-          const Eigen::Vector2d xy =
-              grid_origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
-          const ViewGeometry& view = geometry[res.reference];
-          Eigen::Vector2d pixel;
-          if (camera.Project(
-                  view.camera_from_world * (Eigen::Vector3d(xy.x(), xy.y(), res.z) - view.center),
-                  &pixel)) {
-            images[res.reference].SampleRgb(static_cast<float>(pixel.x()),
-                                            static_cast<float>(pixel.y()), &res.rgb);
-          }
-        }
-      }
-    };
-    std::vector<FineResult> fine_best, fine_top;
-    fine_sweep(0, &fine_best);
-    if (std::find(top_surface.begin(), top_surface.end(), 1) != top_surface.end()) {
-      // The top surfaces (the best heights elsewhere) make the surface of a second fine sweep.
-      fine_sweep(1, &fine_top);
-    }
-    for (int j = 0; j < tile.ny; ++j) {
-      for (int i = 0; i < tile.nx; ++i) {
-        const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * gx + tile.i0 + i;
-        if (state[g] == kOutside) continue;
-        const int c = j * tile.nx + i;
-        // A top surface where its fine sweep confirms it, still green (a leaf); else the best.
-        int k = 0;
-        if (top_surface[c] && fine_top[c].state == kKept &&
-            ExcessGreen(fine_top[c].rgb) >= o.top_surface_min_excess_green) {
-          k = 1;
-        }
-        const FineResult& res = k == 1 ? fine_top[c] : fine_best[c];
-        state[g] = res.state;
-        if (res.state != kKept) continue;
-        height[g] = static_cast<float>(res.z);
-        score[g] = res.score;
-        unique[g] = uniqueness[k][c];
-        disagreement[g] = refdiff[k][c];
-        num_views[g] = res.num_views;
-        reference_of[g] = res.reference;
-        rgb[g] = res.rgb;
-        on_top_surface[g] = static_cast<std::uint8_t>(k);
-      }
-    }
-    if (progress) progress->Add();
-  });
-  progress.reset();
+  // Coarse: every height of the range in steps of coarse_step_m, horizontal patches.
+  SampleGrid grid;
+  grid.spacing = s;
+  grid.r = r;
+  grid.nx = tile.nx + 2 * r;
+  grid.ny = tile.ny + 2 * r;
+  grid.origin = lo + Eigen::Vector2d::Constant((0.5 - r) * s);
+  const int ns = grid.nx * grid.ny;
+  std::vector<float> coarse_levels;
+  for (double z = z_lo; z <= z_hi + 1e-9; z += o.coarse_step_m) {
+    coarse_levels.push_back(static_cast<float>(z));
+  }
+  const SweepVolume cv =
+      sweeper_.Run(grid, std::vector<float>(ns, 0.0f), coarse_levels, tile.views);
+  const int fcells_c = tile.nx * tile.ny;
+  const CoarseSurfaces coarse = FindCoarseSurfaces(tile, lo, cv, coarse_levels);
 
-  // Visibility: a point must not hide other points from the views they were matched in. Walk
-  // from every kept point towards its reference camera; a kept cell on the way that lies above
-  // the ray blocks it. A false match floating above the soil blocks the reference rays of many
-  // soil points behind it; a real leaf blocks none, since the points behind it were matched in a
-  // reference that sees them.
-  std::vector<std::uint8_t> occluding(num_grid, 0);
-  std::vector<int> blocked_count(num_grid, 0);
-  if (o.max_blocked_rays > 0) {
-    std::vector<std::atomic<int>> blocked(num_grid);
-    for (auto& b : blocked) b.store(0, std::memory_order_relaxed);
-    const double z_top_span = o.max_canopy_height_m + o.below_ground_m + 0.5;
-    tbb::parallel_for(0, gy, [&](int j) {
-      for (int i = 0; i < gx; ++i) {
-        const std::size_t g = static_cast<std::size_t>(j) * gx + i;
-        if (state[g] != kKept || reference_of[g] < 0) continue;
-        const Eigen::Vector3d p(grid_origin.x() + (i + 0.5) * s, grid_origin.y() + (j + 0.5) * s,
-                                height[g]);
-        const Eigen::Vector3d d = geometry[reference_of[g]].center - p;
-        if (d.z() <= 0) continue;
-        // Up to where the ray is above anything that can have been matched.
-        const double t_max = std::min(1.0, z_top_span / d.z());
-        const double horizontal = d.head<2>().norm() * t_max;
-        const int steps = static_cast<int>(horizontal / (0.5 * s));
-        int last = -1;
-        for (int k = 3; k <= steps; ++k) {  // from 1.5 cells away (not the point's own patch)
-          const double t = t_max * k / std::max(1, steps);
-          const Eigen::Vector3d q = p + t * d;
-          const int ci = static_cast<int>(std::floor((q.x() - grid_origin.x()) / s));
-          const int cj = static_cast<int>(std::floor((q.y() - grid_origin.y()) / s));
-          if (ci < 0 || cj < 0 || ci >= gx || cj >= gy) break;
-          const int c = cj * gx + ci;
-          if (c == last) continue;
-          last = c;
-          if (state[c] == kKept && height[c] > q.z() + o.visibility_tolerance_m) {
-            blocked[c].fetch_add(1, std::memory_order_relaxed);
-          }
-        }
-      }
-    });
-    for (std::size_t g = 0; g < num_grid; ++g) {
-      blocked_count[g] = blocked[g].load(std::memory_order_relaxed);
-      if (blocked_count[g] > o.max_blocked_rays) occluding[g] = 1;
-    }
-    for (std::size_t g = 0; g < num_grid; ++g) {
-      if (occluding[g]) state[g] = kOccluding;
+  // The tile's typical height, for cells without a confident coarse height near them: the
+  // median of the confident coarse heights (of all when none is confident).
+  std::vector<float> all, window;
+  for (int c = 0; c < fcells_c; ++c) {
+    if (coarse.score[0][c] >= o.min_score) all.push_back(coarse.z[0][c]);
+  }
+  if (all.empty()) {
+    for (int c = 0; c < fcells_c; ++c) {
+      if (!std::isnan(coarse.z[0][c])) all.push_back(coarse.z[0][c]);
     }
   }
+  if (all.empty()) {
+    for (int j = 0; j < tile.ny; ++j) {
+      for (int i = 0; i < tile.nx; ++i) {
+        const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * grid_.gx + tile.i0 + i;
+        if (grid_.state[g] != kOutside) {
+          grid_.state[g] = cv.low_texture[j * tile.nx + i] ? kLowTexture : kNoViews;
+        }
+      }
+    }
+    return;
+  }
+  const float tile_median = Median(&all);
+  SampleGrid fine = grid;
+  const int rf = o.fine_patch_radius;
+  fine.r = rf;
+  fine.nx = tile.nx + 2 * rf;
+  fine.ny = tile.ny + 2 * rf;
+  fine.origin = lo + Eigen::Vector2d::Constant((0.5 - rf) * s);
+  std::vector<float> fine_offsets;
+  const int half_levels = static_cast<int>(std::lround(o.fine_half_range_m / o.fine_step_m));
+  for (int k = -half_levels; k <= half_levels; ++k) {
+    fine_offsets.push_back(static_cast<float>(k * o.fine_step_m));
+  }
+  std::vector<FineResult> fine_best, fine_top;
+  FineSweep(tile, coarse, cv, 0, fine, fine_offsets, tile_median, &window, &fine_best);
+  if (std::find(coarse.top_surface.begin(), coarse.top_surface.end(), 1) !=
+      coarse.top_surface.end()) {
+    // The top surfaces (the best heights elsewhere) make the surface of a second fine sweep.
+    FineSweep(tile, coarse, cv, 1, fine, fine_offsets, tile_median, &window, &fine_top);
+  }
+  StoreTile(tile, coarse, fine_best, fine_top);
+}
 
-  // Isolated points: fewer than min_neighbours of the 8 neighbours within the tolerance.
-  std::vector<std::uint8_t> isolated(num_grid, 0);
+// Per cell: the best coarse peak and the top surface, each with its score, its uniqueness,
+// whether the two references alone agree on it, and its height refined by a parabola.
+CoarseSurfaces TileMatcher::FindCoarseSurfaces(const Tile& tile, const Eigen::Vector2d& lo,
+                                               const SweepVolume& cv,
+                                               const std::vector<float>& coarse_levels) const {
+  const Options& o = o_;
+  const int exclusion = exclusion_;
+  const int fcells_c = tile.nx * tile.ny;
+  CoarseSurfaces out;
+  for (int k = 0; k < 2; ++k) {
+    out.z[k].assign(fcells_c, std::numeric_limits<float>::quiet_NaN());
+    out.score[k].assign(fcells_c, kNoScore);
+    out.uniqueness[k].assign(fcells_c, 0.0f);
+    out.refdiff[k].assign(fcells_c, -1.0f);
+    out.inconsistent[k].assign(fcells_c, 0);
+  }
+  out.top_surface.assign(fcells_c, 0);
+  const float* by_reference[2] = {
+      cv.score_by_reference.data(),
+      cv.score_by_reference.data() + static_cast<std::size_t>(cv.levels) * fcells_c};
+  for (int c = 0; c < fcells_c; ++c) {
+    auto at = [&](int l) { return cv.score[static_cast<std::size_t>(l) * fcells_c + c]; };
+    auto ref_at = [&](int ref, int l) {
+      return by_reference[ref][static_cast<std::size_t>(l) * fcells_c + c];
+    };
+    int best = -1;
+    for (int l = 0; l < cv.levels; ++l) {
+      if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
+    }
+    if (best < 0) continue;
+    const int top = FindTopSurface(tile, lo, cv, coarse_levels, c, best);
+    out.top_surface[c] = top != best;
+    for (int k = 0; k < 2; ++k) {
+      const int peak = k == 0 ? best : top;
+      // Uniqueness: the margin over the best score more than 2 cm away (for a top surface,
+      // the best above it: the surface below it is expected).
+      float second = -1.0f;
+      for (int l = 0; l < cv.levels; ++l) {
+        if (std::abs(l - peak) > exclusion && (peak == best || l > peak)) {
+          second = std::max(second, at(l));
+        }
+      }
+      out.uniqueness[k][c] = at(peak) - second;
+      out.score[k][c] = at(peak);
+      if (tile.views.num_references > 1) {
+        // Each reference alone must find the same height (where both see the cell); for a
+        // top surface, the same height from it up.
+        const int first = peak == best ? 0 : peak - exclusion;
+        int arg[2] = {-1, -1};
+        for (int ref = 0; ref < 2; ++ref) {
+          for (int l = first; l < cv.levels; ++l) {
+            const float v = ref_at(ref, l);
+            if (v > kNoScore && (arg[ref] < 0 || v > ref_at(ref, arg[ref]))) arg[ref] = l;
+          }
+        }
+        if (arg[0] >= 0 && arg[1] >= 0)
+          out.refdiff[k][c] = static_cast<float>(std::abs(arg[0] - arg[1]) * o.coarse_step_m);
+        if (o.cross_check_m > 0 && arg[0] >= 0 && arg[1] >= 0 &&
+            std::abs(arg[0] - arg[1]) * o.coarse_step_m > o.cross_check_m) {
+          out.inconsistent[k][c] = 1;
+        }
+      }
+      double offset = 0;
+      if (peak > 0 && peak + 1 < cv.levels && at(peak - 1) > kNoScore && at(peak + 1) > kNoScore) {
+        offset = ParabolicOffset(at(peak - 1), at(peak), at(peak + 1));
+      }
+      out.z[k][c] = static_cast<float>(coarse_levels[peak] + offset * o.coarse_step_m);
+    }
+  }
+  return out;
+}
+
+// The coarse level of cell c's top surface: from the top down, the first local peak above the
+// best one (`best`) that scores within top_surface_margin of it, that each reference alone
+// scores at least top_surface_min_reference_score, that lies top_surface_min_height_m above the
+// ground and that is green in both references (a leaf); `best` when there is none.
+int TileMatcher::FindTopSurface(const Tile& tile, const Eigen::Vector2d& lo, const SweepVolume& cv,
+                                const std::vector<float>& coarse_levels, int c, int best) const {
+  const Options& o = o_;
+  if (!(o.top_surface_margin > 0 && tile.views.num_references > 1)) return best;
+  const int fcells_c = tile.nx * tile.ny;
+  const double s = grid_.s;
+  const float* by_reference[2] = {
+      cv.score_by_reference.data(),
+      cv.score_by_reference.data() + static_cast<std::size_t>(cv.levels) * fcells_c};
+  auto at = [&](int l) { return cv.score[static_cast<std::size_t>(l) * fcells_c + c]; };
+  auto ref_at = [&](int ref, int l) {
+    return by_reference[ref][static_cast<std::size_t>(l) * fcells_c + c];
+  };
+  const float least = at(best) - static_cast<float>(o.top_surface_margin);
+  const float least_reference = static_cast<float>(o.top_surface_min_reference_score);
+  const Eigen::Vector2d xy = lo + Eigen::Vector2d(c % tile.nx + 0.5, c / tile.nx + 0.5) * s;
+  const double lowest = ground_.At(xy.x(), xy.y()) + o.top_surface_min_height_m;
+  for (int l = cv.levels - 2; l > best + exclusion_; --l) {
+    if (at(l) < least || at(l) < at(l - 1) || at(l) < at(l + 1)) continue;
+    if (coarse_levels[l] < lowest) break;
+    if (ref_at(0, l) < least_reference || ref_at(1, l) < least_reference) continue;
+    // A leaf: green where both references see it (a soil cell beside a leaf, whose
+    // patch holds the leaf, is not).
+    bool green = true;
+    for (int ref = 0; ref < 2 && green; ++ref) {
+      const int view = tile.views.views[ref];
+      std::array<std::uint8_t, 3> colour;
+      Eigen::Vector2d pixel;
+      green = camera_.Project(
+                  geometry_[view].camera_from_world *
+                      (Eigen::Vector3d(xy.x(), xy.y(), coarse_levels[l]) - geometry_[view].center),
+                  &pixel) &&
+              images_[view].SampleRgb(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()),
+                                      &colour) &&
+              ExcessGreen(colour) >= o.top_surface_min_excess_green;
+    }
+    if (!green) continue;
+    return l;
+  }
+  return best;
+}
+
+// The fine sweep that follows candidate surface k ± fine_half_range_m, and per cell its
+// outcome: kept with the refined height, score, reference and colour, or why not.
+void TileMatcher::FineSweep(const Tile& tile, const CoarseSurfaces& coarse, const SweepVolume& cv,
+                            int k, const SampleGrid& fine, const std::vector<float>& fine_offsets,
+                            float tile_median, std::vector<float>* window,
+                            std::vector<FineResult>* results) const {
+  const Options& o = o_;
+  const double s = grid_.s;
+  const int rf = fine.r;
+  const int fcells = tile.nx * tile.ny;
+  // The surface the fine sweep follows: 3 × 3 median of the confident coarse heights (holes
+  // take their neighbours' median, or the tile's).
+  std::vector<float> base(static_cast<std::size_t>(fine.nx) * fine.ny);
+  for (int b = 0; b < fine.ny; ++b) {
+    for (int a = 0; a < fine.nx; ++a) {
+      const int i = std::clamp(a - rf, 0, tile.nx - 1), j = std::clamp(b - rf, 0, tile.ny - 1);
+      float& out = base[static_cast<std::size_t>(b) * fine.nx + a];
+      window->clear();
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= tile.nx || jj >= tile.ny) continue;
+          const int c = jj * tile.nx + ii;
+          if (coarse.score[k][c] >= o.min_score) window->push_back(coarse.z[k][c]);
+        }
+      }
+      out = window->empty() ? tile_median : Median(window);
+    }
+  }
+  // Fine: ± fine_half_range_m around that surface.
+  const SweepVolume fv = sweeper_.Run(fine, base, fine_offsets, tile.views);
+  results->assign(fcells, FineResult{});
+  for (int j = 0; j < tile.ny; ++j) {
+    for (int i = 0; i < tile.nx; ++i) {
+      const int c = j * tile.nx + i;
+      FineResult& res = (*results)[c];
+      auto at = [&](int l) { return fv.score[static_cast<std::size_t>(l) * fcells + c]; };
+      int best = -1;
+      for (int l = 0; l < fv.levels; ++l) {
+        if (at(l) > kNoScore && (best < 0 || at(l) > at(best))) best = l;
+      }
+      if (best < 0) {
+        res.state = (fv.low_texture[c] || cv.low_texture[c]) ? kLowTexture : kNoViews;
+        continue;
+      }
+      if (at(best) < o.min_score) {
+        res.state = kLowScore;
+        continue;
+      }
+      if (coarse.uniqueness[k][c] < o.min_uniqueness || coarse.inconsistent[k][c]) {
+        res.state = kNotUnique;
+        continue;
+      }
+      if (best == 0 || best + 1 == fv.levels || at(best - 1) <= kNoScore ||
+          at(best + 1) <= kNoScore) {
+        res.state = kAtRangeEdge;
+        continue;
+      }
+      const double offset = ParabolicOffset(at(best - 1), at(best), at(best + 1));
+      res.state = kKept;
+      res.z = base[static_cast<std::size_t>(j + rf) * fine.nx + i + rf] + fine_offsets[best] +
+              offset * o.fine_step_m;
+      res.score = at(best);
+      const std::size_t ib = static_cast<std::size_t>(best) * fcells + c;
+      res.num_views = static_cast<std::uint8_t>(fv.num_views[ib] + 1);
+      res.reference = tile.views.views[fv.reference[ib]];
+      const Eigen::Vector2d xy =
+          grid_.origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
+      const ViewGeometry& view = geometry_[res.reference];
+      Eigen::Vector2d pixel;
+      if (camera_.Project(
+              view.camera_from_world * (Eigen::Vector3d(xy.x(), xy.y(), res.z) - view.center),
+              &pixel)) {
+        images_[res.reference].SampleRgb(static_cast<float>(pixel.x()),
+                                         static_cast<float>(pixel.y()), &res.rgb);
+      }
+    }
+  }
+}
+
+// Writes the tile's cells: the top surface where its fine sweep confirms it and it is still
+// green (a leaf), else the best surface.
+void TileMatcher::StoreTile(const Tile& tile, const CoarseSurfaces& coarse,
+                            const std::vector<FineResult>& fine_best,
+                            const std::vector<FineResult>& fine_top) const {
+  for (int j = 0; j < tile.ny; ++j) {
+    for (int i = 0; i < tile.nx; ++i) {
+      const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * grid_.gx + tile.i0 + i;
+      if (grid_.state[g] == kOutside) continue;
+      const int c = j * tile.nx + i;
+      int k = 0;
+      if (coarse.top_surface[c] && fine_top[c].state == kKept &&
+          ExcessGreen(fine_top[c].rgb) >= o_.top_surface_min_excess_green) {
+        k = 1;
+      }
+      const FineResult& res = k == 1 ? fine_top[c] : fine_best[c];
+      grid_.state[g] = res.state;
+      if (res.state != kKept) continue;
+      cells_.height[g] = static_cast<float>(res.z);
+      cells_.score[g] = res.score;
+      cells_.unique[g] = coarse.uniqueness[k][c];
+      cells_.disagreement[g] = coarse.refdiff[k][c];
+      cells_.num_views[g] = res.num_views;
+      cells_.reference_of[g] = res.reference;
+      cells_.rgb[g] = res.rgb;
+      cells_.on_top_surface[g] = static_cast<std::uint8_t>(k);
+    }
+  }
+}
+
+// Visibility: a point must not hide other points from the views they were matched in. Walk
+// from every kept point towards its reference camera; a kept cell on the way that lies above
+// the ray blocks it. A false match floating above the soil blocks the reference rays of many
+// soil points behind it; a real leaf blocks none, since the points behind it were matched in a
+// reference that sees them. Cells that block more than max_blocked_rays become kOccluding.
+void MarkOccluding(const Options& o, const std::vector<ViewGeometry>& geometry,
+                   const CellResults& cells, CellGrid* cell_grid) {
+  if (!(o.max_blocked_rays > 0)) return;
+  const Eigen::Vector2d& grid_origin = cell_grid->origin;
+  const double s = cell_grid->s;
+  const int gx = cell_grid->gx, gy = cell_grid->gy;
+  const std::size_t num_grid = cell_grid->size();
+  std::vector<std::uint8_t>& state = cell_grid->state;
+  const std::vector<float>& height = cells.height;
+  std::vector<std::uint8_t> occluding(num_grid, 0);
+  std::vector<int> blocked_count(num_grid, 0);
+  std::vector<std::atomic<int>> blocked(num_grid);
+  for (auto& b : blocked) b.store(0, std::memory_order_relaxed);
+  const double z_top_span = o.max_canopy_height_m + o.below_ground_m + 0.5;
+  tbb::parallel_for(0, gy, [&](int j) {
+    for (int i = 0; i < gx; ++i) {
+      const std::size_t g = static_cast<std::size_t>(j) * gx + i;
+      if (state[g] != kKept || cells.reference_of[g] < 0) continue;
+      const Eigen::Vector3d p(grid_origin.x() + (i + 0.5) * s, grid_origin.y() + (j + 0.5) * s,
+                              height[g]);
+      const Eigen::Vector3d d = geometry[cells.reference_of[g]].center - p;
+      if (d.z() <= 0) continue;
+      // Up to where the ray is above anything that can have been matched.
+      const double t_max = std::min(1.0, z_top_span / d.z());
+      const double horizontal = d.head<2>().norm() * t_max;
+      const int steps = static_cast<int>(horizontal / (0.5 * s));
+      int last = -1;
+      for (int k = 3; k <= steps; ++k) {  // from 1.5 cells away (not the point's own patch)
+        const double t = t_max * k / std::max(1, steps);
+        const Eigen::Vector3d q = p + t * d;
+        const int ci = static_cast<int>(std::floor((q.x() - grid_origin.x()) / s));
+        const int cj = static_cast<int>(std::floor((q.y() - grid_origin.y()) / s));
+        if (ci < 0 || cj < 0 || ci >= gx || cj >= gy) break;
+        const int c = cj * gx + ci;
+        if (c == last) continue;
+        last = c;
+        if (state[c] == kKept && height[c] > q.z() + o.visibility_tolerance_m) {
+          blocked[c].fetch_add(1, std::memory_order_relaxed);
+        }
+      }
+    }
+  });
+  for (std::size_t g = 0; g < num_grid; ++g) {
+    blocked_count[g] = blocked[g].load(std::memory_order_relaxed);
+    if (blocked_count[g] > o.max_blocked_rays) occluding[g] = 1;
+  }
+  for (std::size_t g = 0; g < num_grid; ++g) {
+    if (occluding[g]) state[g] = kOccluding;
+  }
+}
+
+// Isolated points: kept cells with fewer than min_neighbours of the 8 neighbours within
+// neighbour_tolerance_m (1 per such cell).
+std::vector<std::uint8_t> FindIsolated(const Options& o, const CellGrid& grid,
+                                       const std::vector<float>& height) {
+  const int gx = grid.gx, gy = grid.gy;
+  const std::vector<std::uint8_t>& state = grid.state;
+  std::vector<std::uint8_t> isolated(grid.size(), 0);
   tbb::parallel_for(0, gy, [&](int j) {
     for (int i = 0; i < gx; ++i) {
       const std::size_t g = static_cast<std::size_t>(j) * gx + i;
@@ -1080,78 +1236,107 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
       if (agree < o.min_neighbours) isolated[g] = 1;
     }
   });
-  // Islands: connected sets of kept cells (8-neighbours within neighbour_tolerance_m) smaller
-  // than island_area_m2. A plant's top leaf is often one; so is a false match (the size of a
-  // matching window). The false ones float where the two references, each alone, disagree:
-  // island points whose references' heights differ by more than island_max_disagreement_m go.
+  return isolated;
+}
+
+// Islands: connected sets of kept, not isolated cells (8-neighbours within
+// neighbour_tolerance_m) smaller than island_area_m2. A plant's top leaf is often one; so is a
+// false match (the size of a matching window).
+std::vector<std::vector<std::size_t>> FindIslands(const Options& o, const CellGrid& grid,
+                                                  const std::vector<float>& height,
+                                                  const std::vector<std::uint8_t>& isolated) {
   std::vector<std::vector<std::size_t>> islands;
-  if (o.island_area_m2 > 0) {
-    const int min_cells = static_cast<int>(std::ceil(o.island_area_m2 / (s * s)));
-    std::vector<int> label(num_grid, -1);
-    std::vector<std::size_t> stack, members;
-    for (std::size_t start_cell = 0; start_cell < num_grid; ++start_cell) {
-      if (state[start_cell] != kKept || isolated[start_cell] || label[start_cell] >= 0) continue;
-      members.clear();
-      stack.assign(1, start_cell);
-      label[start_cell] = 1;
-      while (!stack.empty()) {
-        const std::size_t g = stack.back();
-        stack.pop_back();
-        members.push_back(g);
-        const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
-        for (int dj = -1; dj <= 1; ++dj) {
-          for (int di = -1; di <= 1; ++di) {
-            const int ii = i + di, jj = j + dj;
-            if (ii < 0 || jj < 0 || ii >= gx || jj >= gy) continue;
-            const std::size_t n = static_cast<std::size_t>(jj) * gx + ii;
-            if (label[n] >= 0 || state[n] != kKept || isolated[n] ||
-                std::abs(height[n] - height[g]) > o.neighbour_tolerance_m) {
-              continue;
-            }
-            label[n] = 1;
-            stack.push_back(n);
+  if (!(o.island_area_m2 > 0)) return islands;
+  const double s = grid.s;
+  const int gx = grid.gx, gy = grid.gy;
+  const std::size_t num_grid = grid.size();
+  const std::vector<std::uint8_t>& state = grid.state;
+  const int min_cells = static_cast<int>(std::ceil(o.island_area_m2 / (s * s)));
+  std::vector<int> label(num_grid, -1);
+  std::vector<std::size_t> stack, members;
+  for (std::size_t start_cell = 0; start_cell < num_grid; ++start_cell) {
+    if (state[start_cell] != kKept || isolated[start_cell] || label[start_cell] >= 0) continue;
+    members.clear();
+    stack.assign(1, start_cell);
+    label[start_cell] = 1;
+    while (!stack.empty()) {
+      const std::size_t g = stack.back();
+      stack.pop_back();
+      members.push_back(g);
+      const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const int ii = i + di, jj = j + dj;
+          if (ii < 0 || jj < 0 || ii >= gx || jj >= gy) continue;
+          const std::size_t n = static_cast<std::size_t>(jj) * gx + ii;
+          if (label[n] >= 0 || state[n] != kKept || isolated[n] ||
+              std::abs(height[n] - height[g]) > o.neighbour_tolerance_m) {
+            continue;
           }
+          label[n] = 1;
+          stack.push_back(n);
         }
       }
-      if (static_cast<int>(members.size()) < min_cells) {
-        islands.push_back(members);
-      }
+    }
+    if (static_cast<int>(members.size()) < min_cells) {
+      islands.push_back(members);
     }
   }
-  // Each island: its points where the references disagree go; the whole island goes when it
-  // rises more than island_max_rise_m above every other point within island_radius_m (a leaf
-  // does not float high above everything around it; its plant grows from below).
-  {
-    std::vector<std::uint8_t> in_island(num_grid, 0);
-    for (std::size_t k = 0; k < islands.size(); ++k) {
-      for (const std::size_t g : islands[k]) in_island[g] = 1;
+  return islands;
+}
+
+// The false islands float where the two references, each alone, disagree: an island's points
+// whose references' heights differ by more than island_max_disagreement_m become isolated; the
+// whole island does when it rises more than island_max_rise_m above every other point within
+// island_radius_m (a leaf does not float high above everything around it; its plant grows from
+// below).
+void IsolateFalseIslands(const Options& o, const CellGrid& grid, const CellResults& cells,
+                         const std::vector<std::vector<std::size_t>>& islands,
+                         std::vector<std::uint8_t>* isolated) {
+  const double s = grid.s;
+  const int gx = grid.gx, gy = grid.gy;
+  const std::vector<std::uint8_t>& state = grid.state;
+  const std::vector<float>& height = cells.height;
+  std::vector<std::uint8_t> in_island(grid.size(), 0);
+  for (std::size_t k = 0; k < islands.size(); ++k) {
+    for (const std::size_t g : islands[k]) in_island[g] = 1;
+  }
+  const int reach = static_cast<int>(std::ceil(o.island_radius_m / s));
+  for (const std::vector<std::size_t>& island : islands) {
+    float top = -INFINITY;
+    int i0 = gx, i1 = -1, j0 = gy, j1 = -1;
+    for (const std::size_t g : island) {
+      top = std::max(top, height[g]);
+      const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
+      i0 = std::min(i0, i);
+      i1 = std::max(i1, i);
+      j0 = std::min(j0, j);
+      j1 = std::max(j1, j);
     }
-    const int reach = static_cast<int>(std::ceil(o.island_radius_m / s));
-    for (const std::vector<std::size_t>& island : islands) {
-      float top = -INFINITY;
-      int i0 = gx, i1 = -1, j0 = gy, j1 = -1;
-      for (const std::size_t g : island) {
-        top = std::max(top, height[g]);
-        const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
-        i0 = std::min(i0, i);
-        i1 = std::max(i1, i);
-        j0 = std::min(j0, j);
-        j1 = std::max(j1, j);
+    float around = -INFINITY;
+    for (int j = std::max(0, j0 - reach); j <= std::min(gy - 1, j1 + reach); ++j) {
+      for (int i = std::max(0, i0 - reach); i <= std::min(gx - 1, i1 + reach); ++i) {
+        const std::size_t g = static_cast<std::size_t>(j) * gx + i;
+        if (state[g] == kKept && !(*isolated)[g] && !in_island[g])
+          around = std::max(around, height[g]);
       }
-      float around = -INFINITY;
-      for (int j = std::max(0, j0 - reach); j <= std::min(gy - 1, j1 + reach); ++j) {
-        for (int i = std::max(0, i0 - reach); i <= std::min(gx - 1, i1 + reach); ++i) {
-          const std::size_t g = static_cast<std::size_t>(j) * gx + i;
-          if (state[g] == kKept && !isolated[g] && !in_island[g])
-            around = std::max(around, height[g]);
-        }
-      }
-      const bool floating = top > around + o.island_max_rise_m;
-      for (const std::size_t g : island) {
-        if (floating || disagreement[g] > o.island_max_disagreement_m) isolated[g] = 1;
-      }
+    }
+    const bool floating = top > around + o.island_max_rise_m;
+    for (const std::size_t g : island) {
+      if (floating || cells.disagreement[g] > o.island_max_disagreement_m) (*isolated)[g] = 1;
     }
   }
+}
+
+// The kept cells become the cloud's points (with their colour, score, views and uniqueness);
+// the others are counted in the summary by why they were not kept.
+void CollectPoints(const CellResults& cells, const std::vector<std::uint8_t>& isolated,
+                   CellGrid* cell_grid, HeightFieldStereo::Result* result) {
+  Summary& summary = result->summary;
+  const Eigen::Vector2d& grid_origin = cell_grid->origin;
+  const double s = cell_grid->s;
+  const int gx = cell_grid->gx, gy = cell_grid->gy;
+  std::vector<std::uint8_t>& state = cell_grid->state;
   io::PlyScalarField score_field{"score", io::PlyType::kFloat32, {}};
   io::PlyScalarField views_field{"num_views", io::PlyType::kUint8, {}};
   io::PlyScalarField unique_field{"uniqueness", io::PlyType::kFloat32, {}};
@@ -1184,17 +1369,70 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
           break;
       }
       if (state[g] != kKept) continue;
-      summary.num_top_surface += on_top_surface[g];
+      summary.num_top_surface += cells.on_top_surface[g];
       const Eigen::Vector2d xy = grid_origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
-      result.cloud.points.emplace_back(xy.x(), xy.y(), height[g]);
-      result.cloud.colors.push_back(rgb[g]);
-      score_field.values.push_back(score[g]);
-      views_field.values.push_back(num_views[g]);
-      unique_field.values.push_back(unique[g]);
+      result->cloud.points.emplace_back(xy.x(), xy.y(), cells.height[g]);
+      result->cloud.colors.push_back(cells.rgb[g]);
+      score_field.values.push_back(cells.score[g]);
+      views_field.values.push_back(cells.num_views[g]);
+      unique_field.values.push_back(cells.unique[g]);
     }
   }
-  result.cloud.scalars = {std::move(score_field), std::move(views_field), std::move(unique_field)};
-  summary.num_points = static_cast<std::int64_t>(result.cloud.points.size());
+  result->cloud.scalars = {std::move(score_field), std::move(views_field), std::move(unique_field)};
+  summary.num_points = static_cast<std::int64_t>(result->cloud.points.size());
+}
+
+}  // namespace
+
+HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& camera,
+                                                 const std::vector<DenseView>& views,
+                                                 const ImageLoader& load, const DenseRegion& region,
+                                                 const GroundLevels& ground) const {
+  const Clock::time_point start = Clock::now();
+  const Options& o = options_;
+  Result result;
+  Summary& summary = result.summary;
+  summary.num_views = static_cast<int>(views.size());
+  CROP4D_CHECK(camera.Check());
+  if (region.bounds.isEmpty() || !ground.valid() || views.empty()) {
+    summary.total_seconds = SecondsSince(start);
+    return result;
+  }
+  CellGrid grid = MakeCellGrid(o.cell_m, region, &summary.num_cells);
+  std::vector<Tile> tiles = MakeTiles(grid, o.tile_cells);
+  summary.num_tiles = static_cast<int>(tiles.size());
+  const std::vector<ViewGeometry> geometry = MakeViewGeometry(views);
+  tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
+    tiles[t].views = SelectTileViews(o, camera, geometry, grid, ground, tiles[t]);
+  });
+
+  const Clock::time_point load_start = Clock::now();
+  const Rectification rect = MakeRectification(
+      camera, static_cast<int>(std::ceil(2 * std::max(0.0, o.highpass_sigma_px))) + 1);
+  const std::vector<ViewImage> images =
+      LoadTileImages(o, camera, rect, views, load, &tiles, &summary);
+  summary.load_seconds = SecondsSince(load_start);
+
+  // The sweeps, tile by tile.
+  const Clock::time_point match_start = Clock::now();
+  const Sweeper sweeper(o, rect, geometry, images);
+  CellResults cells(grid.size());
+  {
+    const TileMatcher matcher(o, camera, ground, geometry, images, sweeper, &grid, &cells);
+    std::unique_ptr<Progress> progress;
+    if (o.show_progress)
+      progress = std::make_unique<Progress>("densify: match", tiles.size(), "tile");
+    tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
+      matcher.Match(tiles[t]);
+      if (progress) progress->Add();
+    });
+  }
+
+  // The filters, then the cloud.
+  MarkOccluding(o, geometry, cells, &grid);
+  std::vector<std::uint8_t> isolated = FindIsolated(o, grid, cells.height);
+  IsolateFalseIslands(o, grid, cells, FindIslands(o, grid, cells.height, isolated), &isolated);
+  CollectPoints(cells, isolated, &grid, &result);
   summary.match_seconds = SecondsSince(match_start);
   summary.total_seconds = SecondsSince(start);
   return result;

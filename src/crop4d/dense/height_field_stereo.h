@@ -53,6 +53,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/dense/ground_levels.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
@@ -178,7 +179,7 @@ class HeightFieldStereo {
     // Progress bars while loading and matching.
     bool show_progress = true;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   struct Summary {

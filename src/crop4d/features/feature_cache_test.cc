@@ -7,6 +7,8 @@
 #include <fstream>
 #include <random>
 
+#include "crop4d/core/file_bytes_test_util.h"
+
 namespace crop4d::features {
 namespace {
 
@@ -44,14 +46,8 @@ class FeatureCacheTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  std::string ReadBytes() const {
-    std::ifstream in(path_, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  }
-  void WriteBytes(const std::string& bytes) const {
-    std::ofstream out(path_, std::ios::binary | std::ios::trunc);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  }
+  std::string ReadBytes() const { return crop4d::testing::ReadFileBytes(path_); }
+  void WriteBytes(const std::string& bytes) const { crop4d::testing::WriteFileBytes(path_, bytes); }
 
   fs::path dir_;
   std::string path_;

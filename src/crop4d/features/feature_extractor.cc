@@ -93,10 +93,19 @@ bool FeatureSet::IsConsistent() const {
          colors.size() == keypoints.size();
 }
 
-bool FeatureExtractor::Options::Check() const {
-  return max_num_features >= 0 && num_octave_layers >= 1 && contrast_threshold > 0 &&
-         edge_threshold > 0 && sigma > 0 && max_image_size >= 0 && spatial_grid_cells >= 0 &&
-         std::isfinite(contrast_threshold) && std::isfinite(edge_threshold) && std::isfinite(sigma);
+OptionCheck FeatureExtractor::Options::Check() const {
+  OptionChecker c;
+  c.AtLeast("max_num_features", max_num_features, 0)
+      .AtLeast("num_octave_layers", num_octave_layers, 1)
+      .Greater("contrast_threshold", contrast_threshold, 0.0)
+      .Finite("contrast_threshold", contrast_threshold)
+      .Greater("edge_threshold", edge_threshold, 0.0)
+      .Finite("edge_threshold", edge_threshold)
+      .Greater("sigma", sigma, 0.0)
+      .Finite("sigma", sigma)
+      .AtLeast("max_image_size", max_image_size, 0)
+      .AtLeast("spatial_grid_cells", spatial_grid_cells, 0);
+  return c.Result();
 }
 
 std::uint64_t FeatureExtractor::Options::Hash() const {
@@ -115,7 +124,7 @@ std::uint64_t FeatureExtractor::Options::Hash() const {
 }
 
 FeatureExtractor::FeatureExtractor(Options options) : options_(std::move(options)) {
-  CROP4D_CHECK_MSG(options_.Check(), "invalid FeatureExtractor::Options");
+  CROP4D_CHECK_OPTIONS(options_, "FeatureExtractor::Options");
 }
 
 FeatureSet FeatureExtractor::Extract(const cv::Mat& image) const {

@@ -13,6 +13,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace cv {
 class Mat;
 }  // namespace cv
@@ -86,7 +88,7 @@ class FeatureExtractor {
     // low-contrast areas (soil) that the strongest-first rule would leave to the plants.
     int spatial_grid_cells = 0;
 
-    bool Check() const;
+    OptionCheck Check() const;
     // A hash of every field that changes the extracted features, stored in the feature cache
     // so that a cache written with other options is not reused.
     std::uint64_t Hash() const;

@@ -13,6 +13,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
+#include "crop4d/core/task_arena.h"
 
 namespace crop4d::features {
 namespace {
@@ -23,27 +24,22 @@ Progress::Options ProgressOptions(bool show) {
   return options;
 }
 
-// Runs `body` in an arena of `num_threads` threads (0: the default arena).
-template <typename Body>
-void InArena(int num_threads, Body&& body) {
-  if (num_threads <= 0) {
-    body();
-    return;
-  }
-  tbb::task_arena arena(num_threads);
-  arena.execute(body);
-}
-
 }  // namespace
 
-bool FrontEnd::Options::Check() const {
-  return extraction.Check() && matching.Check() && tracks.Check() && num_neighbors >= 1 &&
-         matching_block_size >= 1 && num_threads >= 0;
+OptionCheck FrontEnd::Options::Check() const {
+  OptionChecker c;
+  c.Nested("extraction", extraction.Check())
+      .Nested("matching", matching.Check())
+      .Nested("tracks", tracks.Check())
+      .AtLeast("num_neighbors", num_neighbors, 1)
+      .AtLeast("matching_block_size", matching_block_size, 1)
+      .AtLeast("num_threads", num_threads, 0);
+  return c.Result();
 }
 
 FrontEnd::FrontEnd(Options options, const geometry::PinholeRadTan* camera)
     : options_(std::move(options)), camera_(camera) {
-  CROP4D_CHECK_MSG(options_.Check(), "invalid FrontEnd::Options");
+  CROP4D_CHECK_OPTIONS(options_, "FrontEnd::Options");
   CROP4D_CHECK_MSG(camera_ == nullptr || camera_->Check(), "invalid camera");
 }
 

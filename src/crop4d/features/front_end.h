@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/feature_cache.h"
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/features/matcher.h"
@@ -47,7 +48,7 @@ class FrontEnd {
     // Show progress bars / log lines for the long phases.
     bool show_progress = true;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   struct Summary {

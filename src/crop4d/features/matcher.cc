@@ -12,16 +12,30 @@
 
 namespace crop4d::features {
 
-bool DescriptorMatchOptions::Check() const {
-  return max_ratio > 0 && max_ratio <= 1 && num_trees >= 1 && num_checks >= 1;
+OptionCheck DescriptorMatchOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_ratio", max_ratio, 0.0)
+      .AtMost("max_ratio", max_ratio, 1.0)
+      .AtLeast("num_trees", num_trees, 1)
+      .AtLeast("num_checks", num_checks, 1);
+  return c.Result();
 }
 
-bool EpipolarVerificationOptions::Check() const {
-  return max_error_px > 0 && std::isfinite(max_error_px) && confidence > 0 && confidence < 1 &&
-         max_num_iterations >= 1 && min_num_inliers >= 8;
+OptionCheck EpipolarVerificationOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_error_px", max_error_px, 0.0)
+      .Finite("max_error_px", max_error_px)
+      .Between("confidence", confidence, 0.0, 1.0)
+      .AtLeast("max_num_iterations", max_num_iterations, 1)
+      .AtLeast("min_num_inliers", min_num_inliers, 8);
+  return c.Result();
 }
 
-bool PairMatcher::Options::Check() const { return descriptors.Check() && verification.Check(); }
+OptionCheck PairMatcher::Options::Check() const {
+  OptionChecker c;
+  c.Nested("descriptors", descriptors.Check()).Nested("verification", verification.Check());
+  return c.Result();
+}
 
 std::vector<FeatureMatch> ApplyRatioTest(const std::vector<TwoNearest>& nearest, double max_ratio) {
   std::vector<FeatureMatch> matches;
@@ -148,7 +162,7 @@ void ExhaustiveTwoNearest(const DescriptorIndex::Impl& a, const DescriptorIndex:
 
 DescriptorIndex::DescriptorIndex(const FeatureSet& features, const DescriptorMatchOptions& options)
     : impl_(std::make_unique<Impl>()) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid DescriptorMatchOptions");
+  CROP4D_CHECK_OPTIONS(options, "DescriptorMatchOptions");
   CROP4D_CHECK(features.IsConsistent());
   impl_->method = options.method;
   impl_->num_checks = options.num_checks;
@@ -290,7 +304,7 @@ bool ToEigen(const cv::Mat& F_cv, Eigen::Matrix3d* F) {
 EpipolarGeometry EstimateEpipolarGeometry(const std::vector<Eigen::Vector2d>& points1,
                                           const std::vector<Eigen::Vector2d>& points2,
                                           const EpipolarVerificationOptions& options) {
-  CROP4D_CHECK_MSG(options.Check(), "invalid EpipolarVerificationOptions");
+  CROP4D_CHECK_OPTIONS(options, "EpipolarVerificationOptions");
   CROP4D_CHECK(points1.size() == points2.size());
   EpipolarGeometry result;
   const int n = static_cast<int>(points1.size());
@@ -365,7 +379,7 @@ std::vector<FeatureMatch> PairMatches::InlierMatches() const {
 
 PairMatcher::PairMatcher(Options options, const geometry::PinholeRadTan* camera)
     : options_(std::move(options)), camera_(camera) {
-  CROP4D_CHECK_MSG(options_.Check(), "invalid PairMatcher::Options");
+  CROP4D_CHECK_OPTIONS(options_, "PairMatcher::Options");
   CROP4D_CHECK_MSG(camera_ == nullptr || camera_->Check(), "invalid camera");
 }
 

@@ -20,6 +20,7 @@
 #include <utility>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/geometry/camera.h"
 
@@ -65,7 +66,7 @@ struct DescriptorMatchOptions {
   // Seed of the KD-trees' random split choices, so that runs are reproducible.
   std::uint32_t seed = 42;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // Lowe's ratio test on nearest-neighbour results: query q gives the match (q, index1) when
@@ -132,7 +133,7 @@ struct EpipolarVerificationOptions {
   // putative matches to be tried at all).
   int min_num_inliers = 20;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // Result of estimating the epipolar geometry of putative correspondences.
@@ -190,7 +191,7 @@ class PairMatcher {
     // Geometric verification (RANSAC on F).
     EpipolarVerificationOptions verification;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   // `camera`, when given, undistorts keypoints before verification, so that the pinhole

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/features/matcher.h"
 
 namespace crop4d::features {
@@ -67,7 +68,7 @@ class TrackBuilder {
     // What to do with a component that holds two features of one image.
     ConflictPolicy conflict_policy = ConflictPolicy::kSplit;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   struct Summary {

@@ -14,11 +14,22 @@ constexpr int kUndistortMaxIterations = 50;
 
 }  // namespace
 
-bool PinholeRadTan::Check() const {
-  const bool finite = std::isfinite(fx) && std::isfinite(fy) && std::isfinite(cx) &&
-                      std::isfinite(cy) && std::isfinite(k1) && std::isfinite(k2) &&
-                      std::isfinite(p1) && std::isfinite(p2) && std::isfinite(k3);
-  return finite && width > 0 && height > 0 && fx > 0.0 && fy > 0.0;
+OptionCheck PinholeRadTan::Check() const {
+  OptionChecker c;
+  c.Greater("width", width, 0)
+      .Greater("height", height, 0)
+      .Finite("fx", fx)
+      .Greater("fx", fx, 0.0)
+      .Finite("fy", fy)
+      .Greater("fy", fy, 0.0)
+      .Finite("cx", cx)
+      .Finite("cy", cy)
+      .Finite("k1", k1)
+      .Finite("k2", k2)
+      .Finite("p1", p1)
+      .Finite("p2", p2)
+      .Finite("k3", k3);
+  return c.Result();
 }
 
 Eigen::Matrix3d PinholeRadTan::K() const {

@@ -11,6 +11,8 @@
 
 #include <Eigen/Core>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::geometry {
 
 struct PinholeRadTan {
@@ -20,7 +22,7 @@ struct PinholeRadTan {
   double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
 
   // Valid intrinsics: positive size and focal lengths, finite coefficients.
-  bool Check() const;
+  OptionCheck Check() const;
   Eigen::Matrix3d K() const;
 
   // Normalised undistorted (x, y) to normalised distorted (xd, yd).

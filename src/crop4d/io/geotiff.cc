@@ -107,11 +107,17 @@ void RemoveTemporaries(const std::string& tmp_path) {
 
 // ---- UtmGrid, FieldUtm ----------------------------------------------------------------------
 
-bool UtmGrid::Check() const {
+OptionCheck UtmGrid::Check() const {
   constexpr int kMaxSide = 1'000'000;
-  return geometry::IsUtmEpsgCode(epsg) && std::isfinite(min_easting) &&
-         std::isfinite(max_northing) && std::isfinite(cell_m) && cell_m > 0.0 && width >= 1 &&
-         height >= 1 && width <= kMaxSide && height <= kMaxSide;
+  OptionChecker c;
+  c.Require(geometry::IsUtmEpsgCode(epsg), "epsg", "must be a UTM zone's EPSG code", epsg)
+      .Finite("min_easting", min_easting)
+      .Finite("max_northing", max_northing)
+      .Finite("cell_m", cell_m)
+      .Greater("cell_m", cell_m, 0.0)
+      .InRange("width", width, 1, kMaxSide)
+      .InRange("height", height, 1, kMaxSide);
+  return c.Result();
 }
 
 Eigen::Vector2d UtmGrid::CellCentre(int col, int row) const {

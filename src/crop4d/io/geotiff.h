@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/enu.h"
 
 namespace crop4d::io {
@@ -52,7 +53,7 @@ struct UtmGrid {
   int height = 0;
 
   // A UTM EPSG code, finite edges, cell_m > 0, width and height in [1, 10^6].
-  bool Check() const;
+  OptionCheck Check() const;
   std::size_t num_cells() const { return std::size_t(width) * std::size_t(height); }
   // UTM easting, northing of the centre of cell (col, row).
   Eigen::Vector2d CellCentre(int col, int row) const;

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/io/dataset_format.h"
 #include "crop4d/io/diagnostics.h"
@@ -45,7 +46,13 @@ struct ValidateOptions {
   // Show progress of the image checks (core/progress.h).
   bool progress = true;
 
-  bool Check() const { return gap_periods > 1.0 && rate_tolerance > 0.0 && max_listed >= 0; }
+  OptionCheck Check() const {
+    OptionChecker c;
+    c.Greater("gap_periods", gap_periods, 1.0)
+        .Greater("rate_tolerance", rate_tolerance, 0.0)
+        .AtLeast("max_listed", max_listed, 0);
+    return c.Result();
+  }
 };
 
 struct SensorReport {

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/io/dataset.h"
 #include "crop4d/io/ply.h"
 
@@ -42,7 +43,7 @@ struct CrossSectionSlice {
   double half_length_m = 1.5;
 
   // Finite centre, non-zero finite direction, thickness and half-length > 0.
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // The (along, z) coordinates of the points of `cloud` that lie in `slice`, in cloud order.
@@ -71,7 +72,7 @@ struct CrossSectionOptions {
   // Radius of the filled disc drawn for each point, pixels (0: one pixel).
   int point_radius_px = 2;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One session's layer of the figure.

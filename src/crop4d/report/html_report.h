@@ -25,6 +25,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::report {
 
 struct HtmlReportOptions {
@@ -50,7 +52,7 @@ struct HtmlReportOptions {
   int map_max_points_per_session = 4000;
 
   // Positive finite thickness and half-length, map sizes in [100, 10000], points ≥ 2.
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // A section of the report.

@@ -397,10 +397,13 @@ void DrawInto(cv::Mat& image, const LinePlot& plot, const Layout& layout,
 
 }  // namespace
 
-bool PlotOptions::Check() const {
-  return width >= 200 && width <= 10000 && height >= 150 && height <= 10000 &&
-         marker_radius_px >= 1 && marker_radius_px <= 30 && line_thickness_px >= 1 &&
-         line_thickness_px <= 20;
+OptionCheck PlotOptions::Check() const {
+  OptionChecker c;
+  c.InRange("width", width, 200, 10000)
+      .InRange("height", height, 150, 10000)
+      .InRange("marker_radius_px", marker_radius_px, 1, 30)
+      .InRange("line_thickness_px", line_thickness_px, 1, 20);
+  return c.Result();
 }
 
 PlotOptions SmallPanelOptions() {

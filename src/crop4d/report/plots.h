@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::report {
 
 struct PlotSeries {
@@ -79,7 +81,7 @@ struct PlotOptions {
 
   // Width in [200, 10000], height in [150, 10000], marker radius in [1, 30], thickness in
   // [1, 20].
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // Options for the panels of DrawPlotGrid: 400 × 300 pixels, smaller markers and lines.

@@ -150,15 +150,29 @@ struct TerrainTile {
 
 }  // namespace
 
-bool RenderOptions::Check() const {
-  return camera.Check() && msaa_samples >= 1 && msaa_samples <= 16 && shadow_map_size >= 256 &&
-         shadow_map_size <= 8192 && max_depth_m > 1.0 && anisotropy >= 0 && shadow_extent_m > 1.0 &&
-         soil_texture_size >= 64 && (soil_texture_size & (soil_texture_size - 1)) == 0 &&
-         soil_texture_extent_m > 0.1 && plant_draw_distance_m > 0.0 && lod_full_distance_m >= 0.0 &&
-         lod_medium_distance_m >= lod_full_distance_m &&
-         lod_coarse_distance_m >= lod_medium_distance_m &&
-         lod_far_distance_m >= lod_coarse_distance_m && tree_line_distance_m > 1.0 &&
-         mesh_cache_mb >= 16;
+OptionCheck RenderOptions::Check() const {
+  OptionChecker c;
+  c.Nested("camera", camera.Check())
+      .InRange("msaa_samples", msaa_samples, 1, 16)
+      .InRange("shadow_map_size", shadow_map_size, 256, 8192)
+      .Greater("max_depth_m", max_depth_m, 1.0)
+      .AtLeast("anisotropy", anisotropy, 0)
+      .Greater("shadow_extent_m", shadow_extent_m, 1.0)
+      .AtLeast("soil_texture_size", soil_texture_size, 64)
+      .Require((soil_texture_size & (soil_texture_size - 1)) == 0, "soil_texture_size",
+               "must be a power of two", soil_texture_size)
+      .Greater("soil_texture_extent_m", soil_texture_extent_m, 0.1)
+      .Greater("plant_draw_distance_m", plant_draw_distance_m, 0.0)
+      .AtLeast("lod_full_distance_m", lod_full_distance_m, 0.0)
+      .Require(lod_medium_distance_m >= lod_full_distance_m, "lod_medium_distance_m",
+               "must be >= lod_full_distance_m", lod_medium_distance_m)
+      .Require(lod_coarse_distance_m >= lod_medium_distance_m, "lod_coarse_distance_m",
+               "must be >= lod_medium_distance_m", lod_coarse_distance_m)
+      .Require(lod_far_distance_m >= lod_coarse_distance_m, "lod_far_distance_m",
+               "must be >= lod_coarse_distance_m", lod_far_distance_m)
+      .Greater("tree_line_distance_m", tree_line_distance_m, 1.0)
+      .AtLeast("mesh_cache_mb", mesh_cache_mb, 16);
+  return c.Result();
 }
 
 struct Renderer::Impl {
@@ -1229,7 +1243,9 @@ void Renderer::Impl::RenderFrame(const geometry::Rigid3& world_from_camera, cv::
 }
 
 Renderer::Renderer(const World& world, const RenderOptions& options) {
-  if (!options.Check()) throw InputError("render options: invalid camera or option values");
+  if (const OptionCheck why = options.Check(); !why.empty()) {
+    throw InputError("render options: " + why);
+  }
   impl_ = std::make_unique<Impl>(world, options);
   impl_->Init();
 }

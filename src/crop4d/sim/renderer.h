@@ -12,6 +12,7 @@
 #include <opencv2/core/mat.hpp>
 #include <string>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/sim/world.h"
@@ -43,7 +44,7 @@ struct RenderOptions {
   double lod_far_distance_m = 16.0;
   double tree_line_distance_m = 30.0;  // from the field's bounds to the surrounding tree line
   int mesh_cache_mb = 512;             // plant meshes kept on the GPU, least recently used go
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 class Renderer {

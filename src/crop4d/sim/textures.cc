@@ -70,11 +70,22 @@ const float kLight[3] = {-0.38f, -0.42f, 0.82f};
 
 }  // namespace
 
-bool SoilTextureOptions::Check() const {
-  return IsPowerOfTwo(size_px) && size_px >= 64 && extent_m > 0.0 && epoch >= 0 && change >= 0 &&
-         clod_density >= 0.0 && pebbles_per_m2 >= 0.0 && grit_per_m2 >= 0.0 &&
-         straws_per_m2 >= 0.0 && litter_per_m2 >= 0.0 && clod_smoothing_per_epoch >= 0.0 &&
-         min_relief > 0.0 && min_relief <= 1.0;
+OptionCheck SoilTextureOptions::Check() const {
+  OptionChecker c;
+  c.Require(IsPowerOfTwo(size_px), "size_px", "must be a power of two", size_px)
+      .AtLeast("size_px", size_px, 64)
+      .Greater("extent_m", extent_m, 0.0)
+      .AtLeast("epoch", epoch, 0)
+      .AtLeast("change", change, 0)
+      .AtLeast("clod_density", clod_density, 0.0)
+      .AtLeast("pebbles_per_m2", pebbles_per_m2, 0.0)
+      .AtLeast("grit_per_m2", grit_per_m2, 0.0)
+      .AtLeast("straws_per_m2", straws_per_m2, 0.0)
+      .AtLeast("litter_per_m2", litter_per_m2, 0.0)
+      .AtLeast("clod_smoothing_per_epoch", clod_smoothing_per_epoch, 0.0)
+      .Greater("min_relief", min_relief, 0.0)
+      .AtMost("min_relief", min_relief, 1.0);
+  return c.Result();
 }
 
 cv::Mat PeriodicValueNoise(int size_px, int cells, std::uint64_t seed) {

@@ -9,6 +9,8 @@
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::sim {
 
 struct SoilTextureOptions {
@@ -28,7 +30,7 @@ struct SoilTextureOptions {
   // Renewed surface `change` sessions after the epoch began (0: the epoch's own surface): a
   // texture of the same kind from another seed, used by ApplySoilChange.
   int change = 0;
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // How the soil changes between two sessions without rain (SessionConditions): a seeded set of

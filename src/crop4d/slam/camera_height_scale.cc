@@ -10,15 +10,24 @@
 
 namespace crop4d::slam {
 
-bool CameraHeightOptions::Check() const {
-  return std::isfinite(max_excess_green) && max_lateral_m > 0 && quantile >= 0 && quantile <= 1 &&
-         min_points >= 1 && sigma_relative > 0 && max_scale_change > 0 && triangulation.Check();
+OptionCheck CameraHeightOptions::Check() const {
+  OptionChecker c;
+  c.Finite("max_excess_green", max_excess_green)
+      .Greater("max_lateral_m", max_lateral_m, 0.0)
+      .InRange("quantile", quantile, 0.0, 1.0)
+      .AtLeast("min_points", min_points, 1)
+      .Greater("sigma_relative", sigma_relative, 0.0)
+      .Greater("max_scale_change", max_scale_change, 0.0)
+      .Nested("triangulation", triangulation.Check());
+  return c.Result();
 }
 
 std::optional<SoilDepth> SoilDepthBelowCamera(
     const std::vector<Eigen::Vector3d>& camera_centres, const std::vector<Eigen::Vector3d>& points,
     const std::vector<std::array<std::uint8_t, 3>>& colors, const CameraHeightOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("SoilDepthBelowCamera: invalid options");
+  if (const OptionCheck why = options.Check(); !why.empty()) {
+    throw std::invalid_argument("SoilDepthBelowCamera: " + why);
+  }
   if (points.size() != colors.size()) {
     throw std::invalid_argument("SoilDepthBelowCamera: one colour per point");
   }

@@ -26,6 +26,7 @@
 #include <optional>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/slam/triangulation.h"
 
 namespace crop4d::slam {
@@ -50,7 +51,7 @@ struct CameraHeightOptions {
   // row-SLAM output cloud).
   TriangulationOptions triangulation;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct SoilDepth {

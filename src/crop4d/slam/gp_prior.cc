@@ -74,7 +74,11 @@ GpState GpInterpolate(const GpState& state_i, const GpState& state_j, double dt,
   return out;
 }
 
-bool GpPriorFactor::Options::Check() const { return qc_translation > 0.0 && qc_rotation > 0.0; }
+OptionCheck GpPriorFactor::Options::Check() const {
+  OptionChecker c;
+  c.Greater("qc_translation", qc_translation, 0.0).Greater("qc_rotation", qc_rotation, 0.0);
+  return c.Result();
+}
 
 GpPriorFactor::GpPriorFactor(const Options& options, double dt) : dt_(dt) {
   if (!options.Check() || !(dt > 0.0)) {

@@ -35,6 +35,7 @@
 
 #include <Eigen/Core>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/slam/se3_templated.h"
 #include "crop4d/slam/state_layout.h"
@@ -160,7 +161,7 @@ class GpPriorFactor {
     // Power spectral density of the white-noise angular acceleration (each axis), rad²/s³.
     double qc_rotation = 0.1;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   GpPriorFactor(const Options& options, double dt);

@@ -49,14 +49,22 @@ ImuSample InterpolateImu(const std::vector<ImuSample>& samples, Timestamp t) {
   return sample;
 }
 
-bool ImuPreintegration::Options::Check() const {
-  return gyro_noise_density > 0.0 && accel_noise_density > 0.0 && gyro_random_walk > 0.0 &&
-         accel_random_walk > 0.0 && gravity > 0.0 && covariance_regularisation >= 0.0;
+OptionCheck ImuPreintegration::Options::Check() const {
+  OptionChecker c;
+  c.Greater("gyro_noise_density", gyro_noise_density, 0.0)
+      .Greater("accel_noise_density", accel_noise_density, 0.0)
+      .Greater("gyro_random_walk", gyro_random_walk, 0.0)
+      .Greater("accel_random_walk", accel_random_walk, 0.0)
+      .Greater("gravity", gravity, 0.0)
+      .AtLeast("covariance_regularisation", covariance_regularisation, 0.0);
+  return c.Result();
 }
 
 ImuPreintegration::ImuPreintegration(const Options& options, const Vector6d& bias_linearisation)
     : options_(options), bias_(bias_linearisation) {
-  if (!options_.Check()) throw std::invalid_argument("ImuPreintegration: invalid options");
+  if (const OptionCheck why = options_.Check(); !why.empty()) {
+    throw std::invalid_argument("ImuPreintegration: " + why);
+  }
 }
 
 void ImuPreintegration::Reset() {

@@ -44,6 +44,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/slam/state_layout.h"
 
@@ -86,7 +87,7 @@ class ImuPreintegration {
     // intervals, where the covariance is nearly singular).
     double covariance_regularisation = 1e-12;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   ImuPreintegration() = default;

@@ -63,15 +63,24 @@ std::optional<GpsTrackSample> FitGpsTrack(const std::vector<GpsFixWorld>& fixes,
   return sample;
 }
 
-bool StateInitialiser::Options::Check() const {
-  return gps_half_window_s > 0 && gravity_half_window_s > 0 && min_speed_for_course > 0 &&
-         alignment_window_s > alignment_step_s && alignment_step_s > 0 &&
-         alignment_min_horizontal_change > 0 && gravity > 0;
+OptionCheck StateInitialiser::Options::Check() const {
+  OptionChecker c;
+  c.Greater("gps_half_window_s", gps_half_window_s, 0.0)
+      .Greater("gravity_half_window_s", gravity_half_window_s, 0.0)
+      .Greater("min_speed_for_course", min_speed_for_course, 0.0)
+      .Require(alignment_window_s > alignment_step_s, "alignment_window_s",
+               "must be > alignment_step_s", alignment_window_s)
+      .Greater("alignment_step_s", alignment_step_s, 0.0)
+      .Greater("alignment_min_horizontal_change", alignment_min_horizontal_change, 0.0)
+      .Greater("gravity", gravity, 0.0);
+  return c.Result();
 }
 
 StateInitialiser::StateInitialiser(Options options, const ImuStream& imu, const GpsStream* gps)
     : options_(options), imu_(imu), gps_(gps) {
-  if (!options_.Check()) throw std::invalid_argument("StateInitialiser: invalid options");
+  if (const OptionCheck why = options_.Check(); !why.empty()) {
+    throw std::invalid_argument("StateInitialiser: " + why);
+  }
 }
 
 Eigen::Vector3d StateInitialiser::Rate(Timestamp t) const {

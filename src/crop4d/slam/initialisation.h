@@ -25,6 +25,7 @@
 #include <optional>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/slam/gp_prior.h"
 #include "crop4d/slam/imu_preintegration.h"
@@ -68,7 +69,7 @@ class StateInitialiser {
     // Gravity, m/s².
     double gravity = 9.81;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   struct Summary {

@@ -206,31 +206,25 @@ std::string RowId(int row, int occurrence) {
   return buffer;
 }
 
-}  // namespace
+using Options = RowPassSegmenter::Options;
+using Summary = RowPassSegmenter::Summary;
 
-bool RowPassSegmenter::Options::Check() const {
-  return row_spacing_m > 0.0 && velocity_window_s >= 0.0 && min_velocity_window_s > 0.0 &&
-         max_velocity_window_s >= min_velocity_window_s && heading_tolerance_rad > 0.0 &&
-         heading_tolerance_rad < 0.5 * M_PI && min_speed_mps > 0.0 && min_length_m > 0.0 &&
-         max_join_gap_s >= 0.0 && refine_max_noise_m >= 0.0 && max_row_distance_m >= 0.0 &&
-         relative_matching_noise_m >= 0.0 && antenna_in_body_xy.allFinite() &&
-         !std::isinf(row_axis_rad) && !std::isinf(lateral_origin_m) &&
-         min_row_time_fraction >= 0.0 && min_row_time_fraction <= 1.0 && min_row_passes >= 1 &&
-         max_row_step >= 1;
-}
+// The GPS track as the steps of Segment see it.
+struct Track {
+  std::vector<Fix> fixes;  // the body origin's once the antenna offset is removed
+  double median_dt = 0.0;  // between fixes, s
+  double window = 0.0;     // of the velocity fits, s
+  std::vector<Eigen::Vector2d> velocity, p_fit;
+  std::vector<bool> valid;
+  Eigen::Vector2d u = Eigen::Vector2d::UnitY();             // row axis
+  Eigen::Vector2d lateral_axis = Eigen::Vector2d::UnitX();  // u turned clockwise
 
-RowPassSegmenter::RowPassSegmenter(Options options) : options_(options) {
-  if (!options_.Check()) throw std::invalid_argument("RowPassSegmenter: invalid options");
-}
+  int n() const { return static_cast<int>(fixes.size()); }
+};
 
-std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& track,
-                                               const std::vector<io::RowDeclaration>& declared_rows,
-                                               Summary* summary) const {
-  const Options& o = options_;
-  Summary local_summary;
-  Summary& sum = summary != nullptr ? *summary : local_summary;
-  sum = Summary();
-  sum.num_points = static_cast<int>(track.size());
+// Bad input (InputError): non-finite or non-increasing fixes, degenerate declared rows.
+void CheckSegmenterInput(const std::vector<TrackPoint>& track,
+                         const std::vector<io::RowDeclaration>& declared_rows) {
   for (size_t i = 0; i < track.size(); ++i) {
     if (!track[i].position_world.allFinite()) {
       throw InputError("GPS track: fix " + std::to_string(i) + " has a non-finite position");
@@ -246,76 +240,77 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
                        ": start and end must be finite and distinct");
     }
   }
-  if (track.size() < 2) return {};
+}
 
-  std::vector<Fix> fixes(track.size());
-  for (size_t i = 0; i < track.size(); ++i) {
-    fixes[i].t = DurationSeconds(track.front().t, track[i].t);
-    fixes[i].p = track[i].position_world.head<2>();
-  }
-  const int n = static_cast<int>(fixes.size());
-  auto to_timestamp = [&](double seconds) { return track.front().t + SecondsToTimestamp(seconds); };
-  std::vector<RowPass> passes;
-  auto whole_session = [&]() {
-    RowPass all;
-    all.id = "all";
-    all.t_begin = track.front().t;
-    all.t_end = track.back().t;
-    all.start_world = fixes.front().p;
-    all.end_world = fixes.back().p;
-    for (int i = 1; i < n; ++i) all.length_m += (fixes[i].p - fixes[i - 1].p).norm();
-    sum.whole_session = true;
-    return std::vector<RowPass>{all};
-  };
+// The answer when no row structure is found: the whole session as one pass "all".
+std::vector<RowPass> WholeSession(const std::vector<TrackPoint>& track,
+                                  const std::vector<Fix>& fixes, Summary* sum) {
+  RowPass all;
+  all.id = "all";
+  all.t_begin = track.front().t;
+  all.t_end = track.back().t;
+  all.start_world = fixes.front().p;
+  all.end_world = fixes.back().p;
+  for (size_t i = 1; i < fixes.size(); ++i) all.length_m += (fixes[i].p - fixes[i - 1].p).norm();
+  sum->whole_session = true;
+  return std::vector<RowPass>{all};
+}
 
-  // ---- 1. Noise, velocity window, velocities.
-  std::vector<double> dts;
-  for (int i = 1; i < n; ++i) dts.push_back(fixes[i].t - fixes[i - 1].t);
-  const double median_dt = Median(dts);
-  sum.noise_sigma_m = EstimateNoise(fixes, median_dt);
+// The velocity window: velocity_window_s, or when that is 0 the window that gives a course
+// noise of ~0.08 rad at the typical speed (from ~5 s chords, robust to metre noise):
+// σ_θ ≈ σ √12 / (√(W / Δt) v W).
+double VelocityWindow(const std::vector<Fix>& fixes, double median_dt, double noise_sigma_m,
+                      const Options& o) {
   double window = o.velocity_window_s;
-  if (window <= 0.0) {
-    // Typical speed from ~5 s chords (robust to metre noise), then the window that gives a
-    // course noise of ~0.08 rad: σ_θ ≈ σ √12 / (√(W / Δt) v W).
-    std::vector<double> chord_speeds;
-    for (int i = 0, j = 0; i < n; ++i) {
-      while (j < n && fixes[j].t < fixes[i].t + 5.0) ++j;
-      if (j == n) break;
-      chord_speeds.push_back((fixes[j].p - fixes[i].p).norm() / (fixes[j].t - fixes[i].t));
-    }
-    const double speed = std::max(0.5, Median(chord_speeds));
-    constexpr double kCourseSigma = 0.08;
-    window = std::pow(sum.noise_sigma_m * std::sqrt(12.0 * median_dt) / (speed * kCourseSigma),
-                      2.0 / 3.0);
-    window = std::clamp(window, o.min_velocity_window_s, o.max_velocity_window_s);
+  if (!(window <= 0.0)) return window;
+  const int n = static_cast<int>(fixes.size());
+  std::vector<double> chord_speeds;
+  for (int i = 0, j = 0; i < n; ++i) {
+    while (j < n && fixes[j].t < fixes[i].t + 5.0) ++j;
+    if (j == n) break;
+    chord_speeds.push_back((fixes[j].p - fixes[i].p).norm() / (fixes[j].t - fixes[i].t));
   }
-  sum.velocity_window_s = window;
-  std::vector<Eigen::Vector2d> velocity, p_fit;
-  std::vector<bool> valid;
-  FitVelocities(fixes, window, &velocity, &p_fit, &valid);
-  if (!o.antenna_in_body_xy.isZero()) {
-    // Antenna → body origin with the course of the body track (fixed-point iteration).
-    const std::vector<Fix> antenna = fixes;
-    for (int iteration = 0; iteration < 3; ++iteration) {
-      double heading = std::numeric_limits<double>::quiet_NaN();
-      for (int i = 0; i < n; ++i) {
-        if (valid[i] && velocity[i].norm() >= o.min_speed_mps) {
-          heading = std::atan2(velocity[i].y(), velocity[i].x());
-        } else if (std::isnan(heading)) {
-          for (int j = i; j < n && std::isnan(heading); ++j) {
-            if (valid[j] && velocity[j].norm() >= o.min_speed_mps) {
-              heading = std::atan2(velocity[j].y(), velocity[j].x());
-            }
+  const double speed = std::max(0.5, Median(chord_speeds));
+  constexpr double kCourseSigma = 0.08;
+  window =
+      std::pow(noise_sigma_m * std::sqrt(12.0 * median_dt) / (speed * kCourseSigma), 2.0 / 3.0);
+  return std::clamp(window, o.min_velocity_window_s, o.max_velocity_window_s);
+}
+
+// Velocities and fitted positions of the fixes; with antenna_in_body_xy, the fixes are first
+// moved from the antenna to the body origin with the course of the body track (fixed-point
+// iteration).
+void FitBodyVelocities(const Options& o, Track* t) {
+  std::vector<Fix>& fixes = t->fixes;
+  const int n = t->n();
+  FitVelocities(fixes, t->window, &t->velocity, &t->p_fit, &t->valid);
+  if (o.antenna_in_body_xy.isZero()) return;
+  const std::vector<Eigen::Vector2d>& velocity = t->velocity;
+  const std::vector<bool>& valid = t->valid;
+  const std::vector<Fix> antenna = fixes;
+  for (int iteration = 0; iteration < 3; ++iteration) {
+    double heading = std::numeric_limits<double>::quiet_NaN();
+    for (int i = 0; i < n; ++i) {
+      if (valid[i] && velocity[i].norm() >= o.min_speed_mps) {
+        heading = std::atan2(velocity[i].y(), velocity[i].x());
+      } else if (std::isnan(heading)) {
+        for (int j = i; j < n && std::isnan(heading); ++j) {
+          if (valid[j] && velocity[j].norm() >= o.min_speed_mps) {
+            heading = std::atan2(velocity[j].y(), velocity[j].x());
           }
         }
-        if (std::isnan(heading)) break;  // never moves: nothing to correct
-        fixes[i].p = antenna[i].p - Eigen::Rotation2Dd(heading) * o.antenna_in_body_xy;
       }
-      FitVelocities(fixes, window, &velocity, &p_fit, &valid);
+      if (std::isnan(heading)) break;  // never moves: nothing to correct
+      fixes[i].p = antenna[i].p - Eigen::Rotation2Dd(heading) * o.antenna_in_body_xy;
     }
+    FitVelocities(fixes, t->window, &t->velocity, &t->p_fit, &t->valid);
   }
+}
 
-  // ---- 2. Row axis, canonical in (−45°, 135°]; lateral = axis turned clockwise.
+// The row axis, canonical in (−45°, 135°]: the declared rows' (length-weighted axial mean),
+// row_axis_rad, or the dominant course of the track. NaN when none is found.
+double RowAxis(const std::vector<io::RowDeclaration>& declared_rows, const Track& t,
+               const Options& o, Summary* sum) {
   double axis = o.row_axis_rad;
   if (!declared_rows.empty()) {
     double c = 0.0, s = 0.0;
@@ -326,33 +321,40 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
       s += d.norm() * std::sin(a2);
     }
     axis = 0.5 * std::atan2(s, c);
-    sum.used_declared_rows = true;
+    sum->used_declared_rows = true;
   } else if (std::isnan(axis)) {
-    axis = DominantAxis(velocity, valid, o.min_speed_mps, o.heading_tolerance_rad);
+    axis = DominantAxis(t.velocity, t.valid, o.min_speed_mps, o.heading_tolerance_rad);
   }
-  if (std::isnan(axis)) return whole_session();
+  if (std::isnan(axis)) return axis;
   axis = std::remainder(axis, M_PI);  // (−90°, 90°]
   if (axis <= -0.25 * M_PI) axis += M_PI;
-  const Eigen::Vector2d u(std::cos(axis), std::sin(axis));
-  const Eigen::Vector2d lateral_axis(u.y(), -u.x());
-  sum.row_axis_world = u;
-  sum.lateral_axis_world = lateral_axis;
+  return axis;
+}
 
-  // ---- 3. Straight fixes, runs, joins, minimum length.
+double MeanLateral(const Track& t, int first, int last) {
+  double l = 0.0;
+  for (int i = first; i <= last; ++i) l += t.lateral_axis.dot(t.fixes[i].p);
+  return l / (last - first + 1);
+}
+
+// Runs of consecutive fixes that move along the axis (within heading_tolerance_rad, at least
+// min_speed_mps) in one direction, broken at gaps of 2.5 fix intervals.
+std::vector<Stretch> StraightRuns(const Track& t, const Options& o) {
+  const int n = t.n();
   const double cos_tolerance = std::cos(o.heading_tolerance_rad);
   std::vector<int> straight_dir(n, 0);
   for (int i = 0; i < n; ++i) {
-    const double speed = velocity[i].norm();
-    if (!valid[i] || speed < o.min_speed_mps) continue;
-    const double c = u.dot(velocity[i]) / speed;
+    const double speed = t.velocity[i].norm();
+    if (!t.valid[i] || speed < o.min_speed_mps) continue;
+    const double c = t.u.dot(t.velocity[i]) / speed;
     if (std::abs(c) >= cos_tolerance) straight_dir[i] = c > 0.0 ? 1 : -1;
   }
-  const double break_gap = 2.5 * median_dt;
+  const double break_gap = 2.5 * t.median_dt;
   std::vector<Stretch> runs;
   for (int i = 0; i < n; ++i) {
     if (straight_dir[i] == 0) continue;
     if (!runs.empty() && runs.back().last == i - 1 && runs.back().direction == straight_dir[i] &&
-        fixes[i].t - fixes[i - 1].t <= break_gap) {
+        t.fixes[i].t - t.fixes[i - 1].t <= break_gap) {
       runs.back().last = i;
     } else {
       Stretch run;
@@ -361,12 +363,16 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
       runs.push_back(run);
     }
   }
-  sum.num_straight_runs = static_cast<int>(runs.size());
-  auto mean_lateral = [&](int first, int last) {
-    double l = 0.0;
-    for (int i = first; i <= last; ++i) l += lateral_axis.dot(fixes[i].p);
-    return l / (last - first + 1);
-  };
+  return runs;
+}
+
+// Joins consecutive runs in the same direction on the same row (lateral offsets within half a
+// row spacing plus their noise, no going back, at most max_join_gap_s apart), then keeps the
+// stretches at least min_length_m long with their coarse times.
+std::vector<Stretch> JoinRuns(const Track& t, const std::vector<Stretch>& runs, const Options& o,
+                              Summary* sum) {
+  const std::vector<Fix>& fixes = t.fixes;
+  const double break_gap = 2.5 * t.median_dt;
   std::vector<Stretch> joined;
   for (const Stretch& run : runs) {
     if (!joined.empty()) {
@@ -374,14 +380,14 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
       const double gap = fixes[run.first].t - fixes[prev.last].t;
       const int n_prev = prev.last - prev.first + 1, n_run = run.last - run.first + 1;
       const double lateral_tolerance =
-          0.5 * o.row_spacing_m + 3.0 * sum.noise_sigma_m * std::sqrt(1.0 / n_prev + 1.0 / n_run);
-      const double progress = run.direction * u.dot(p_fit[run.first] - p_fit[prev.last]);
+          0.5 * o.row_spacing_m + 3.0 * sum->noise_sigma_m * std::sqrt(1.0 / n_prev + 1.0 / n_run);
+      const double progress = run.direction * t.u.dot(t.p_fit[run.first] - t.p_fit[prev.last]);
       if (run.direction == prev.direction && gap <= o.max_join_gap_s &&
-          std::abs(mean_lateral(run.first, run.last) - mean_lateral(prev.first, prev.last)) <=
+          std::abs(MeanLateral(t, run.first, run.last) - MeanLateral(t, prev.first, prev.last)) <=
               lateral_tolerance &&
-          progress >= -(1.0 + 3.0 * sum.noise_sigma_m)) {
+          progress >= -(1.0 + 3.0 * sum->noise_sigma_m)) {
         prev.last = run.last;
-        if (gap > break_gap) ++sum.num_joined_gaps;
+        if (gap > break_gap) ++sum->num_joined_gaps;
         continue;
       }
     }
@@ -389,25 +395,30 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
   }
   std::vector<Stretch> stretches;
   for (Stretch s : joined) {
-    const double length = s.direction * u.dot(p_fit[s.last] - p_fit[s.first]);
+    const double length = s.direction * t.u.dot(t.p_fit[s.last] - t.p_fit[s.first]);
     if (length < o.min_length_m) {
-      ++sum.num_dropped_short;
+      ++sum->num_dropped_short;
       continue;
     }
     s.t_begin = fixes[s.first].t;
     s.t_end = fixes[s.last].t;
     stretches.push_back(s);
   }
-  if (stretches.empty()) return whole_session();
+  return stretches;
+}
 
-  // ---- 4. Boundaries.
-  const bool refine = sum.noise_sigma_m <= o.refine_max_noise_m;
+// The stretches' start and end times: the session's ends where a stretch runs on to them; with
+// precise fixes (`refine`) the change point of the lateral offset near the coarse boundary,
+// else the coarse boundary moved half a velocity window inwards.
+void RefineBoundaries(const Track& t, bool refine, std::vector<Stretch>* stretches) {
+  const std::vector<Fix>& fixes = t.fixes;
+  const double window = t.window, median_dt = t.median_dt;
   const double session_end = fixes.back().t;
-  for (size_t k = 0; k < stretches.size(); ++k) {
-    Stretch& s = stretches[k];
+  for (size_t k = 0; k < stretches->size(); ++k) {
+    Stretch& s = (*stretches)[k];
     const double coarse_begin = s.t_begin, coarse_end = s.t_end;
-    const double prev_end = k > 0 ? stretches[k - 1].t_end : 0.0;
-    const double next_begin = k + 1 < stretches.size() ? stretches[k + 1].t_begin : session_end;
+    const double prev_end = k > 0 ? (*stretches)[k - 1].t_end : 0.0;
+    const double next_begin = k + 1 < stretches->size() ? (*stretches)[k + 1].t_begin : session_end;
     const double middle = 0.5 * (coarse_begin + coarse_end);
     // A stretch that starts (ends) within the window of the session start (end) runs on to it.
     const bool at_start = coarse_begin <= 0.5 * window + 2.0 * median_dt;
@@ -415,7 +426,7 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
     if (at_start) {
       s.t_begin = 0.0;
     } else if (refine) {
-      const double t0 = ChangePoint(fixes, lateral_axis, std::max(prev_end, coarse_begin - 1.0),
+      const double t0 = ChangePoint(fixes, t.lateral_axis, std::max(prev_end, coarse_begin - 1.0),
                                     std::min(middle, coarse_begin + 0.5 * window + 1.0), false);
       if (!std::isnan(t0)) s.t_begin = t0;
     } else {
@@ -425,64 +436,75 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
       s.t_end = session_end;
     } else if (refine) {
       const double t0 =
-          ChangePoint(fixes, lateral_axis, std::max(middle, coarse_end - 0.5 * window - 1.0),
+          ChangePoint(fixes, t.lateral_axis, std::max(middle, coarse_end - 0.5 * window - 1.0),
                       std::min(next_begin, coarse_end + 1.0), true);
       if (!std::isnan(t0)) s.t_end = t0;
     } else {
       s.t_end = std::max(middle, coarse_end - 0.5 * window);
     }
   }
-  // The refined boundaries can move a short stretch's ends past each other (a curved road: the
-  // change point of the lateral offset lies anywhere inside it): measure again on the fitted
-  // track and drop what is now shorter than the minimum.
-  std::erase_if(stretches, [&](const Stretch& s) {
+}
+
+// The refined boundaries can move a short stretch's ends past each other (a curved road: the
+// change point of the lateral offset lies anywhere inside it): measure again on the fitted
+// track and drop what is now shorter than the minimum; then each stretch's lateral offset is
+// the mean over its fixes between its boundaries.
+void DropShortAndMeasureLateral(const Track& t, const Options& o, std::vector<Stretch>* stretches,
+                                Summary* sum) {
+  const std::vector<Fix>& fixes = t.fixes;
+  std::erase_if(*stretches, [&](const Stretch& s) {
     const auto begin = std::lower_bound(fixes.begin(), fixes.end(), s.t_begin,
-                                        [](const Fix& f, double t) { return f.t < t; });
+                                        [](const Fix& f, double time) { return f.t < time; });
     const auto end = std::upper_bound(fixes.begin(), fixes.end(), s.t_end,
-                                      [](double t, const Fix& f) { return t < f.t; });
+                                      [](double time, const Fix& f) { return time < f.t; });
     const int first = static_cast<int>(begin - fixes.begin());
     const int last = static_cast<int>(end - fixes.begin()) - 1;
     const bool too_short =
-        last <= first || s.direction * u.dot(p_fit[last] - p_fit[first]) < o.min_length_m;
-    if (too_short) ++sum.num_dropped_short;
+        last <= first || s.direction * t.u.dot(t.p_fit[last] - t.p_fit[first]) < o.min_length_m;
+    if (too_short) ++sum->num_dropped_short;
     return too_short;
   });
-  if (stretches.empty()) return whole_session();
-  for (Stretch& s : stretches) {
+  for (Stretch& s : *stretches) {
     double l = 0.0;
     int count = 0;
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < t.n(); ++i) {
       if (fixes[i].t < s.t_begin || fixes[i].t > s.t_end) continue;
-      l += lateral_axis.dot(fixes[i].p);
+      l += t.lateral_axis.dot(fixes[i].p);
       ++count;
     }
-    s.lateral = count > 0 ? l / count : mean_lateral(s.first, s.last);
+    s.lateral = count > 0 ? l / count : MeanLateral(t, s.first, s.last);
   }
+}
 
-  // ---- 5. Row indices.
-  const bool relative = sum.noise_sigma_m > o.relative_matching_noise_m;
-  sum.relative_rows = relative;
-  double spacing = o.row_spacing_m;
-  std::vector<double> declared_lateral;  // sorted across the field
-  std::vector<int> declared_index;
-  if (!declared_rows.empty()) {
-    std::vector<std::pair<double, int>> order;
-    for (const io::RowDeclaration& row : declared_rows) {
-      order.emplace_back(lateral_axis.dot(0.5 * (row.start_enu + row.end_enu)), row.index);
-    }
-    std::sort(order.begin(), order.end());
-    std::vector<double> gaps;
-    for (size_t j = 0; j < order.size(); ++j) {
-      declared_lateral.push_back(order[j].first);
-      declared_index.push_back(order[j].second);
-      if (j > 0 && order[j].first - order[j - 1].first > 1e-6) {
-        gaps.push_back(order[j].first - order[j - 1].first);
-      }
-    }
-    if (!gaps.empty()) spacing = Median(gaps);
+// The declared rows sorted across the field: their lateral offsets and indices.
+struct DeclaredRowOrder {
+  std::vector<double> lateral;
+  std::vector<int> index;
+  std::vector<double> gaps;  // between neighbours (coincident ones left out)
+};
+
+DeclaredRowOrder SortDeclaredRows(const std::vector<io::RowDeclaration>& declared_rows,
+                                  const Eigen::Vector2d& lateral_axis) {
+  DeclaredRowOrder out;
+  std::vector<std::pair<double, int>> order;
+  for (const io::RowDeclaration& row : declared_rows) {
+    order.emplace_back(lateral_axis.dot(0.5 * (row.start_enu + row.end_enu)), row.index);
   }
-  sum.row_spacing_m = spacing;
-  // Relative indices: consecutive passes' offsets in whole spacings.
+  std::sort(order.begin(), order.end());
+  for (size_t j = 0; j < order.size(); ++j) {
+    out.lateral.push_back(order[j].first);
+    out.index.push_back(order[j].second);
+    if (j > 0 && order[j].first - order[j - 1].first > 1e-6) {
+      out.gaps.push_back(order[j].first - order[j - 1].first);
+    }
+  }
+  return out;
+}
+
+// Relative row indices: consecutive passes' lateral offsets in whole spacings. With noisy fixes
+// (`relative`) a turn always moves to another row.
+std::vector<int> RelativeRowChain(const std::vector<Stretch>& stretches, double spacing,
+                                  bool relative) {
   std::vector<int> chain(stretches.size(), 0);
   for (size_t k = 1; k < stretches.size(); ++k) {
     const double step = (stretches[k].lateral - stretches[k - 1].lateral) / spacing;
@@ -493,85 +515,128 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
     }
     chain[k] = chain[k - 1] + increment;
   }
+  return chain;
+}
+
+// Each stretch on the declared row nearest to its centroid, none (−1) beyond max_distance.
+void NearestDeclaredRows(const Track& t, const std::vector<io::RowDeclaration>& declared_rows,
+                         double max_distance, std::vector<Stretch>* stretches) {
+  for (Stretch& s : *stretches) {
+    Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
+    int count = 0;
+    for (int i = 0; i < t.n(); ++i) {
+      if (t.fixes[i].t < s.t_begin || t.fixes[i].t > s.t_end) continue;
+      centroid += t.fixes[i].p;
+      ++count;
+    }
+    centroid /= std::max(1, count);
+    double best = std::numeric_limits<double>::infinity();
+    for (const io::RowDeclaration& row : declared_rows) {
+      const Eigen::Vector2d d = (row.end_enu - row.start_enu).normalized();
+      const Eigen::Vector2d r = centroid - row.start_enu;
+      const double distance = std::abs(d.x() * r.y() - d.y() * r.x());
+      if (distance < best) {
+        best = distance;
+        s.row = distance <= max_distance ? row.index : -1;
+      }
+    }
+  }
+}
+
+// One integer shift m of the relative indices onto the sorted declared rows: fewest passes
+// outside the declared rows, then least squares of the lateral offsets.
+void ShiftOntoDeclaredRows(const std::vector<int>& chain, const DeclaredRowOrder& declared,
+                           std::vector<Stretch>* stretches) {
   const int chain_min = *std::min_element(chain.begin(), chain.end());
   const int chain_max = *std::max_element(chain.begin(), chain.end());
+  const int num_declared = static_cast<int>(declared.lateral.size());
+  int best_shift = 0, best_outside = 0;
+  double best_sse = 0.0;
+  bool first = true;
+  for (int shift = -chain_max; shift <= num_declared - 1 - chain_min; ++shift) {
+    int outside = 0;
+    double sse = 0.0;
+    for (size_t k = 0; k < stretches->size(); ++k) {
+      const int j = chain[k] + shift;
+      if (j < 0 || j >= num_declared) {
+        ++outside;
+      } else {
+        sse += std::pow((*stretches)[k].lateral - declared.lateral[j], 2);
+      }
+    }
+    if (first || outside < best_outside || (outside == best_outside && sse < best_sse)) {
+      first = false;
+      best_shift = shift;
+      best_outside = outside;
+      best_sse = sse;
+    }
+  }
+  for (size_t k = 0; k < stretches->size(); ++k) {
+    const int j = chain[k] + best_shift;
+    (*stretches)[k].row = j >= 0 && j < num_declared ? declared.index[j] : -1;
+  }
+}
+
+// Without declared rows: the relative indices shifted so that rows sit nearest to
+// lateral_origin_m + i · spacing, or so that the leftmost pass is row 0.
+void RowsFromChain(const std::vector<int>& chain, double spacing, const Options& o,
+                   std::vector<Stretch>* stretches, Summary* sum) {
+  const std::vector<Stretch>& s = *stretches;
+  int shift = -*std::min_element(chain.begin(), chain.end());
+  if (!std::isnan(o.lateral_origin_m)) {
+    double offset = 0.0;
+    for (size_t k = 0; k < s.size(); ++k) {
+      offset += s[k].lateral - o.lateral_origin_m - chain[k] * spacing;
+    }
+    shift = static_cast<int>(std::lround(offset / s.size() / spacing));
+    sum->row0_lateral_m = o.lateral_origin_m;
+  } else {
+    double offset = 0.0;
+    for (size_t k = 0; k < s.size(); ++k) offset += s[k].lateral - (chain[k] + shift) * spacing;
+    sum->row0_lateral_m = offset / s.size();
+  }
+  for (size_t k = 0; k < s.size(); ++k) (*stretches)[k].row = chain[k] + shift;
+}
+
+// The row index of every stretch (−1: on no declared row): with declared rows and precise
+// fixes the nearest declared row, with noisy ones the relative indices shifted onto the
+// declared rows, without declared rows the relative indices.
+void AssignRows(const Track& t, const std::vector<io::RowDeclaration>& declared_rows,
+                const Options& o, std::vector<Stretch>* stretches, Summary* sum) {
+  const bool relative = sum->noise_sigma_m > o.relative_matching_noise_m;
+  sum->relative_rows = relative;
+  double spacing = o.row_spacing_m;
+  DeclaredRowOrder declared;
+  if (!declared_rows.empty()) {
+    declared = SortDeclaredRows(declared_rows, t.lateral_axis);
+    if (!declared.gaps.empty()) spacing = Median(declared.gaps);
+  }
+  sum->row_spacing_m = spacing;
+  const std::vector<int> chain = RelativeRowChain(*stretches, spacing, relative);
   if (!declared_rows.empty() && !relative) {
     const double max_distance = o.max_row_distance_m > 0.0 ? o.max_row_distance_m : 0.5 * spacing;
-    for (Stretch& s : stretches) {
-      Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-      int count = 0;
-      for (int i = 0; i < n; ++i) {
-        if (fixes[i].t < s.t_begin || fixes[i].t > s.t_end) continue;
-        centroid += fixes[i].p;
-        ++count;
-      }
-      centroid /= std::max(1, count);
-      double best = std::numeric_limits<double>::infinity();
-      for (const io::RowDeclaration& row : declared_rows) {
-        const Eigen::Vector2d d = (row.end_enu - row.start_enu).normalized();
-        const Eigen::Vector2d r = centroid - row.start_enu;
-        const double distance = std::abs(d.x() * r.y() - d.y() * r.x());
-        if (distance < best) {
-          best = distance;
-          s.row = distance <= max_distance ? row.index : -1;
-        }
-      }
-    }
-    sum.row0_lateral_m = declared_lateral.front();
+    NearestDeclaredRows(t, declared_rows, max_distance, stretches);
+    sum->row0_lateral_m = declared.lateral.front();
   } else if (!declared_rows.empty()) {
-    // One integer shift m of the relative indices onto the sorted declared rows: fewest passes
-    // outside the declared rows, then least squares of the lateral offsets.
-    const int num_declared = static_cast<int>(declared_lateral.size());
-    int best_shift = 0, best_outside = 0;
-    double best_sse = 0.0;
-    bool first = true;
-    for (int shift = -chain_max; shift <= num_declared - 1 - chain_min; ++shift) {
-      int outside = 0;
-      double sse = 0.0;
-      for (size_t k = 0; k < stretches.size(); ++k) {
-        const int j = chain[k] + shift;
-        if (j < 0 || j >= num_declared) {
-          ++outside;
-        } else {
-          sse += std::pow(stretches[k].lateral - declared_lateral[j], 2);
-        }
-      }
-      if (first || outside < best_outside || (outside == best_outside && sse < best_sse)) {
-        first = false;
-        best_shift = shift;
-        best_outside = outside;
-        best_sse = sse;
-      }
-    }
-    for (size_t k = 0; k < stretches.size(); ++k) {
-      const int j = chain[k] + best_shift;
-      stretches[k].row = j >= 0 && j < num_declared ? declared_index[j] : -1;
-    }
-    sum.row0_lateral_m = declared_lateral.front();
+    ShiftOntoDeclaredRows(chain, declared, stretches);
+    sum->row0_lateral_m = declared.lateral.front();
   } else {
-    int shift = -chain_min;
-    if (!std::isnan(o.lateral_origin_m)) {
-      double offset = 0.0;
-      for (size_t k = 0; k < stretches.size(); ++k) {
-        offset += stretches[k].lateral - o.lateral_origin_m - chain[k] * spacing;
-      }
-      shift = static_cast<int>(std::lround(offset / stretches.size() / spacing));
-      sum.row0_lateral_m = o.lateral_origin_m;
-    } else {
-      double offset = 0.0;
-      for (size_t k = 0; k < stretches.size(); ++k) {
-        offset += stretches[k].lateral - (chain[k] + shift) * spacing;
-      }
-      sum.row0_lateral_m = offset / stretches.size();
-    }
-    for (size_t k = 0; k < stretches.size(); ++k) stretches[k].row = chain[k] + shift;
+    RowsFromChain(chain, spacing, o, stretches, sum);
   }
+}
 
-  // ---- Passes.
+// The passes of the stretches on a row, named by row and occurrence; their ends on the track
+// (precise fixes) or on the along-track line fit at the pass's mean lateral offset (noisy ones).
+std::vector<RowPass> MakePasses(const Track& t, const std::vector<Stretch>& stretches, bool refine,
+                                Timestamp t_first, Summary* sum) {
+  const std::vector<Fix>& fixes = t.fixes;
+  const Eigen::Vector2d& u = t.u;
+  auto to_timestamp = [&](double seconds) { return t_first + SecondsToTimestamp(seconds); };
+  std::vector<RowPass> passes;
   std::map<int, int> occurrences;
   for (const Stretch& s : stretches) {
     if (s.row < 0) {
-      ++sum.num_dropped_unmatched;
+      ++sum->num_dropped_unmatched;
       continue;
     }
     RowPass pass;
@@ -585,7 +650,6 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
       pass.start_world = InterpolatePosition(fixes, s.t_begin);
       pass.end_world = InterpolatePosition(fixes, s.t_end);
     } else {
-      // Noisy fixes: the along-track line fit, at the pass's mean lateral offset.
       double t_mean = 0.0, a_mean = 0.0;
       int count = 0;
       for (int i = s.first; i <= s.last; ++i) {
@@ -601,20 +665,109 @@ std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& tr
         sta += (fixes[i].t - t_mean) * (u.dot(fixes[i].p) - a_mean);
       }
       const double slope = stt > 0.0 ? sta / stt : 0.0;
-      pass.start_world = (a_mean + slope * (s.t_begin - t_mean)) * u + s.lateral * lateral_axis;
-      pass.end_world = (a_mean + slope * (s.t_end - t_mean)) * u + s.lateral * lateral_axis;
+      pass.start_world = (a_mean + slope * (s.t_begin - t_mean)) * u + s.lateral * t.lateral_axis;
+      pass.end_world = (a_mean + slope * (s.t_end - t_mean)) * u + s.lateral * t.lateral_axis;
     }
     pass.length_m = std::abs(u.dot(pass.end_world - pass.start_world));
     passes.push_back(std::move(pass));
   }
-  if (passes.empty()) return whole_session();
+  return passes;
+}
+
+}  // namespace
+
+OptionCheck RowPassSegmenter::Options::Check() const {
+  OptionChecker c;
+  c.Greater("row_spacing_m", row_spacing_m, 0.0)
+      .AtLeast("velocity_window_s", velocity_window_s, 0.0)
+      .Greater("min_velocity_window_s", min_velocity_window_s, 0.0)
+      .Require(max_velocity_window_s >= min_velocity_window_s, "max_velocity_window_s",
+               "must be >= min_velocity_window_s", max_velocity_window_s)
+      .Between("heading_tolerance_rad", heading_tolerance_rad, 0.0, 0.5 * M_PI)
+      .Greater("min_speed_mps", min_speed_mps, 0.0)
+      .Greater("min_length_m", min_length_m, 0.0)
+      .AtLeast("max_join_gap_s", max_join_gap_s, 0.0)
+      .AtLeast("refine_max_noise_m", refine_max_noise_m, 0.0)
+      .AtLeast("max_row_distance_m", max_row_distance_m, 0.0)
+      .AtLeast("relative_matching_noise_m", relative_matching_noise_m, 0.0)
+      .Require(antenna_in_body_xy.allFinite(), "antenna_in_body_xy", "must be finite")
+      .Require(!std::isinf(row_axis_rad), "row_axis_rad", "must be finite (or NaN: estimated)",
+               row_axis_rad)
+      .Require(!std::isinf(lateral_origin_m), "lateral_origin_m",
+               "must be finite (or NaN: leftmost pass)", lateral_origin_m)
+      .InRange("min_row_time_fraction", min_row_time_fraction, 0.0, 1.0)
+      .AtLeast("min_row_passes", min_row_passes, 1)
+      .AtLeast("max_row_step", max_row_step, 1);
+  return c.Result();
+}
+
+RowPassSegmenter::RowPassSegmenter(Options options) : options_(options) {
+  if (const OptionCheck why = options_.Check(); !why.empty()) {
+    throw std::invalid_argument("RowPassSegmenter: " + why);
+  }
+}
+
+std::vector<RowPass> RowPassSegmenter::Segment(const std::vector<TrackPoint>& track,
+                                               const std::vector<io::RowDeclaration>& declared_rows,
+                                               Summary* summary) const {
+  const Options& o = options_;
+  Summary local_summary;
+  Summary& sum = summary != nullptr ? *summary : local_summary;
+  sum = Summary();
+  sum.num_points = static_cast<int>(track.size());
+  CheckSegmenterInput(track, declared_rows);
+  if (track.size() < 2) return {};
+
+  Track t;
+  t.fixes.resize(track.size());
+  for (size_t i = 0; i < track.size(); ++i) {
+    t.fixes[i].t = DurationSeconds(track.front().t, track[i].t);
+    t.fixes[i].p = track[i].position_world.head<2>();
+  }
+  const int n = t.n();
+
+  // ---- 1. Noise, velocity window, velocities.
+  std::vector<double> dts;
+  for (int i = 1; i < n; ++i) dts.push_back(t.fixes[i].t - t.fixes[i - 1].t);
+  t.median_dt = Median(dts);
+  sum.noise_sigma_m = EstimateNoise(t.fixes, t.median_dt);
+  t.window = VelocityWindow(t.fixes, t.median_dt, sum.noise_sigma_m, o);
+  sum.velocity_window_s = t.window;
+  FitBodyVelocities(o, &t);
+
+  // ---- 2. Row axis; lateral = axis turned clockwise.
+  const double axis = RowAxis(declared_rows, t, o, &sum);
+  if (std::isnan(axis)) return WholeSession(track, t.fixes, &sum);
+  t.u = Eigen::Vector2d(std::cos(axis), std::sin(axis));
+  t.lateral_axis = Eigen::Vector2d(t.u.y(), -t.u.x());
+  sum.row_axis_world = t.u;
+  sum.lateral_axis_world = t.lateral_axis;
+
+  // ---- 3. Straight fixes, runs, joins, minimum length.
+  const std::vector<Stretch> runs = StraightRuns(t, o);
+  sum.num_straight_runs = static_cast<int>(runs.size());
+  std::vector<Stretch> stretches = JoinRuns(t, runs, o, &sum);
+  if (stretches.empty()) return WholeSession(track, t.fixes, &sum);
+
+  // ---- 4. Boundaries.
+  const bool refine = sum.noise_sigma_m <= o.refine_max_noise_m;
+  RefineBoundaries(t, refine, &stretches);
+  DropShortAndMeasureLateral(t, o, &stretches, &sum);
+  if (stretches.empty()) return WholeSession(track, t.fixes, &sum);
+
+  // ---- 5. Row indices, then the passes.
+  AssignRows(t, declared_rows, o, &stretches, &sum);
+  std::vector<RowPass> passes = MakePasses(t, stretches, refine, track.front().t, &sum);
+  if (passes.empty()) return WholeSession(track, t.fixes, &sum);
   if (declared_rows.empty() && o.require_row_structure) {
     // A few straight stretches in a recording that is mostly something else (a walk with turns,
     // a survey) are not a row structure: the whole session is one pass.
     double in_passes = 0.0;
     for (const RowPass& p : passes) in_passes += DurationSeconds(p.t_begin, p.t_end);
-    if (in_passes < o.min_row_time_fraction * fixes.back().t) return whole_session();
-    if (!LooksLikeRows(passes, u, o)) return whole_session();
+    if (in_passes < o.min_row_time_fraction * t.fixes.back().t) {
+      return WholeSession(track, t.fixes, &sum);
+    }
+    if (!LooksLikeRows(passes, t.u, o)) return WholeSession(track, t.fixes, &sum);
   }
   return passes;
 }

@@ -70,6 +70,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/io/dataset.h"
 
@@ -158,7 +159,7 @@ class RowPassSegmenter {
     // tests above off; `crop4d slam --passes rows`).
     bool require_row_structure = true;
 
-    bool Check() const;
+    OptionCheck Check() const;
   };
 
   struct Summary {

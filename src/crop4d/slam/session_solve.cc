@@ -17,11 +17,12 @@ ImuPreintegration::Options ImuNoise(const io::ImuSensor& sensor, double factor) 
   return noise;
 }
 
-std::string ForwardAxisOptions::Check() const {
-  if (!(min_turn_rate_rad_s >= 0)) return "min_turn_rate_rad_s: must be >= 0";
-  if (!(min_speed_m_s > 0)) return "min_speed_m_s: must be > 0";
-  if (min_states < 1) return "min_states: must be >= 1";
-  return {};
+OptionCheck ForwardAxisOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("min_turn_rate_rad_s", min_turn_rate_rad_s, 0.0)
+      .Greater("min_speed_m_s", min_speed_m_s, 0.0)
+      .AtLeast("min_states", min_states, 1);
+  return c.Result();
 }
 
 std::optional<ForwardAxisEstimate> EstimateForwardAxisFromStates(
@@ -65,12 +66,13 @@ RowState InterpolateState(const std::vector<RowState>& states, Timestamp t) {
   return s;
 }
 
-std::string SessionSolveOptions::Check() const {
-  if (!(state_rate_hz > 0)) return "state_rate_hz: must be > 0";
-  if (!initialisation.Check()) return "initialisation: invalid initialisation options";
-  if (!optimiser.Check()) return "optimiser: invalid row optimiser options";
-  if (const std::string why = forward_axis.Check(); !why.empty()) return "forward_axis." + why;
-  return {};
+OptionCheck SessionSolveOptions::Check() const {
+  OptionChecker c;
+  c.Greater("state_rate_hz", state_rate_hz, 0.0)
+      .Nested("initialisation", initialisation.Check())
+      .Nested("optimiser", optimiser.Check())
+      .Nested("forward_axis", forward_axis.Check());
+  return c.Result();
 }
 
 SessionSolveResult SolveSession(const ImuStream& imu, const GpsStream& gps,

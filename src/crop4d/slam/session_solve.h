@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/io/dataset.h"
 #include "crop4d/slam/imu_preintegration.h"
@@ -49,7 +50,7 @@ struct ForwardAxisOptions {
   int min_states = 10;
 
   // Empty when valid, else the option that is wrong and why.
-  std::string Check() const;
+  OptionCheck Check() const;
 };
 
 struct ForwardAxisEstimate {
@@ -77,7 +78,7 @@ struct SessionSolveOptions {
   ForwardAxisOptions forward_axis;
 
   // Empty when valid, else the option that is wrong and why.
-  std::string Check() const;
+  OptionCheck Check() const;
 };
 
 struct SessionSolveResult {

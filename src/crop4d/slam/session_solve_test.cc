@@ -83,10 +83,10 @@ TEST(SessionSolveTest, OptionsCheckNamesTheOption) {
   SessionSolveOptions options;
   EXPECT_EQ(options.Check(), "");
   options.forward_axis.min_speed_m_s = 0;
-  EXPECT_EQ(options.Check(), "forward_axis.min_speed_m_s: must be > 0");
+  EXPECT_EQ(options.Check(), "forward_axis.min_speed_m_s: must be > 0 (got 0)");
   options = SessionSolveOptions();
   options.state_rate_hz = 0;
-  EXPECT_EQ(options.Check(), "state_rate_hz: must be > 0");
+  EXPECT_EQ(options.Check(), "state_rate_hz: must be > 0 (got 0)");
 }
 
 TEST(SessionSolveTest, InitialisationWindowsFollowTheReceiver) {

@@ -57,11 +57,21 @@ bool Inside(const std::vector<TimeInterval>& intervals, Timestamp begin, Timesta
 
 }  // namespace
 
-bool StandstillOptions::Check() const {
-  return window_s > 0 && mean_change_sigmas > 0 && gyro_floor >= 0 && accel_floor >= 0 &&
-         max_gravity_error > 0 && max_image_motion_px >= 0 && max_gps_speed >= 0 &&
-         min_duration_s >= 0 && sigma_velocity > 0 && sigma_rate > 0 && sigma_translation > 0 &&
-         sigma_rotation > 0;
+OptionCheck StandstillOptions::Check() const {
+  OptionChecker c;
+  c.Greater("window_s", window_s, 0.0)
+      .Greater("mean_change_sigmas", mean_change_sigmas, 0.0)
+      .AtLeast("gyro_floor", gyro_floor, 0.0)
+      .AtLeast("accel_floor", accel_floor, 0.0)
+      .Greater("max_gravity_error", max_gravity_error, 0.0)
+      .AtLeast("max_image_motion_px", max_image_motion_px, 0.0)
+      .AtLeast("max_gps_speed", max_gps_speed, 0.0)
+      .AtLeast("min_duration_s", min_duration_s, 0.0)
+      .Greater("sigma_velocity", sigma_velocity, 0.0)
+      .Greater("sigma_rate", sigma_rate, 0.0)
+      .Greater("sigma_translation", sigma_translation, 0.0)
+      .Greater("sigma_rotation", sigma_rotation, 0.0);
+  return c.Result();
 }
 
 std::vector<TimeInterval> QuietImuIntervals(const std::vector<ImuSample>& samples, double rate_hz,

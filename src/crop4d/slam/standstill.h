@@ -28,6 +28,7 @@
 #include <optional>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/slam/imu_preintegration.h"
 #include "crop4d/slam/state_layout.h"
@@ -60,7 +61,7 @@ struct StandstillOptions {
   double sigma_translation = 0.0002;
   double sigma_rotation = 0.00002;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct TimeInterval {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include "crop4d/core/error.h"
 
@@ -91,9 +92,15 @@ double Cost(const geometry::PinholeRadTan& camera, const std::vector<View>& view
 
 }  // namespace
 
-bool TriangulationOptions::Check() const {
-  return min_parallax_deg >= 0.0 && min_parallax_deg < 180.0 && max_reprojection_error_px > 0.0 &&
-         min_depth_m >= 0.0 && max_depth_m > min_depth_m && refine_iterations >= 0;
+OptionCheck TriangulationOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("min_parallax_deg", min_parallax_deg, 0.0)
+      .Less("min_parallax_deg", min_parallax_deg, 180.0)
+      .Greater("max_reprojection_error_px", max_reprojection_error_px, 0.0)
+      .AtLeast("min_depth_m", min_depth_m, 0.0)
+      .Require(max_depth_m > min_depth_m, "max_depth_m", "must be > min_depth_m", max_depth_m)
+      .AtLeast("refine_iterations", refine_iterations, 0);
+  return c.Result();
 }
 
 const char* ToString(TriangulationStatus status) {
@@ -116,13 +123,123 @@ const char* ToString(TriangulationStatus status) {
   return "?";
 }
 
+namespace {
+
+// Step 2, the DLT in centred, scaled world coordinates X' = (X − c) / s (H&Z §12.2, §4.4.4),
+// c the mean camera centre; nothing when the solution is at infinity or not finite.
+std::optional<Eigen::Vector3d> LinearTriangulation(const std::vector<View>& views,
+                                                   const std::vector<Eigen::Vector3d>& normalised,
+                                                   const Eigen::Vector3d& mean_center) {
+  const int n = static_cast<int>(views.size());
+  double scale = 0.0;
+  for (const View& view : views) scale += (view.center_world - mean_center).norm();
+  scale /= n;
+  if (!(scale > 0.0)) scale = 1.0;
+  Eigen::MatrixXd A(2 * n, 4);
+  for (int i = 0; i < n; ++i) {
+    // P'_i = [R_iᵀ s | R_iᵀ (c − t_i)] maps X' to the camera frame (up to the factor s).
+    Eigen::Matrix<double, 3, 4> P;
+    P.leftCols<3>() = views[i].camera_from_world_rotation * scale;
+    P.col(3) = views[i].camera_from_world_rotation * (mean_center - views[i].center_world);
+    A.row(2 * i) = normalised[i].x() * P.row(2) - P.row(0);
+    A.row(2 * i + 1) = normalised[i].y() * P.row(2) - P.row(1);
+    const double norm = std::sqrt(A.row(2 * i).squaredNorm() + A.row(2 * i + 1).squaredNorm());
+    if (norm > 0.0) A.middleRows(2 * i, 2) /= norm;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinV);
+  const Eigen::Vector4d X = svd.matrixV().col(3);
+  if (!X.allFinite() || std::abs(X.w()) <= 1e-12 * X.head<3>().norm()) return std::nullopt;
+  return Eigen::Vector3d(mean_center + scale * X.head<3>() / X.w());
+}
+
+// Step 3, Gauss-Newton on the pixel reprojection error with step halving, at most
+// `max_iterations`; returns the iterations taken.
+int RefinePoint(const geometry::PinholeRadTan& camera, const std::vector<View>& views,
+                int max_iterations, Eigen::Vector3d* point) {
+  int iterations = 0;
+  double cost = Cost(camera, views, *point);
+  for (int iteration = 0; iteration < max_iterations && std::isfinite(cost); ++iteration) {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    Eigen::Vector2d r;
+    Eigen::Matrix<double, 2, 3> J;
+    for (const View& view : views) {
+      Residual(camera, view, *point, &r, &J);
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(H);
+    if (ldlt.info() != Eigen::Success) break;
+    Eigen::Vector3d step = -ldlt.solve(g);
+    if (!step.allFinite()) break;
+    ++iterations;
+    bool improved = false;
+    for (int halving = 0; halving <= kMaxStepHalvings; ++halving, step *= 0.5) {
+      const double new_cost = Cost(camera, views, *point + step);
+      if (new_cost < cost) {
+        *point += step;
+        cost = new_cost;
+        improved = true;
+        break;
+      }
+    }
+    if (!improved || step.norm() <= 1e-12 * (1.0 + point->norm())) break;
+  }
+  return iterations;
+}
+
+// Step 4, the checks of result->point_world: depth in every view, parallax at the point,
+// reprojection errors; sets the status and the error statistics.
+void CheckPoint(const geometry::PinholeRadTan& camera, const std::vector<View>& views,
+                const TriangulationOptions& options, TriangulationResult* result) {
+  const int n = static_cast<int>(views.size());
+  const Eigen::Vector3d& point = result->point_world;
+  for (const View& view : views) {
+    const double depth = (view.camera_from_world_rotation * (point - view.center_world)).z();
+    if (!(depth >= options.min_depth_m)) {
+      result->status = TriangulationStatus::kBehindCamera;
+      return;
+    }
+    if (depth > options.max_depth_m) {
+      result->status = TriangulationStatus::kTooFar;
+      return;
+    }
+  }
+  std::vector<Eigen::Vector3d> rays_at_point(n);
+  for (int i = 0; i < n; ++i) rays_at_point[i] = point - views[i].center_world;
+  const double parallax = MaxAngle(rays_at_point);
+  result->max_parallax_deg = parallax * kRadToDeg;
+  double sum = 0.0;
+  result->max_reprojection_error_px = 0.0;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector2d r;
+    Residual(camera, views[i], point, &r, nullptr);
+    const double error = r.norm();
+    sum += error;
+    if (error >= result->max_reprojection_error_px) {
+      result->max_reprojection_error_px = error;
+      result->worst_view = i;
+    }
+  }
+  result->mean_reprojection_error_px = sum / n;
+  if (parallax < options.min_parallax_deg / kRadToDeg) {
+    result->status = TriangulationStatus::kLowParallax;
+  } else if (result->max_reprojection_error_px > options.max_reprojection_error_px) {
+    result->status = TriangulationStatus::kLargeError;
+  } else {
+    result->status = TriangulationStatus::kOk;
+  }
+}
+
+}  // namespace
+
 TriangulationResult TriangulatePoint(const geometry::PinholeRadTan& camera,
                                      const std::vector<geometry::Rigid3>& world_from_camera,
                                      const std::vector<Eigen::Vector2d>& pixels,
                                      const TriangulationOptions& options) {
   CROP4D_CHECK(world_from_camera.size() == pixels.size());
-  CROP4D_CHECK(options.Check());
-  CROP4D_CHECK(camera.Check());
+  CROP4D_CHECK_OPTIONS(options, "TriangulatePoint options");
+  CROP4D_CHECK_OPTIONS(camera, "TriangulatePoint camera");
   TriangulationResult result;
   const int n = static_cast<int>(pixels.size());
   if (n < 2) {
@@ -155,96 +272,16 @@ TriangulationResult TriangulatePoint(const geometry::PinholeRadTan& camera,
     return result;
   }
 
-  // 2. DLT in centred, scaled world coordinates X' = (X − c) / s (H&Z §12.2, §4.4.4).
-  double scale = 0.0;
-  for (const View& view : views) scale += (view.center_world - mean_center).norm();
-  scale /= n;
-  if (!(scale > 0.0)) scale = 1.0;
-  Eigen::MatrixXd A(2 * n, 4);
-  for (int i = 0; i < n; ++i) {
-    // P'_i = [R_iᵀ s | R_iᵀ (c − t_i)] maps X' to the camera frame (up to the factor s).
-    Eigen::Matrix<double, 3, 4> P;
-    P.leftCols<3>() = views[i].camera_from_world_rotation * scale;
-    P.col(3) = views[i].camera_from_world_rotation * (mean_center - views[i].center_world);
-    A.row(2 * i) = normalised[i].x() * P.row(2) - P.row(0);
-    A.row(2 * i + 1) = normalised[i].y() * P.row(2) - P.row(1);
-    const double norm = std::sqrt(A.row(2 * i).squaredNorm() + A.row(2 * i + 1).squaredNorm());
-    if (norm > 0.0) A.middleRows(2 * i, 2) /= norm;
-  }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinV);
-  const Eigen::Vector4d X = svd.matrixV().col(3);
-  if (!X.allFinite() || std::abs(X.w()) <= 1e-12 * X.head<3>().norm()) return result;
-  Eigen::Vector3d point = mean_center + scale * X.head<3>() / X.w();
-
-  // 3. Gauss-Newton on the pixel reprojection error, from the DLT point if it lies in front of
-  // every camera (otherwise the depth check below rejects it).
-  double cost = Cost(camera, views, point);
-  for (int iteration = 0; iteration < options.refine_iterations && std::isfinite(cost);
-       ++iteration) {
-    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d g = Eigen::Vector3d::Zero();
-    Eigen::Vector2d r;
-    Eigen::Matrix<double, 2, 3> J;
-    for (const View& view : views) {
-      Residual(camera, view, point, &r, &J);
-      H += J.transpose() * J;
-      g += J.transpose() * r;
-    }
-    const Eigen::LDLT<Eigen::Matrix3d> ldlt(H);
-    if (ldlt.info() != Eigen::Success) break;
-    Eigen::Vector3d step = -ldlt.solve(g);
-    if (!step.allFinite()) break;
-    ++result.iterations;
-    bool improved = false;
-    for (int halving = 0; halving <= kMaxStepHalvings; ++halving, step *= 0.5) {
-      const double new_cost = Cost(camera, views, point + step);
-      if (new_cost < cost) {
-        point += step;
-        cost = new_cost;
-        improved = true;
-        break;
-      }
-    }
-    if (!improved || step.norm() <= 1e-12 * (1.0 + point.norm())) break;
-  }
+  // 2. DLT.
+  const std::optional<Eigen::Vector3d> linear = LinearTriangulation(views, normalised, mean_center);
+  if (!linear) return result;  // kDegenerate
+  Eigen::Vector3d point = *linear;
+  // 3. Gauss-Newton, from the DLT point if it lies in front of every camera (otherwise the
+  // depth check rejects it).
+  result.iterations = RefinePoint(camera, views, options.refine_iterations, &point);
   result.point_world = point;
-
-  // 4. Checks: depth, parallax at the point, reprojection error.
-  for (const View& view : views) {
-    const double depth = (view.camera_from_world_rotation * (point - view.center_world)).z();
-    if (!(depth >= options.min_depth_m)) {
-      result.status = TriangulationStatus::kBehindCamera;
-      return result;
-    }
-    if (depth > options.max_depth_m) {
-      result.status = TriangulationStatus::kTooFar;
-      return result;
-    }
-  }
-  std::vector<Eigen::Vector3d> rays_at_point(n);
-  for (int i = 0; i < n; ++i) rays_at_point[i] = point - views[i].center_world;
-  const double parallax = MaxAngle(rays_at_point);
-  result.max_parallax_deg = parallax * kRadToDeg;
-  double sum = 0.0;
-  result.max_reprojection_error_px = 0.0;
-  for (int i = 0; i < n; ++i) {
-    Eigen::Vector2d r;
-    Residual(camera, views[i], point, &r, nullptr);
-    const double error = r.norm();
-    sum += error;
-    if (error >= result.max_reprojection_error_px) {
-      result.max_reprojection_error_px = error;
-      result.worst_view = i;
-    }
-  }
-  result.mean_reprojection_error_px = sum / n;
-  if (parallax < min_parallax_rad) {
-    result.status = TriangulationStatus::kLowParallax;
-  } else if (result.max_reprojection_error_px > options.max_reprojection_error_px) {
-    result.status = TriangulationStatus::kLargeError;
-  } else {
-    result.status = TriangulationStatus::kOk;
-  }
+  // 4. Checks.
+  CheckPoint(camera, views, options, &result);
   return result;
 }
 

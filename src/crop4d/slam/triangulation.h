@@ -30,6 +30,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
 
@@ -47,7 +48,7 @@ struct TriangulationOptions {
   // Gauss-Newton iterations after the DLT (0 keeps the linear solution).
   int refine_iterations = 5;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 enum class TriangulationStatus {

@@ -80,17 +80,24 @@ Eigen::Matrix3d Yaw(double angle) {
 
 }  // namespace
 
-bool VisualInitialisationOptions::Check() const {
-  return min_correspondences >= 5 && ransac_threshold_px > 0 && ransac_confidence > 0 &&
-         ransac_confidence < 1 && min_inlier_fraction >= 0 && min_inlier_fraction <= 1 &&
-         min_step_m >= 0 && min_usable_fraction >= 0 && min_usable_fraction <= 1;
+OptionCheck VisualInitialisationOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("min_correspondences", min_correspondences, 5)
+      .Greater("ransac_threshold_px", ransac_threshold_px, 0.0)
+      .Between("ransac_confidence", ransac_confidence, 0.0, 1.0)
+      .InRange("min_inlier_fraction", min_inlier_fraction, 0.0, 1.0)
+      .AtLeast("min_step_m", min_step_m, 0.0)
+      .InRange("min_usable_fraction", min_usable_fraction, 0.0, 1.0);
+  return c.Result();
 }
 
 std::vector<ImagePairMotion> ConsecutiveImageMotions(const geometry::PinholeRadTan& camera,
                                                      const std::vector<LandmarkTrack>& tracks,
                                                      int num_images,
                                                      const VisualInitialisationOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("VisualInitialisationOptions: invalid");
+  if (const OptionCheck why = options.Check(); !why.empty()) {
+    throw std::invalid_argument("VisualInitialisationOptions: " + why);
+  }
   const auto per_image = NormalisedObservations(camera, tracks, num_images);
   const double focal = 0.5 * (camera.fx + camera.fy);
   std::vector<ImagePairMotion> motions(std::max(num_images - 1, 0));

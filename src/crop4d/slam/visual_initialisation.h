@@ -29,6 +29,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/slam/initialisation.h"
@@ -50,7 +51,7 @@ struct VisualInitialisationOptions {
   // Below this share of usable steps the GPS guess is kept.
   double min_usable_fraction = 0.5;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // The motion between image k and k + 1, in the frame of camera k.

@@ -159,6 +159,130 @@ OptionCheck PlaneWarpOptions::Check() const {
   return c.Result();
 }
 
+namespace {
+
+// The patch that a warped keypoint is described on, and the nodes of its map: the map from
+// patch pixels to I1 is computed exactly at (intervals + 1)² nodes and bilinearly between them.
+struct PatchLayout {
+  int half = 0, side = 0;  // side = 2 half + 1 pixels
+  double keypoint_size = 0;
+  int intervals = 0;
+  // Patch pixel k lies in node interval cell_of[k], at fraction weight_of[k] of it (rows and
+  // columns alike).
+  std::vector<int> cell_of;
+  std::vector<float> weight_of;
+};
+
+// Patch size: OpenCV's descriptor window has radius round(3σ·√2·(4 + 1)/2) at scale σ (the 4×4
+// cells of Lowe 2004, §6.1, each 3σ wide, rotated), gradients need one more pixel, and the blur
+// to σ (√(σ² − 0.5²), the input being taken as blurred by 0.5) must not bring in the next
+// patch. Nodes every map_node_spacing_px pixels.
+PatchLayout MakePatchLayout(const PlaneWarpOptions& options) {
+  PatchLayout p;
+  const double sigma = options.descriptor_sigma;
+  const int window_radius = static_cast<int>(std::lround(3 * sigma * std::sqrt(2.0) * 2.5));
+  const int blur_margin =
+      static_cast<int>(std::ceil(3 * std::sqrt(std::max(sigma * sigma - 0.25, 0.01)))) + 1;
+  p.half = window_radius + 1 + blur_margin;
+  p.side = 2 * p.half + 1;
+  p.keypoint_size = 2 * sigma;
+  p.intervals =
+      std::max(1, (p.side - 1 + options.map_node_spacing_px - 1) / options.map_node_spacing_px);
+  p.cell_of.resize(p.side);
+  p.weight_of.resize(p.side);
+  for (int k = 0; k < p.side; ++k) {
+    const double f = static_cast<double>(k) * p.intervals / (p.side - 1);
+    p.cell_of[k] = std::min(static_cast<int>(f), p.intervals - 1);
+    p.weight_of[k] = static_cast<float>(f - p.cell_of[k]);
+  }
+  return p;
+}
+
+// Whether both cameras see the plane at the keypoint at least at min_view_cosine (grazing views
+// make the homography ill-conditioned); x2 is the keypoint's pixel in I2.
+bool ViewsNotGrazing(const PlaneWarpInput& input, const WarpRequest& request,
+                     const PlaneTransfer& transfer, const Eigen::Vector2d& x1,
+                     const Eigen::Matrix3d& rotation_b_from_a, double min_view_cosine,
+                     Eigen::Vector2d* x2) {
+  const Eigen::Vector3d normal_a = request.normal_in_a.normalized();
+  Eigen::Vector3d ray_a;
+  if (!input.camera_a->Unproject(x1, &ray_a)) return false;
+  if (std::abs(normal_a.dot(ray_a.normalized())) < min_view_cosine) return false;
+  if (!transfer.AToB(x1, x2)) return false;
+  Eigen::Vector3d ray_b;
+  if (!input.camera_b->Unproject(*x2, &ray_b)) return false;
+  return !(std::abs((rotation_b_from_a * normal_a).dot(ray_b.normalized())) < min_view_cosine);
+}
+
+// J = ∂x2/∂x1 by central differences of half a pixel.
+bool TransferJacobian(const PlaneTransfer& transfer, const Eigen::Vector2d& x1,
+                      Eigen::Matrix2d* jacobian) {
+  bool ok = true;
+  for (int axis = 0; axis < 2 && ok; ++axis) {
+    Eigen::Vector2d step = Eigen::Vector2d::Zero();
+    step[axis] = 0.5;
+    Eigen::Vector2d plus, minus;
+    ok = transfer.AToB(x1 + step, &plus) && transfer.AToB(x1 - step, &minus);
+    if (ok) jacobian->col(axis) = (plus - minus) / (2 * step[axis]);
+  }
+  return ok;
+}
+
+// The keypoint's orientation in I2, degrees in [0, 360): its gradient direction carried by J⁻ᵀ;
+// 0 upright or when the keypoint has none.
+double WarpedAngle(const features::Keypoint& keypoint, const Eigen::Matrix2d& jacobian,
+                   bool upright) {
+  if (upright || !(keypoint.angle >= 0)) return 0;
+  const double theta = keypoint.angle * std::numbers::pi / 180.0;
+  const Eigen::Vector2d gradient =
+      jacobian.inverse().transpose() * Eigen::Vector2d(std::cos(theta), std::sin(theta));
+  double angle_b = std::atan2(gradient.y(), gradient.x()) * 180.0 / std::numbers::pi;
+  if (angle_b < 0) angle_b += 360.0;
+  if (angle_b >= 360.0) angle_b -= 360.0;
+  return angle_b;
+}
+
+// The cv::remap map of the patch around x2 (`spacing` I2 pixels per patch pixel) into pyramid
+// level `level` of I1: exact at the nodes (patch pixel → I2 pixel → plane → I1 pixel → level
+// pixel), bilinear between them, first along the column of nodes for a row, then along the row
+// (the column weights are the same for every row). False when a node does not transfer.
+bool PatchMap(const PatchLayout& p, const PlaneTransfer& transfer, const Eigen::Vector2d& x2,
+              double spacing, double image_scale, int level, std::vector<Eigen::Vector2f>* nodes,
+              std::vector<Eigen::Vector2f>* row_nodes, cv::Mat* map) {
+  const int intervals = p.intervals, side = p.side, half = p.half;
+  bool ok = true;
+  for (int i = 0; i <= intervals && ok; ++i) {
+    for (int j = 0; j <= intervals && ok; ++j) {
+      const double pr = static_cast<double>(i) * (side - 1) / intervals - half;
+      const double pc = static_cast<double>(j) * (side - 1) / intervals - half;
+      Eigen::Vector2d u1;
+      ok = transfer.BToA(x2 + spacing * Eigen::Vector2d(pc, pr), &u1);
+      if (ok) {
+        (*nodes)[static_cast<std::size_t>(i) * (intervals + 1) + j] =
+            (((u1.array() + 0.5) * image_scale - 0.5) / (1 << level)).matrix().cast<float>();
+      }
+    }
+  }
+  if (!ok) return false;
+  for (int row = 0; row < side; ++row) {
+    const int i0 = p.cell_of[row];
+    const float ai = p.weight_of[row];
+    const Eigen::Vector2f* top = &(*nodes)[static_cast<std::size_t>(i0) * (intervals + 1)];
+    const Eigen::Vector2f* bottom = top + (intervals + 1);
+    for (int j = 0; j <= intervals; ++j) (*row_nodes)[j] = (1 - ai) * top[j] + ai * bottom[j];
+    cv::Vec2f* out = map->ptr<cv::Vec2f>(row);
+    for (int col = 0; col < side; ++col) {
+      const int j0 = p.cell_of[col];
+      const float aj = p.weight_of[col];
+      const Eigen::Vector2f v = (1 - aj) * (*row_nodes)[j0] + aj * (*row_nodes)[j0 + 1];
+      out[col] = cv::Vec2f(v.x(), v.y());
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
 std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input,
                                                      const std::vector<WarpRequest>& requests,
                                                      const PlaneWarpOptions& options,
@@ -189,34 +313,13 @@ std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input
   std::vector<cv::Mat> pyramid;
   cv::buildPyramid(grey, pyramid, num_levels);
 
-  // Patch size: OpenCV's descriptor window has radius round(3σ·√2·(4 + 1)/2) at scale σ (the 4×4
-  // cells of Lowe 2004, §6.1, each 3σ wide, rotated), gradients need one more pixel, and the blur
-  // to σ (√(σ² − 0.5²), the input being taken as blurred by 0.5) must not bring in the next
-  // patch.
-  const double sigma = options.descriptor_sigma;
-  const int window_radius = static_cast<int>(std::lround(3 * sigma * std::sqrt(2.0) * 2.5));
-  const int blur_margin =
-      static_cast<int>(std::ceil(3 * std::sqrt(std::max(sigma * sigma - 0.25, 0.01)))) + 1;
-  const int half = window_radius + 1 + blur_margin;
-  const int side = 2 * half + 1;
-  const double keypoint_size = 2 * sigma;
-
+  const PatchLayout layout = MakePatchLayout(options);
   const int capacity = std::min<int>(options.patches_per_batch, static_cast<int>(n));
-  PatchBatch batch(side, capacity, sigma);
-  const int intervals =
-      std::max(1, (side - 1 + options.map_node_spacing_px - 1) / options.map_node_spacing_px);
-  std::vector<Eigen::Vector2f> nodes(static_cast<std::size_t>(intervals + 1) * (intervals + 1));
-  cv::Mat map(side, side, CV_32FC2);
-  // Node interval and weight of each patch row (and column): patch pixel k lies in node interval
-  // cell_of[k], at fraction weight_of[k] of it.
-  std::vector<int> cell_of(side);
-  std::vector<float> weight_of(side);
-  for (int k = 0; k < side; ++k) {
-    const double f = static_cast<double>(k) * intervals / (side - 1);
-    cell_of[k] = std::min(static_cast<int>(f), intervals - 1);
-    weight_of[k] = static_cast<float>(f - cell_of[k]);
-  }
-  std::vector<Eigen::Vector2f> row_nodes(intervals + 1);
+  PatchBatch batch(layout.side, capacity, options.descriptor_sigma);
+  std::vector<Eigen::Vector2f> nodes(static_cast<std::size_t>(layout.intervals + 1) *
+                                     (layout.intervals + 1));
+  std::vector<Eigen::Vector2f> row_nodes(layout.intervals + 1);
+  cv::Mat map(layout.side, layout.side, CV_32FC2);
   const Eigen::Matrix3d rotation_b_from_a = input.camera_b_from_camera_a.RotationMatrix();
 
   for (std::size_t r = 0; r < n; ++r) {
@@ -231,85 +334,26 @@ std::vector<WarpedKeypoint> ComputeWarpedDescriptors(const PlaneWarpInput& input
     const Eigen::Vector2d x1(keypoint.x, keypoint.y);
     const PlaneTransfer transfer(camera_a, camera_b, input.camera_b_from_camera_a,
                                  request.normal_in_a, request.offset);
-
-    // Grazing views make the homography ill-conditioned: refuse them.
-    const Eigen::Vector3d normal_a = request.normal_in_a.normalized();
-    Eigen::Vector3d ray_a;
-    if (!camera_a.Unproject(x1, &ray_a)) continue;
-    if (std::abs(normal_a.dot(ray_a.normalized())) < options.min_view_cosine) continue;
     Eigen::Vector2d x2;
-    if (!transfer.AToB(x1, &x2)) continue;
-    Eigen::Vector3d ray_b;
-    if (!camera_b.Unproject(x2, &ray_b)) continue;
-    if (std::abs((rotation_b_from_a * normal_a).dot(ray_b.normalized())) <
-        options.min_view_cosine) {
+    if (!ViewsNotGrazing(input, request, transfer, x1, rotation_b_from_a, options.min_view_cosine,
+                         &x2)) {
       continue;
     }
-
-    // J = ∂x2/∂x1 by central differences of half a pixel.
     Eigen::Matrix2d jacobian;
-    bool ok = true;
-    for (int axis = 0; axis < 2 && ok; ++axis) {
-      Eigen::Vector2d step = Eigen::Vector2d::Zero();
-      step[axis] = 0.5;
-      Eigen::Vector2d plus, minus;
-      ok = transfer.AToB(x1 + step, &plus) && transfer.AToB(x1 - step, &minus);
-      if (ok) jacobian.col(axis) = (plus - minus) / (2 * step[axis]);
-    }
-    if (!ok) continue;
+    if (!TransferJacobian(transfer, x1, &jacobian)) continue;
     const double det = jacobian.determinant();
     // det ≤ 0: the two cameras see opposite sides of the plane (or a fold); no warp.
     if (!(det > 1.0 / options.max_area_change && det < options.max_area_change)) continue;
     const double size_b = keypoint.size * std::sqrt(det);
-    double angle_b = keypoint.angle;
-    if (options.upright) {
-      angle_b = 0;
-    } else if (keypoint.angle >= 0) {
-      const double theta = keypoint.angle * std::numbers::pi / 180.0;
-      const Eigen::Vector2d gradient =
-          jacobian.inverse().transpose() * Eigen::Vector2d(std::cos(theta), std::sin(theta));
-      angle_b = std::atan2(gradient.y(), gradient.x()) * 180.0 / std::numbers::pi;
-      if (angle_b < 0) angle_b += 360.0;
-      if (angle_b >= 360.0) angle_b -= 360.0;
-    } else {
-      angle_b = 0;
-    }
-    const double spacing = size_b / keypoint_size;  // I2 pixels per patch pixel
+    const double angle_b = WarpedAngle(keypoint, jacobian, options.upright);
+    const double spacing = size_b / layout.keypoint_size;  // I2 pixels per patch pixel
 
     // Pyramid level: the patch pixel's largest extent in I1's image pixels, shrunk to ≤ 1.5.
     const double footprint = LargestSingularValue(image_scale * spacing * jacobian.inverse());
     int level = 0;
     while (level < num_levels && footprint / (1 << level) > 1.5) ++level;
-
-    // The exact map at the nodes: patch pixel p → I2 pixel → plane → I1 pixel → level pixel.
-    for (int i = 0; i <= intervals && ok; ++i) {
-      for (int j = 0; j <= intervals && ok; ++j) {
-        const double pr = static_cast<double>(i) * (side - 1) / intervals - half;
-        const double pc = static_cast<double>(j) * (side - 1) / intervals - half;
-        Eigen::Vector2d u1;
-        ok = transfer.BToA(x2 + spacing * Eigen::Vector2d(pc, pr), &u1);
-        if (ok) {
-          nodes[static_cast<std::size_t>(i) * (intervals + 1) + j] =
-              (((u1.array() + 0.5) * image_scale - 0.5) / (1 << level)).matrix().cast<float>();
-        }
-      }
-    }
-    if (!ok) continue;
-    // Bilinear between the nodes: first along the column of nodes for this row, then along
-    // the row (the column weights are the same for every row).
-    for (int row = 0; row < side; ++row) {
-      const int i0 = cell_of[row];
-      const float ai = weight_of[row];
-      const Eigen::Vector2f* top = &nodes[static_cast<std::size_t>(i0) * (intervals + 1)];
-      const Eigen::Vector2f* bottom = top + (intervals + 1);
-      for (int j = 0; j <= intervals; ++j) row_nodes[j] = (1 - ai) * top[j] + ai * bottom[j];
-      cv::Vec2f* out = map.ptr<cv::Vec2f>(row);
-      for (int col = 0; col < side; ++col) {
-        const int j0 = cell_of[col];
-        const float aj = weight_of[col];
-        const Eigen::Vector2f v = (1 - aj) * row_nodes[j0] + aj * row_nodes[j0 + 1];
-        out[col] = cv::Vec2f(v.x(), v.y());
-      }
+    if (!PatchMap(layout, transfer, x2, spacing, image_scale, level, &nodes, &row_nodes, &map)) {
+      continue;
     }
     cv::Mat cell = batch.NextCell();
     cv::remap(pyramid[level], cell, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_REPLICATE);

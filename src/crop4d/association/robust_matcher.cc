@@ -6,6 +6,7 @@
 #include <limits>
 #include <map>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <tuple>
 
 #include "crop4d/core/error.h"
@@ -129,42 +130,32 @@ RobustMatcher::RobustMatcher(Options options) : options_(std::move(options)) {
   CROP4D_CHECK_OPTIONS(options_, "RobustMatcher::Options");
 }
 
-AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
-  const Clock::time_point start = Clock::now();
-  CROP4D_CHECK(input.camera_a != nullptr && input.camera_b != nullptr &&
-               input.features_a != nullptr && input.features_b != nullptr &&
-               input.landmarks_a != nullptr);
-  const geometry::PinholeRadTan& camera_a = *input.camera_a;
+namespace {
+
+using MatcherOptions = RobustMatcher::Options;
+
+// Whether a candidate's SIFT size is within max_scale_ratio of the predicted one.
+bool ScaleAgrees(const MatcherOptions& options, double size, double predicted_size) {
+  if (options.max_scale_ratio <= 0 || predicted_size <= 0) return true;
+  const double ratio = size / predicted_size;
+  return ratio <= options.max_scale_ratio && ratio * options.max_scale_ratio >= 1;
+}
+
+// Step 1, bounded search: each landmark of a that projects into I2 becomes a query with the
+// features of I2 in a box sized by the pose uncertainty (and the landmark's own along its
+// ray); with `warp`, a landmark with a local plane (or the ground normal, see plane_fallback)
+// asks for a warped descriptor.
+void BuildQueries(const MatcherOptions& options, const RobustPairInput& input, bool warp,
+                  std::vector<Query>* queries, std::vector<WarpRequest>* warp_requests,
+                  AssociationStats* stats) {
   const geometry::PinholeRadTan& camera_b = *input.camera_b;
   const features::FeatureSet& features_a = *input.features_a;
   const features::FeatureSet& features_b = *input.features_b;
   const std::vector<LandmarkObservation>& landmarks = *input.landmarks_a;
-
-  AssociationResult result;
-  AssociationStats& stats = result.stats;
-  stats.num_landmarks = static_cast<int>(landmarks.size());
   const geometry::Rigid3 camera_b_from_world = input.world_from_camera_b.Inverse();
   const geometry::Rigid3 camera_a_from_world = input.world_from_camera_a.Inverse();
-  const geometry::Rigid3 camera_b_from_camera_a = camera_b_from_world * input.world_from_camera_a;
-  stats.baseline_m =
-      (input.world_from_camera_a.translation() - input.world_from_camera_b.translation()).norm();
-  // Without I1 there is nothing to warp: the cached descriptors are compared as for a short
-  // baseline.
-  const bool warp = stats.baseline_m > options_.warp_min_baseline_m && input.image_a != nullptr &&
-                    !input.image_a->empty();
-
-  // Whether a candidate's SIFT size is within max_scale_ratio of the predicted one.
-  const auto ScaleAgrees = [this](double size, double predicted_size) {
-    if (options_.max_scale_ratio <= 0 || predicted_size <= 0) return true;
-    const double ratio = size / predicted_size;
-    return ratio <= options_.max_scale_ratio && ratio * options_.max_scale_ratio >= 1;
-  };
-
-  // 1. Bounded search: project, size the box, collect the candidates.
   const FeatureGrid grid(features_b, camera_b.width, camera_b.height, 16.0);
   const double focal_b = std::max(camera_b.fx, camera_b.fy);
-  std::vector<Query> queries;
-  std::vector<WarpRequest> warp_requests;
   const Eigen::Matrix3d camera_a_from_world_rotation = camera_a_from_world.RotationMatrix();
   for (std::size_t o = 0; o < landmarks.size(); ++o) {
     const LandmarkObservation& observation = landmarks[o];
@@ -172,12 +163,12 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
                  static_cast<std::size_t>(observation.feature) < features_a.size());
     if (!observation.position_world.allFinite()) continue;
     const Eigen::Vector3d point_b = camera_b_from_world * observation.position_world;
-    if (!(point_b.z() > options_.min_depth_m)) continue;
+    if (!(point_b.z() > options.min_depth_m)) continue;
     Query query;
     if (!camera_b.Project(point_b, &query.projection) || !camera_b.IsInImage(query.projection)) {
       continue;
     }
-    ++stats.num_projected;
+    ++stats->num_projected;
     // A point known only to σd along ray a moves in I2 by fx·σd·sin θ / z (θ between the rays).
     double along_ray_px = 0;
     if (observation.sigma_along_ray_m > 0) {
@@ -188,14 +179,14 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
       along_ray_px =
           focal_b * observation.sigma_along_ray_m * ray_a.cross(ray_b).norm() / point_b.z();
     }
-    query.radius = std::min(
-        options_.max_search_radius_px,
-        options_.min_search_radius_px +
-            options_.search_sigmas * (focal_b * options_.sigma_position_m / point_b.z() +
-                                      focal_b * options_.sigma_rotation_rad + along_ray_px));
+    query.radius =
+        std::min(options.max_search_radius_px,
+                 options.min_search_radius_px +
+                     options.search_sigmas * (focal_b * options.sigma_position_m / point_b.z() +
+                                              focal_b * options.sigma_rotation_rad + along_ray_px));
     grid.Query(query.projection, query.radius, &query.candidates);
     if (query.candidates.empty()) continue;
-    ++stats.num_with_candidates;
+    ++stats->num_with_candidates;
     query.observation = static_cast<int>(o);
     const features::Keypoint& keypoint = features_a.keypoints[observation.feature];
     const Eigen::Vector3d point_a = camera_a_from_world * observation.position_world;
@@ -212,8 +203,8 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
       if (plane.valid) {
         normal_world = plane.normal;
       } else {
-        ++stats.num_plane_fallbacks;
-        use_warp = options_.plane_fallback == PlaneFallback::kGroundNormal;
+        ++stats->num_plane_fallbacks;
+        use_warp = options.plane_fallback == RobustMatcher::PlaneFallback::kGroundNormal;
       }
       if (use_warp) {
         WarpRequest request;
@@ -221,129 +212,210 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
         request.normal_in_a = camera_a_from_world_rotation * normal_world;
         request.offset = request.normal_in_a.dot(point_a);
         if (std::abs(request.offset) > 1e-9) {
-          query.warp = static_cast<int>(warp_requests.size());
-          warp_requests.push_back(request);
+          query.warp = static_cast<int>(warp_requests->size());
+          warp_requests->push_back(request);
         }
       }
     }
-    queries.push_back(std::move(query));
+    queries->push_back(std::move(query));
   }
+}
+
+// Upright descriptors of I2's candidates of the validly warped landmarks (those whose size
+// agrees), each place once: SIFT gives a keypoint with two orientation peaks twice, at one
+// position and size, and upright both copies have the same descriptor. `upright_row[c]` is the
+// row of feature c in `descriptors`, −1 where it was not described (or its patch refused).
+void DescribeUprightCandidates(const MatcherOptions& options, const RobustPairInput& input,
+                               const std::vector<Query>& queries,
+                               const std::vector<WarpedKeypoint>& warped,
+                               std::vector<int>* upright_row,
+                               std::vector<std::uint8_t>* descriptors, AssociationStats* stats) {
+  const features::FeatureSet& features_b = *input.features_b;
+  upright_row->assign(features_b.size(), -1);
+  std::map<std::tuple<float, float, float>, int> row_of_place;
+  std::vector<std::int32_t> wanted;
+  for (const Query& query : queries) {
+    if (query.warp < 0 || !warped[query.warp].valid) continue;
+    for (const std::int32_t c : query.candidates) {
+      if ((*upright_row)[c] != -1 ||
+          !ScaleAgrees(options, features_b.keypoints[c].size, warped[query.warp].size_b)) {
+        continue;
+      }
+      const features::Keypoint& k = features_b.keypoints[c];
+      const auto [it, added] =
+          row_of_place.try_emplace({k.x, k.y, k.size}, static_cast<int>(wanted.size()));
+      if (added) wanted.push_back(c);
+      (*upright_row)[c] = it->second;
+    }
+  }
+  const std::vector<bool> described = ComputeUprightDescriptors(
+      *input.camera_b, features_b, *input.image_b, wanted, options.warp, descriptors);
+  for (int& row : *upright_row) {
+    if (row >= 0 && !described[row]) row = -1;
+  }
+  stats->num_upright_b = static_cast<int>(wanted.size());
+}
+
+// The descriptors that step 3 compares: the warped ones (and, upright, the upright ones of
+// I2's candidates).
+struct PairDescriptors {
+  std::vector<std::uint8_t> warped_descriptors;
+  std::vector<WarpedKeypoint> warped;
+  bool upright = false;
+  std::vector<int> upright_row;  // see DescribeUprightCandidates
+  std::vector<std::uint8_t> upright_descriptors;
+};
+
+// Step 3 for one query: its best candidate by descriptor distance among those whose size
+// agrees, kept when close enough and distinctive (ratio test against the best candidate at
+// another place).
+std::optional<LandmarkMatch> BestCandidate(const MatcherOptions& options,
+                                           const RobustPairInput& input, const Query& query,
+                                           const PairDescriptors& d, AssociationStats* stats) {
+  const features::FeatureSet& features_a = *input.features_a;
+  const features::FeatureSet& features_b = *input.features_b;
+  const LandmarkObservation& observation = (*input.landmarks_a)[query.observation];
+  const std::uint8_t* descriptor = features_a.Descriptor(observation.feature);
+  double predicted_size = query.predicted_size;
+  // Whether the descriptor is an upright warped one, to be compared with upright ones of I2.
+  bool compare_upright = false;
+  if (query.warp >= 0) {
+    const WarpedKeypoint& w = d.warped[query.warp];
+    if (w.valid) {
+      ++stats->num_warped;
+      compare_upright = d.upright;
+      descriptor = d.warped_descriptors.data() +
+                   static_cast<std::size_t>(query.warp) * features::kDescriptorSize;
+      predicted_size = w.size_b;
+    } else {
+      ++stats->num_warps_refused;
+    }
+  }
+  int best = -1;
+  float best_distance = std::numeric_limits<float>::infinity();
+  // Distances of the candidates that pass the scale check, for the rival search.
+  std::vector<std::pair<std::int32_t, float>> scored;
+  scored.reserve(query.candidates.size());
+  for (const std::int32_t c : query.candidates) {
+    if (!ScaleAgrees(options, features_b.keypoints[c].size, predicted_size)) continue;
+    const std::uint8_t* descriptor_b = features_b.Descriptor(c);
+    if (compare_upright) {
+      if (d.upright_row[c] < 0) continue;  // its patch could not be built
+      descriptor_b = d.upright_descriptors.data() +
+                     static_cast<std::size_t>(d.upright_row[c]) * features::kDescriptorSize;
+    }
+    ++stats->num_candidates;
+    const float distance = DescriptorDistance(descriptor, descriptor_b);
+    scored.emplace_back(c, distance);
+    if (distance < best_distance) {
+      best_distance = distance;
+      best = c;
+    }
+  }
+  if (best < 0 || best_distance > options.max_descriptor_distance) return std::nullopt;
+  const Eigen::Vector2d best_point = features_b.Point(best);
+  float rival = std::numeric_limits<float>::infinity();
+  for (const auto& [c, distance] : scored) {
+    if ((features_b.Point(c) - best_point).norm() > options.same_point_radius_px) {
+      rival = std::min(rival, distance);
+    }
+  }
+  if (std::isfinite(rival) && !(best_distance < options.max_ratio * rival)) return std::nullopt;
+  return LandmarkMatch{observation.feature, best, best_distance, observation.landmark};
+}
+
+// One landmark per feature of I2, the closest in descriptor space.
+void KeepOnePerFeatureB(std::vector<LandmarkMatch>* putative) {
+  std::sort(putative->begin(), putative->end(), [](const LandmarkMatch& p, const LandmarkMatch& q) {
+    if (p.feature_b != q.feature_b) return p.feature_b < q.feature_b;
+    if (p.distance != q.distance) return p.distance < q.distance;
+    return p.feature_a < q.feature_a;
+  });
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < putative->size(); ++k) {
+    if (k > 0 && (*putative)[k].feature_b == (*putative)[k - 1].feature_b) continue;
+    (*putative)[kept++] = (*putative)[k];
+  }
+  putative->resize(kept);
+}
+
+// Step 4: the putative matches consistent with one epipolar geometry (RANSAC on F over the
+// undistorted pixels); none when it cannot be verified.
+std::vector<LandmarkMatch> VerifyMatches(const MatcherOptions& options,
+                                         const RobustPairInput& input,
+                                         const std::vector<LandmarkMatch>& putative,
+                                         AssociationStats* stats) {
+  std::vector<Eigen::Vector2d> points_a, points_b;
+  points_a.reserve(putative.size());
+  points_b.reserve(putative.size());
+  for (const LandmarkMatch& m : putative) {
+    points_a.push_back(UndistortedPixel(*input.camera_a, *input.features_a, m.feature_a));
+    points_b.push_back(UndistortedPixel(*input.camera_b, *input.features_b, m.feature_b));
+  }
+  const features::EpipolarGeometry geometry =
+      features::EstimateEpipolarGeometry(points_a, points_b, options.verification);
+  stats->verified = geometry.verified;
+  std::vector<LandmarkMatch> matches;
+  if (geometry.verified) {
+    matches.reserve(geometry.inliers.size());
+    for (const int k : geometry.inliers) matches.push_back(putative[k]);
+  }
+  return matches;
+}
+
+}  // namespace
+
+AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
+  const Clock::time_point start = Clock::now();
+  CROP4D_CHECK(input.camera_a != nullptr && input.camera_b != nullptr &&
+               input.features_a != nullptr && input.features_b != nullptr &&
+               input.landmarks_a != nullptr);
+  AssociationResult result;
+  AssociationStats& stats = result.stats;
+  stats.num_landmarks = static_cast<int>(input.landmarks_a->size());
+  stats.baseline_m =
+      (input.world_from_camera_a.translation() - input.world_from_camera_b.translation()).norm();
+  // Without I1 there is nothing to warp: the cached descriptors are compared as for a short
+  // baseline.
+  const bool warp = stats.baseline_m > options_.warp_min_baseline_m && input.image_a != nullptr &&
+                    !input.image_a->empty();
+
+  // 1. Bounded search: project, size the box, collect the candidates.
+  std::vector<Query> queries;
+  std::vector<WarpRequest> warp_requests;
+  BuildQueries(options_, input, warp, &queries, &warp_requests, &stats);
 
   // 2. Warped descriptors, all patches of the pair described in batches; upright, I2's
   //    candidates of the warped landmarks described upright too (each once).
-  std::vector<std::uint8_t> warped_descriptors;
-  std::vector<WarpedKeypoint> warped;
-  const bool upright = options_.upright_after_warp && input.image_b != nullptr &&
-                       !input.image_b->empty() && !warp_requests.empty();
-  // Row of each feature of I2 in upright_descriptors, −1: not described (or refused).
-  std::vector<int> upright_row;
-  std::vector<std::uint8_t> upright_descriptors;
+  PairDescriptors d;
+  d.upright = options_.upright_after_warp && input.image_b != nullptr && !input.image_b->empty() &&
+              !warp_requests.empty();
   if (!warp_requests.empty()) {
     PlaneWarpInput warp_input;
-    warp_input.camera_a = &camera_a;
-    warp_input.camera_b = &camera_b;
-    warp_input.camera_b_from_camera_a = camera_b_from_camera_a;
-    warp_input.features_a = &features_a;
+    warp_input.camera_a = input.camera_a;
+    warp_input.camera_b = input.camera_b;
+    warp_input.camera_b_from_camera_a =
+        input.world_from_camera_b.Inverse() * input.world_from_camera_a;
+    warp_input.features_a = input.features_a;
     warp_input.image_a = input.image_a;
     PlaneWarpOptions warp_options = options_.warp;
-    warp_options.upright = upright;
-    warped = ComputeWarpedDescriptors(warp_input, warp_requests, warp_options, &warped_descriptors);
+    warp_options.upright = d.upright;
+    d.warped =
+        ComputeWarpedDescriptors(warp_input, warp_requests, warp_options, &d.warped_descriptors);
   }
-  if (upright) {
-    upright_row.assign(features_b.size(), -1);
-    // SIFT gives a keypoint with two orientation peaks twice, at one position and size: upright,
-    // both copies have the same descriptor, computed once.
-    std::map<std::tuple<float, float, float>, int> row_of_place;
-    std::vector<std::int32_t> wanted;
-    for (const Query& query : queries) {
-      if (query.warp < 0 || !warped[query.warp].valid) continue;
-      for (const std::int32_t c : query.candidates) {
-        if (upright_row[c] != -1 ||
-            !ScaleAgrees(features_b.keypoints[c].size, warped[query.warp].size_b)) {
-          continue;
-        }
-        const features::Keypoint& k = features_b.keypoints[c];
-        const auto [it, added] =
-            row_of_place.try_emplace({k.x, k.y, k.size}, static_cast<int>(wanted.size()));
-        if (added) wanted.push_back(c);
-        upright_row[c] = it->second;
-      }
-    }
-    const std::vector<bool> described = ComputeUprightDescriptors(
-        camera_b, features_b, *input.image_b, wanted, options_.warp, &upright_descriptors);
-    for (int& row : upright_row) {
-      if (row >= 0 && !described[row]) row = -1;
-    }
-    stats.num_upright_b = static_cast<int>(wanted.size());
+  if (d.upright) {
+    DescribeUprightCandidates(options_, input, queries, d.warped, &d.upright_row,
+                              &d.upright_descriptors, &stats);
   }
 
   // 3. The best distinctive candidate of each landmark.
   std::vector<LandmarkMatch> putative;
-  for (Query& query : queries) {
-    const LandmarkObservation& observation = landmarks[query.observation];
-    const std::uint8_t* descriptor = features_a.Descriptor(observation.feature);
-    double predicted_size = query.predicted_size;
-    // Whether the descriptor is an upright warped one, to be compared with upright ones of I2.
-    bool compare_upright = false;
-    if (query.warp >= 0) {
-      const WarpedKeypoint& w = warped[query.warp];
-      if (w.valid) {
-        ++stats.num_warped;
-        compare_upright = upright;
-        descriptor = warped_descriptors.data() +
-                     static_cast<std::size_t>(query.warp) * features::kDescriptorSize;
-        predicted_size = w.size_b;
-      } else {
-        ++stats.num_warps_refused;
-      }
+  for (const Query& query : queries) {
+    if (const std::optional<LandmarkMatch> m = BestCandidate(options_, input, query, d, &stats)) {
+      putative.push_back(*m);
     }
-    int best = -1;
-    float best_distance = std::numeric_limits<float>::infinity();
-    // Distances of the candidates that pass the scale check, for the rival search.
-    std::vector<std::pair<std::int32_t, float>> scored;
-    scored.reserve(query.candidates.size());
-    for (const std::int32_t c : query.candidates) {
-      if (!ScaleAgrees(features_b.keypoints[c].size, predicted_size)) continue;
-      const std::uint8_t* descriptor_b = features_b.Descriptor(c);
-      if (compare_upright) {
-        if (upright_row[c] < 0) continue;  // its patch could not be built
-        descriptor_b = upright_descriptors.data() +
-                       static_cast<std::size_t>(upright_row[c]) * features::kDescriptorSize;
-      }
-      ++stats.num_candidates;
-      const float distance = DescriptorDistance(descriptor, descriptor_b);
-      scored.emplace_back(c, distance);
-      if (distance < best_distance) {
-        best_distance = distance;
-        best = c;
-      }
-    }
-    if (best < 0 || best_distance > options_.max_descriptor_distance) continue;
-    const Eigen::Vector2d best_point = features_b.Point(best);
-    float rival = std::numeric_limits<float>::infinity();
-    for (const auto& [c, distance] : scored) {
-      if ((features_b.Point(c) - best_point).norm() > options_.same_point_radius_px) {
-        rival = std::min(rival, distance);
-      }
-    }
-    if (std::isfinite(rival) && !(best_distance < options_.max_ratio * rival)) continue;
-    putative.push_back({observation.feature, best, best_distance, observation.landmark});
   }
-
-  // One landmark per feature of I2, the closest in descriptor space.
-  if (options_.one_to_one && !putative.empty()) {
-    std::sort(putative.begin(), putative.end(), [](const LandmarkMatch& p, const LandmarkMatch& q) {
-      if (p.feature_b != q.feature_b) return p.feature_b < q.feature_b;
-      if (p.distance != q.distance) return p.distance < q.distance;
-      return p.feature_a < q.feature_a;
-    });
-    std::size_t kept = 0;
-    for (std::size_t k = 0; k < putative.size(); ++k) {
-      if (k > 0 && putative[k].feature_b == putative[k - 1].feature_b) continue;
-      putative[kept++] = putative[k];
-    }
-    putative.resize(kept);
-  }
+  if (options_.one_to_one && !putative.empty()) KeepOnePerFeatureB(&putative);
   std::sort(putative.begin(), putative.end(), [](const LandmarkMatch& p, const LandmarkMatch& q) {
     if (p.feature_a != q.feature_a) return p.feature_a < q.feature_a;
     return p.feature_b < q.feature_b;
@@ -355,20 +427,7 @@ AssociationResult RobustMatcher::Match(const RobustPairInput& input) const {
     result.matches = std::move(putative);
     stats.verified = !result.matches.empty();
   } else {
-    std::vector<Eigen::Vector2d> points_a, points_b;
-    points_a.reserve(putative.size());
-    points_b.reserve(putative.size());
-    for (const LandmarkMatch& m : putative) {
-      points_a.push_back(UndistortedPixel(camera_a, features_a, m.feature_a));
-      points_b.push_back(UndistortedPixel(camera_b, features_b, m.feature_b));
-    }
-    const features::EpipolarGeometry geometry =
-        features::EstimateEpipolarGeometry(points_a, points_b, options_.verification);
-    stats.verified = geometry.verified;
-    if (geometry.verified) {
-      result.matches.reserve(geometry.inliers.size());
-      for (const int k : geometry.inliers) result.matches.push_back(putative[k]);
-    }
+    result.matches = VerifyMatches(options_, input, putative, &stats);
   }
   stats.num_inliers = static_cast<int>(result.matches.size());
   stats.seconds = SecondsSince(start);

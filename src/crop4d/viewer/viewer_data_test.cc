@@ -199,6 +199,28 @@ TEST(ViewerDataTest, MalformedTablesNameTheFileAndLine) {
   }
 }
 
+// A site without a height on a date (no canopy there: an empty height_m, as analyze writes it)
+// has no point on that date; the other dates are kept.
+TEST(ViewerDataTest, ASiteWithoutAHeightOnADateIsLeftOutOnThatDate) {
+  TempDir dir;
+  const std::string ws = dir / "ws";
+  testing::WriteSmallWorkspace(ws);
+  io::testing::WriteText(ws + "/analysis/site_heights.csv",
+                         "site_id,session,date,height_m,cover,volume_m3,n_points\n"
+                         "s1,2016-06-10,2016-06-10,,0.000,0.00000,0\n"
+                         "s1,2016-06-24,2016-06-24,0.4000,0.600,0.00900,90\n");
+  WriteViewerData(ws, ws + "/viewer", SmallTiles());
+  const json scene = json::parse(ReadText(ws + "/viewer/scene.json"));
+  bool found = false;
+  for (const json& site : scene["sites"]) {
+    if (site["id"] != "s1") continue;
+    found = true;
+    EXPECT_FALSE(site["heights"].contains("2016-06-10")) << site.dump();
+    EXPECT_DOUBLE_EQ(site["heights"]["2016-06-24"].get<double>(), 0.4);
+  }
+  EXPECT_TRUE(found) << scene["sites"].dump();
+}
+
 TEST(ViewerDataTest, StaticViewerHasThePageTheDataAndTheReport) {
   TempDir dir;
   const std::string ws = dir / "ws";

@@ -77,6 +77,15 @@ class JointProblem {
   }
   bool EstimatesTimeOffset(std::size_t p) const { return graphs_[p]->estimates_time_offset(); }
 
+  // The GPS outlier gate of every pass (slam::PassGraph::GateGps); the number of fixes dropped.
+  int GateGps(double chi2) {
+    int dropped = 0;
+    for (std::size_t p = 0; p < graphs_.size(); ++p) {
+      if (fixed_.empty() || !fixed_[p]) dropped += graphs_[p]->GateGps(chi2);
+    }
+    return dropped;
+  }
+
   void Preintegrate() {
     for (auto& graph : graphs_) graph->Preintegrate(nullptr);
   }
@@ -547,8 +556,9 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   spdlog::info("joint problem: {} landmarks, first solve in {:.1f} s", points.size(),
                summary.solve_seconds);
 
-  // (3) Reject, re-preintegrate, final solve.
+  // (3) Reject (observations, and GPS fixes with the gate on), re-preintegrate, final solve.
   start = Clock::now();
+  if (op.gps_gate_chi2 > 0) summary.num_gps_rejected = problem.GateGps(op.gps_gate_chi2);
   std::vector<Eigen::Vector3d> kept_points;
   std::vector<int> kept_ids;
   std::vector<std::vector<bool>> kept_masks;

@@ -127,6 +127,8 @@ class JointOptimiser {
     // Passes whose time offset the joint problem refined, and those whose given offset it held.
     int num_time_offsets_estimated = 0;
     int num_time_offsets_held = 0;
+    // GPS fixes dropped by the outlier gate after the first solve (row.gps_gate_chi2; 0: off).
+    int num_gps_rejected = 0;
   };
 
   struct Result {

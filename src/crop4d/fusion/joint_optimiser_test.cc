@@ -379,6 +379,27 @@ TEST(JointOptimiser, RefinesEachPassTimeOffsetThroughTheSharedLandmarks) {
   }
 }
 
+// Three multipath fixes 5 m off in the RTK pass: the gate drops them in the joint problem too.
+TEST(JointOptimiser, GpsGateDropsMultipathOutliers) {
+  TwoPasses tp;
+  MakeTwoPasses(tp);
+  std::vector<slam::GpsFixWorld*> inside;
+  for (slam::GpsFixWorld& fix : tp.passes[0].gps_fixes) {
+    if (fix.t >= tp.times[0].front() && fix.t <= tp.times[0].back()) inside.push_back(&fix);
+  }
+  ASSERT_GT(inside.size(), 30u);
+  inside[5]->position_world += Eigen::Vector3d(3, 4, 0);
+  inside[15]->position_world += Eigen::Vector3d(-4, 0, 3);
+  inside[25]->position_world += Eigen::Vector3d(0, -5, 0);
+  JointOptimiser::Options options;
+  options.row.gps_gate_chi2 = 21.1;
+  const JointOptimiser::Result result =
+      JointOptimiser(options).Solve(tp.passes, Landmarks(tp, /*shared=*/true));
+  EXPECT_EQ(result.summary.num_gps_rejected, 3);
+  EXPECT_LT(PositionRms(tp, 0, result.states[0]), 0.02);
+  EXPECT_LT(PositionRms(tp, 1, result.states[1]), 0.03);
+}
+
 TEST(JointOptimiser, OptionErrorsNameTheOption) {
   EXPECT_EQ(JointOptimiser::Options().Error(), "");
   JointOptimiser::Options o;

@@ -127,6 +127,7 @@ void VisitFields(RowOptimiser::Options& o, V&& visit) {
   visit("triangulation", o.triangulation);
   visit("max_outliers_per_track", o.max_outliers_per_track);
   visit("gps_loss_scale", o.gps_loss_scale);
+  visit("gps_gate_chi2", o.gps_gate_chi2);
   visit("gp", o.gp);
   visit("bias_prior_sigma_gyro", o.bias_prior_sigma_gyro);
   visit("bias_prior_sigma_accel", o.bias_prior_sigma_accel);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <thread>
 
@@ -167,7 +168,7 @@ void PassGraph::AddMotion(ceres::Problem* problem, RowOptimiser::Summary* summar
   }
   AddStandstills(problem, summary);
   int gps_factors = 0;
-  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s) {
+  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s, std::size_t) {
     const std::size_t j = i + 1;
     problem->AddResidualBlock(GpsInterpolatedFactor::Create(m, input_.p_body_antenna, dt, s),
                               gps_loss_.get(), blocks_[i].pose, blocks_[i].vel, blocks_[i].rate,
@@ -194,8 +195,10 @@ template <typename F>
 void PassGraph::ForEachGpsFix(F&& f) const {
   const std::vector<RowState>& st = input_.initial_states;
   const std::size_t n = st.size();
-  for (const GpsFixWorld& fix : input_.gps_fixes) {
+  for (std::size_t index = 0; index < input_.gps_fixes.size(); ++index) {
+    const GpsFixWorld& fix = input_.gps_fixes[index];
     if (n < 2 || fix.t < st.front().t || fix.t > st.back().t) continue;
+    if (!gps_rejected_.empty() && gps_rejected_[index]) continue;
     // The states i, j = i + 1 around the fix: t_i ≤ τ ≤ t_j.
     std::size_t j = std::lower_bound(st.begin(), st.end(), fix.t,
                                      [](const RowState& s, Timestamp t) { return s.t < t; }) -
@@ -208,13 +211,39 @@ void PassGraph::ForEachGpsFix(F&& f) const {
     m.sigma_horizontal = std::max(fix.sigma_h, 1e-3);
     m.sigma_vertical = std::max(fix.sigma_v, 1e-3);
     const double dt = DurationSeconds(st[i].t, st[j].t);
-    f(i, m, dt, std::clamp(DurationSeconds(st[i].t, fix.t), 0.0, dt));
+    f(i, m, dt, std::clamp(DurationSeconds(st[i].t, fix.t), 0.0, dt), index);
   }
+}
+
+int PassGraph::GateGps(double chi2) {
+  std::vector<std::pair<double, std::size_t>> excess;  // squared norm, fix index
+  std::size_t inside = 0;
+  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s, std::size_t k) {
+    const GpsInterpolatedFactor factor(m, input_.p_body_antenna, dt, s);
+    const StateBlocks& a = blocks_[i];
+    const StateBlocks& b = blocks_[i + 1];
+    Eigen::Vector3d r;
+    factor(a.pose, a.vel, a.rate, b.pose, b.vel, b.rate, r.data());
+    ++inside;
+    if (r.squaredNorm() > chi2) excess.emplace_back(r.squaredNorm(), k);
+  });
+  if (gps_rejected_.empty()) gps_rejected_.assign(input_.gps_fixes.size(), false);
+  int already = 0;
+  for (bool r : gps_rejected_) already += r ? 1 : 0;
+  const std::size_t total = inside + static_cast<std::size_t>(already);
+  std::sort(excess.begin(), excess.end(), std::greater<>());
+  int dropped = 0;
+  for (const auto& [norm, k] : excess) {
+    if (2 * static_cast<std::size_t>(already + dropped + 1) > total) break;
+    gps_rejected_[k] = true;
+    ++dropped;
+  }
+  return dropped;
 }
 
 std::vector<Eigen::Vector3d> PassGraph::GpsNormalisedResiduals() const {
   std::vector<Eigen::Vector3d> residuals;
-  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s) {
+  ForEachGpsFix([&](std::size_t i, const GpsMeasurement& m, double dt, double s, std::size_t) {
     const GpsInterpolatedFactor factor(m, input_.p_body_antenna, dt, s);
     const StateBlocks& a = blocks_[i];
     const StateBlocks& b = blocks_[i + 1];

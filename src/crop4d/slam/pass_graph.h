@@ -60,6 +60,11 @@ class PassGraph {
   // The GPS residuals at the current states, whitened (error / σ: east, north, up), one per fix
   // inside the states' span: how well the solve fits the fixes' stated sigmas.
   std::vector<Eigen::Vector3d> GpsNormalisedResiduals() const;
+  // The outlier gate (RowOptimiser::Options::gps_gate_chi2): drops, from the next AddMotion on,
+  // the fixes whose whitened residual at the current states has a squared norm above `chi2`,
+  // worst first, while more than half of the fixes inside the states' span remain. Returns
+  // how many it dropped now.
+  int GateGps(double chi2);
   // True when the reprojection factors estimate the camera–IMU time offset
   // (Options::estimate_time_offset, with a camera).
   bool estimates_time_offset() const {
@@ -85,8 +90,9 @@ class PassGraph {
   ceres::LossFunction* reprojection_loss() const { return reprojection_loss_.get(); }
 
  private:
-  // Calls f(fix, i, measurement, dt, s) for every GPS fix inside the states' span: the states
-  // i and i + 1 around it, dt between them and s from state i to the fix, seconds.
+  // Calls f(i, measurement, dt, s, index) for every GPS fix inside the states' span that the
+  // gate kept: the states i and i + 1 around it, dt between them and s from state i to the fix,
+  // seconds, and its index in Input::gps_fixes.
   template <typename F>
   void ForEachGpsFix(F&& f) const;
   // The standstill constraints of Input::still_intervals.
@@ -96,6 +102,8 @@ class PassGraph {
   const RowOptimiser::Input& input_;
   std::span<StateBlocks> blocks_;
   std::vector<std::optional<ImuPreintegration>> preintegrations_;
+  // Per Input::gps_fixes entry: dropped by GateGps.
+  std::vector<bool> gps_rejected_;
   std::unique_ptr<ceres::LossFunction> reprojection_loss_, gps_loss_;
   mutable PoseManifold pose_manifold_;
   // Ceres writes the estimate here (a parameter block, as the state blocks are).

@@ -24,6 +24,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Rounds of the GPS outlier gate after the solve without the camera (Options::gps_gate_chi2).
+constexpr int kGpsGateRounds = 3;
+
 // Phase 4 (Input::camera_height_m): the soil's depth below the camera gives the pass's scale; the
 // pass (states and landmarks) is scaled about its mean position to it, and solved once more with
 // its length held there.
@@ -135,6 +138,9 @@ std::string RowOptimiser::Options::Error() const {
     return fmt::format("function_tolerance: must be in (0, 1) (got {})", function_tolerance);
   }
   if (num_threads < 0) return fmt::format("num_threads: must be >= 0 (got {})", num_threads);
+  if (!(gps_gate_chi2 >= 0)) {
+    return fmt::format("gps_gate_chi2: must be >= 0 (0: off) (got {})", gps_gate_chi2);
+  }
   // Beyond a second the first-order prediction of the pose from its state is meaningless.
   if (!(max_abs_time_offset_s > 0 && max_abs_time_offset_s <= 1.0)) {
     return fmt::format("max_abs_time_offset_s: must be in (0, 1] s (got {})",
@@ -193,6 +199,18 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
     summary.final_cost = s.final_cost;
     summary.converged = s.termination_type == ceres::CONVERGENCE;
     builder.Preintegrate(&summary);
+    // The outlier gate: the trajectory of a solve is pulled a little towards every outlier, so
+    // the worst are dropped, the motion solved again without them, and the gate applied again
+    // (a few rounds).
+    for (int round = 0; round < kGpsGateRounds && options_.gps_gate_chi2 > 0; ++round) {
+      const int dropped = builder.GateGps(options_.gps_gate_chi2);
+      summary.num_gps_rejected += dropped;
+      if (dropped == 0) break;
+      ceres::Problem again(ProblemOptions());
+      builder.AddMotion(&again, &summary);
+      const ceres::Solver::Summary a = RunSolver(options_, &again, nullptr);
+      summary.iterations += static_cast<int>(a.iterations.size());
+    }
     if (input.camera == nullptr || input.tracks.empty()) {
       // Without a camera this is the final solve: once more at the re-preintegrated biases.
       ceres::Problem final_problem(ProblemOptions());
@@ -276,6 +294,9 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
       kept_masks.push_back(std::move(mask));
     }
     builder.Preintegrate(&summary);
+    if (options_.gps_gate_chi2 > 0) {
+      summary.num_gps_rejected += builder.GateGps(options_.gps_gate_chi2);
+    }
     {
       ceres::Problem problem(ProblemOptions());
       builder.AddMotion(&problem, &summary);

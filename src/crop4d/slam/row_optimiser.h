@@ -75,6 +75,14 @@ class RowOptimiser {
     int max_outliers_per_track = 3;
     // Huber loss threshold of the GPS factors, in sigmas.
     double gps_loss_scale = 3.0;
+    // Outlier gate of the GPS fixes (multipath), 0: off. After the solve without the camera and
+    // again before the final solve, a fix whose whitened residual against the current
+    // trajectory (error / the fix's own sigmas, so an RTK-float fix is judged by its float
+    // sigmas) has a squared norm above this is dropped: chi-square with 3 degrees of freedom,
+    // 21.1 for a false rejection rate of 1e-4. The Huber loss alone bounds an outlier's pull but
+    // keeps it (a 0.5 m multipath fix of an RTK receiver still pulls like a 6 cm one). At most
+    // half of a pass's fixes are dropped.
+    double gps_gate_chi2 = 0.0;
     // GP prior power spectral densities.
     GpPriorFactor::Options gp;
     // Prior on the first state's bias (turn-on bias): gyroscope rad/s, accelerometer m/s².
@@ -194,6 +202,8 @@ class RowOptimiser {
     int num_imu_factors = 0;
     int num_imu_gaps = 0;
     int num_gps_factors = 0;
+    // GPS fixes dropped by the outlier gate (Options::gps_gate_chi2).
+    int num_gps_rejected = 0;
     // Intervals between states held by the standstill constraints.
     int num_still_intervals = 0;
     int num_tracks = 0;

@@ -74,6 +74,44 @@ TEST(RowOptimiser, ImuAndRtkAloneRecoverThePass) {
   EXPECT_LT(e.rotation_rms_deg, 1.0);
 }
 
+// An RTK track with a stretch in RTK-float (sigmas 0.3 / 0.5 m as the receiver reports them, and
+// errors that large) and four multipath fixes 5 m off: the gate drops the four and only them,
+// and the pass stays within the RTK error; the Huber loss alone lets them pull it off.
+TEST(RowOptimiser, GpsGateDropsMultipathOutliersAndKeepsFloatFixes) {
+  const Scenario s = MakeScenario();
+  RowOptimiser::Input input = MakeInput(s, PerturbedTruth(s));
+  input.forward_axis_body = Eigen::Vector3d::UnitX();
+  // The fixes inside the pass.
+  std::vector<GpsFixWorld*> fixes;
+  for (GpsFixWorld& fix : input.gps_fixes) {
+    if (fix.t >= s.times.front() && fix.t <= s.times.back()) fixes.push_back(&fix);
+  }
+  ASSERT_GT(fixes.size(), 30u);
+  std::mt19937 rng(17);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (std::size_t k = 10; k < 20; ++k) {
+    fixes[k]->sigma_h = 0.3;
+    fixes[k]->sigma_v = 0.5;
+    fixes[k]->position_world +=
+        Eigen::Vector3d(0.3 * noise(rng), 0.3 * noise(rng), 0.5 * noise(rng));
+  }
+  const std::vector<std::pair<std::size_t, Eigen::Vector3d>> outliers{
+      {3, {3.0, 4.0, 0.0}}, {23, {-4.0, 3.0, 0.0}}, {27, {0.0, -4.0, 3.0}}, {31, {5.0, 0.0, 0.0}}};
+  for (const auto& [k, offset] : outliers) fixes[k]->position_world += offset;  // 5 m
+  RowOptimiser::Options options;
+  const RowOptimiser::Result huber = RowOptimiser(options).Solve(input);
+  options.gps_gate_chi2 = 21.1;
+  const RowOptimiser::Result gated = RowOptimiser(options).Solve(input);
+  EXPECT_EQ(huber.summary.num_gps_rejected, 0);
+  EXPECT_EQ(gated.summary.num_gps_rejected, 4);
+  const Errors e_huber = CameraErrors(s, huber.states);
+  const Errors e_gated = CameraErrors(s, gated.states);
+  std::printf("GPS outliers: position RMS %.1f mm gated, %.1f mm Huber only\n",
+              1e3 * e_gated.position_rms, 1e3 * e_huber.position_rms);
+  EXPECT_LT(e_gated.position_rms, 0.02);
+  EXPECT_LT(e_gated.position_rms, e_huber.position_rms);
+}
+
 TEST(RowOptimiser, LandmarksFixTheAttitudeAndOutliersAreRejected) {
   const Scenario s = MakeScenario();
   // Landmarks on the ground ahead of the cameras, seen with 0.5 px noise; every 50th
@@ -320,6 +358,9 @@ TEST(RowOptimiser, OptionErrorsNameTheOptionAndWhy) {
   options = RowOptimiser::Options();
   options.min_observations = 1;
   EXPECT_EQ(options.Error(), "min_observations: must be >= 2 (got 1)");
+  options = RowOptimiser::Options();
+  options.gps_gate_chi2 = -1;
+  EXPECT_EQ(options.Error(), "gps_gate_chi2: must be >= 0 (0: off) (got -1)");
 }
 
 }  // namespace

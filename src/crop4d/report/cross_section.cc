@@ -170,6 +170,59 @@ void DrawLegend(const std::vector<CrossSectionSeries>& series,
   }
 }
 
+// The plot's frame, and the ticks with their labels below it (along the slice) and left of it
+// (height).
+void DrawFrameAndTicks(const CrossSectionFigure& figure, const std::vector<double>& along_ticks,
+                       const std::vector<double>& z_ticks, int decimals, int tick_height,
+                       cv::Mat& image) {
+  const int left = figure.plot_origin.x, top = figure.plot_origin.y;
+  const double z_lo = figure.z_min;
+  auto tick_text = [decimals](double v) { return fmt::format("{:.{}f}", v, decimals); };
+  cv::rectangle(image, {left - 1, top - 1},
+                {left + figure.plot_size.width, top + figure.plot_size.height}, kBlack, 1,
+                cv::LINE_8);
+  const int plot_bottom = top + figure.plot_size.height;
+  for (double a : along_ticks) {
+    const int x = cvRound(figure.ToPixel(a, z_lo).x);
+    cv::line(image, {x, plot_bottom}, {x, plot_bottom + kTickLength}, kBlack, 1, cv::LINE_8);
+    const std::string text = tick_text(a);
+    const int w = TextSize(text, kTickFontScale, 1).width;
+    PutText(image, text, {x - w / 2, plot_bottom + kTickLength + 6 + tick_height / 2},
+            kTickFontScale, kBlack);
+  }
+  for (double z : z_ticks) {
+    const int y = cvRound(figure.ToPixel(0, z).y);
+    cv::line(image, {left - 1 - kTickLength, y}, {left - 1, y}, kBlack, 1, cv::LINE_8);
+    const std::string text = tick_text(z);
+    const int w = TextSize(text, kTickFontScale, 1).width;
+    PutText(image, text, {left - kTickLength - 6 - w, y}, kTickFontScale, kBlack);
+  }
+}
+
+// The axis labels (along the slice centred below, height rotated and centred on the left) and
+// the title centred over the plot (within the image).
+void DrawLabels(const CrossSectionOptions& options, const CrossSectionFigure& figure,
+                int tick_height, int label_height, int title_height, cv::Mat& image) {
+  const int left = figure.plot_origin.x, top = figure.plot_origin.y, width = image.cols;
+  const int plot_bottom = top + figure.plot_size.height;
+  {
+    const cv::Size size = TextSize(options.along_label, kLabelFontScale, 1);
+    PutText(image, options.along_label,
+            {left + (figure.plot_size.width - size.width) / 2,
+             plot_bottom + kTickLength + 8 + tick_height + 14 + label_height / 2},
+            kLabelFontScale, kBlack);
+  }
+  PutTextVertical(image, options.height_label, 12, top, figure.plot_size.height, label_height,
+                  kLabelFontScale, kBlack);
+
+  {
+    const cv::Size size = TextSize(options.title, kTitleFontScale, 2);
+    const int x = std::clamp(left + (figure.plot_size.width - size.width) / 2, 16,
+                             std::max(16, width - size.width - 16));
+    PutText(image, options.title, {x, 16 + title_height / 2}, kTitleFontScale, kBlack, 2);
+  }
+}
+
 }  // namespace
 
 CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds,
@@ -259,45 +312,9 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
 
   DrawPoints(layers, options, figure, cv::Point(left, top), plot);
 
-  // Frame, ticks and tick labels.
-  cv::rectangle(image, {left - 1, top - 1},
-                {left + figure.plot_size.width, top + figure.plot_size.height}, kBlack, 1,
-                cv::LINE_8);
-  const int plot_bottom = top + figure.plot_size.height;
-  for (double a : along_ticks) {
-    const int x = cvRound(figure.ToPixel(a, z_lo).x);
-    cv::line(image, {x, plot_bottom}, {x, plot_bottom + kTickLength}, kBlack, 1, cv::LINE_8);
-    const std::string text = tick_text(a);
-    const int w = TextSize(text, kTickFontScale, 1).width;
-    PutText(image, text, {x - w / 2, plot_bottom + kTickLength + 6 + tick_height / 2},
-            kTickFontScale, kBlack);
-  }
-  for (double z : z_ticks) {
-    const int y = cvRound(figure.ToPixel(0, z).y);
-    cv::line(image, {left - 1 - kTickLength, y}, {left - 1, y}, kBlack, 1, cv::LINE_8);
-    const std::string text = tick_text(z);
-    const int w = TextSize(text, kTickFontScale, 1).width;
-    PutText(image, text, {left - kTickLength - 6 - w, y}, kTickFontScale, kBlack);
-  }
+  DrawFrameAndTicks(figure, along_ticks, z_ticks, decimals, tick_height, image);
 
-  // Axis labels: the along label centred below, the height label rotated, centred on the left.
-  {
-    const cv::Size size = TextSize(options.along_label, kLabelFontScale, 1);
-    PutText(image, options.along_label,
-            {left + (figure.plot_size.width - size.width) / 2,
-             plot_bottom + kTickLength + 8 + tick_height + 14 + label_height / 2},
-            kLabelFontScale, kBlack);
-  }
-  PutTextVertical(image, options.height_label, 12, top, figure.plot_size.height, label_height,
-                  kLabelFontScale, kBlack);
-
-  // Title, centred over the plot (within the image).
-  {
-    const cv::Size size = TextSize(options.title, kTitleFontScale, 2);
-    const int x = std::clamp(left + (figure.plot_size.width - size.width) / 2, 16,
-                             std::max(16, width - size.width - 16));
-    PutText(image, options.title, {x, 16 + title_height / 2}, kTitleFontScale, kBlack, 2);
-  }
+  DrawLabels(options, figure, tick_height, label_height, title_height, image);
 
   if (n > 0) {
     DrawLegend(figure.series, legend_texts,

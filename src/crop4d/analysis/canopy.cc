@@ -73,16 +73,12 @@ OptionCheck CanopyOptions::Check() const {
   return c.Result();
 }
 
-SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
-                       const io::Site& site, const CanopyOptions& o,
-                       const std::vector<Eigen::Vector2d>* stems,
-                       const std::vector<double>* max_tops) {
-  CROP4D_CHECK(o.Check());
-  CROP4D_CHECK(max_tops == nullptr || (stems != nullptr && max_tops->size() == stems->size()));
-  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
-  SiteCanopy result;
-  const double radius = site.radius_m;
-  const double reach = radius + std::max(o.crown_radius_m, o.top_radius_m) + o.cell_m;
+namespace {
+
+// The cells within `reach` of the site centre: which hold points, and the highest canopy point
+// above the ground in each.
+SiteCells RasteriseCanopy(const SessionCloud& cloud, const GroundFunction& ground,
+                          const io::Site& site, const CanopyOptions& o, double reach) {
   SiteCells cells(site.center_enu, reach, o.cell_m);
   for (std::size_t i = 0; i < cloud.points.size(); ++i) {
     const Eigen::Vector3d& p = cloud.points[i];
@@ -99,8 +95,108 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
       ++cells.canopy_points[k];
     }
   }
+  return cells;
+}
 
-  std::vector<int> inside;  // cells of the site with points
+// CanopyTop::kPlantTops: each plant's top is a quantile of the canopy cells whose centre lies
+// within top_radius_m of its stem (its own cell at least), bounded by max_tops where given;
+// the site's height is their mean. False when no plant of the site is seen.
+bool PlantTopsHeight(const SiteCells& cells, const io::Site& site, const CanopyOptions& o,
+                     const std::vector<Eigen::Vector2d>& stems, const std::vector<double>* max_tops,
+                     SiteCanopy* result) {
+  const int r_cells = static_cast<int>(std::ceil(o.top_radius_m / o.cell_m)) + 1;
+  double sum = 0.0;
+  std::vector<float> near;
+  result->plant_tops.assign(stems.size(), kNaN);
+  for (std::size_t n = 0; n < stems.size(); ++n) {
+    const Eigen::Vector2d& stem = stems[n];
+    if ((stem - site.center_enu).norm() > site.radius_m) continue;
+    const int k0 = cells.Index(stem.x(), stem.y());
+    if (k0 < 0) continue;
+    const int i0 = k0 % cells.side, j0 = k0 / cells.side;
+    near.clear();
+    for (int dj = -r_cells; dj <= r_cells; ++dj) {
+      for (int di = -r_cells; di <= r_cells; ++di) {
+        const int i = i0 + di, j = j0 + dj;
+        if (i < 0 || j < 0 || i >= cells.side || j >= cells.side) continue;
+        const int k = j * cells.side + i;
+        if (k != k0 && (cells.CellCenter(k) - stem).norm() > o.top_radius_m) continue;
+        if (cells.canopy[k] != kNoCanopy) near.push_back(cells.canopy[k]);
+      }
+    }
+    if (near.empty()) continue;  // the plant is not seen in this cloud
+    const double bound = max_tops != nullptr ? (*max_tops)[n] : kNaN;
+    if (std::isfinite(bound)) {
+      const auto above =
+          std::partition(near.begin(), near.end(), [&](float h) { return h <= bound; });
+      if (above != near.begin() && above != near.end()) {
+        near.erase(above, near.end());
+        ++result->n_lowered;
+      }
+    }
+    const auto nth = near.begin() + static_cast<std::ptrdiff_t>(
+                                        std::floor(o.plant_top_quantile * (near.size() - 1) + 0.5));
+    std::nth_element(near.begin(), nth, near.end());
+    sum += *nth;
+    result->plant_tops[n] = *nth;
+    ++result->n_peaks;
+  }
+  if (result->n_peaks == 0) return false;
+  result->height_m = sum / result->n_peaks;
+  return true;
+}
+
+// Crown tops: canopy cells of the site (`inside`) at least min_peak_fraction of its highest
+// (`site_max`) that are the highest canopy within crown_radius_m (ties go to the first cell in
+// scan order, so a flat top counts once); the site's height is their mean.
+void CrownTopsHeight(const SiteCells& cells, const std::vector<int>& inside, double site_max,
+                     const CanopyOptions& o, SiteCanopy* result) {
+  const int r_cells = static_cast<int>(std::floor(o.crown_radius_m / o.cell_m));
+  const double r2 = (o.crown_radius_m / o.cell_m) * (o.crown_radius_m / o.cell_m);
+  double peak_sum = 0.0;
+  for (int k : inside) {
+    const float v = cells.canopy[k];
+    if (v == kNoCanopy || v < o.min_peak_fraction * site_max) continue;
+    const int i = k % cells.side, j = k / cells.side;
+    bool is_peak = true;
+    for (int dj = -r_cells; dj <= r_cells && is_peak; ++dj) {
+      for (int di = -r_cells; di <= r_cells; ++di) {
+        if ((di == 0 && dj == 0) || di * di + dj * dj > r2) continue;
+        const int ii = i + di, jj = j + dj;
+        if (ii < 0 || jj < 0 || ii >= cells.side || jj >= cells.side) continue;
+        const int kk = jj * cells.side + ii;
+        const float u = cells.canopy[kk];
+        if (u > v || (u == v && kk < k)) {
+          is_peak = false;
+          break;
+        }
+      }
+    }
+    if (is_peak) {
+      peak_sum += v;
+      ++result->n_peaks;
+    }
+  }
+  result->height_m = result->n_peaks > 0 ? peak_sum / result->n_peaks : kNaN;
+  if (result->n_peaks == 0) result->note = "no crown top within the site";
+}
+
+}  // namespace
+
+SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
+                       const io::Site& site, const CanopyOptions& o,
+                       const std::vector<Eigen::Vector2d>* stems,
+                       const std::vector<double>* max_tops) {
+  CROP4D_CHECK(o.Check());
+  CROP4D_CHECK(max_tops == nullptr || (stems != nullptr && max_tops->size() == stems->size()));
+  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
+  SiteCanopy result;
+  const double radius = site.radius_m;
+  const double reach = radius + std::max(o.crown_radius_m, o.top_radius_m) + o.cell_m;
+  const SiteCells cells = RasteriseCanopy(cloud, ground, site, o, reach);
+
+  // Cover, volume and the canopy heights of the cells of the site with points.
+  std::vector<int> inside;
   double site_max = 0.0, height_sum = 0.0;
   std::vector<double> canopy_heights;
   for (int k = 0; k < static_cast<int>(cells.has_points.size()); ++k) {
@@ -129,6 +225,8 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
     return result;
   }
 
+  // The height: a quantile of the canopy cells, the plant tops, or the crown tops (also when
+  // no plant of the site is seen).
   if (o.top == CanopyTop::kQuantile) {
     const auto nth = canopy_heights.begin() +
                      static_cast<std::ptrdiff_t>(std::min<double>(
@@ -138,85 +236,11 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
     result.height_m = *nth;
     return result;
   }
-
-  if (o.top == CanopyTop::kPlantTops && stems != nullptr) {
-    // Each plant's top: the highest canopy cell whose centre lies within top_radius_m of its
-    // stem (its own cell at least).
-    const int r_cells = static_cast<int>(std::ceil(o.top_radius_m / o.cell_m)) + 1;
-    double sum = 0.0;
-    std::vector<float> near;
-    result.plant_tops.assign(stems->size(), kNaN);
-    for (std::size_t n = 0; n < stems->size(); ++n) {
-      const Eigen::Vector2d& stem = (*stems)[n];
-      if ((stem - site.center_enu).norm() > radius) continue;
-      const int k0 = cells.Index(stem.x(), stem.y());
-      if (k0 < 0) continue;
-      const int i0 = k0 % cells.side, j0 = k0 / cells.side;
-      near.clear();
-      for (int dj = -r_cells; dj <= r_cells; ++dj) {
-        for (int di = -r_cells; di <= r_cells; ++di) {
-          const int i = i0 + di, j = j0 + dj;
-          if (i < 0 || j < 0 || i >= cells.side || j >= cells.side) continue;
-          const int k = j * cells.side + i;
-          if (k != k0 && (cells.CellCenter(k) - stem).norm() > o.top_radius_m) continue;
-          if (cells.canopy[k] != kNoCanopy) near.push_back(cells.canopy[k]);
-        }
-      }
-      if (near.empty()) continue;  // the plant is not seen in this cloud
-      const double bound = max_tops != nullptr ? (*max_tops)[n] : kNaN;
-      if (std::isfinite(bound)) {
-        const auto above =
-            std::partition(near.begin(), near.end(), [&](float h) { return h <= bound; });
-        if (above != near.begin() && above != near.end()) {
-          near.erase(above, near.end());
-          ++result.n_lowered;
-        }
-      }
-      const auto nth =
-          near.begin() +
-          static_cast<std::ptrdiff_t>(std::floor(o.plant_top_quantile * (near.size() - 1) + 0.5));
-      std::nth_element(near.begin(), nth, near.end());
-      sum += *nth;
-      result.plant_tops[n] = *nth;
-      ++result.n_peaks;
-    }
-    if (result.n_peaks > 0) {
-      result.height_m = sum / result.n_peaks;
-      return result;
-    }
-    // No plant of the site is seen: fall back to the crown tops.
+  if (o.top == CanopyTop::kPlantTops && stems != nullptr &&
+      PlantTopsHeight(cells, site, o, *stems, max_tops, &result)) {
+    return result;
   }
-
-  // Crown tops: canopy cells of the site that are the highest canopy within crown_radius_m
-  // (ties go to the first cell in scan order, so a flat top counts once).
-  const int r_cells = static_cast<int>(std::floor(o.crown_radius_m / o.cell_m));
-  const double r2 = (o.crown_radius_m / o.cell_m) * (o.crown_radius_m / o.cell_m);
-  double peak_sum = 0.0;
-  for (int k : inside) {
-    const float v = cells.canopy[k];
-    if (v == kNoCanopy || v < o.min_peak_fraction * site_max) continue;
-    const int i = k % cells.side, j = k / cells.side;
-    bool is_peak = true;
-    for (int dj = -r_cells; dj <= r_cells && is_peak; ++dj) {
-      for (int di = -r_cells; di <= r_cells; ++di) {
-        if ((di == 0 && dj == 0) || di * di + dj * dj > r2) continue;
-        const int ii = i + di, jj = j + dj;
-        if (ii < 0 || jj < 0 || ii >= cells.side || jj >= cells.side) continue;
-        const int kk = jj * cells.side + ii;
-        const float u = cells.canopy[kk];
-        if (u > v || (u == v && kk < k)) {
-          is_peak = false;
-          break;
-        }
-      }
-    }
-    if (is_peak) {
-      peak_sum += v;
-      ++result.n_peaks;
-    }
-  }
-  result.height_m = result.n_peaks > 0 ? peak_sum / result.n_peaks : kNaN;
-  if (result.n_peaks == 0) result.note = "no crown top within the site";
+  CrownTopsHeight(cells, inside, site_max, o, &result);
   return result;
 }
 

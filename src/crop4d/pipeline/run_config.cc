@@ -242,6 +242,11 @@ const std::vector<Key>& Keys() {
                      "estimate the camera-IMU time offset of each pass (capture instant - image "
                      "stamp; for rigs whose camera and IMU clocks are not synchronised)",
                      "slam.optimiser.estimate_time_offset"));
+    k.push_back(Double("slam", "gps_gate_chi2",
+                       "drop GPS fixes whose residual against the trajectory, in their own "
+                       "sigmas, has a squared norm above this (chi-square, 3 dof; 21.1: 1e-4 "
+                       "false rejections; 0: off, the Huber loss only)",
+                       "slam.optimiser.gps_gate_chi2", 0, 1e6));
     k.push_back(Bool("slam", "standstills",
                      "detect standstills (zero velocity, one pose while the rig stands still)",
                      "slam.standstills"));
@@ -298,6 +303,9 @@ const std::vector<Key>& Keys() {
     k.push_back(Double("fuse", "max_reprojection_error_px",
                        "observations above this error are removed before the final solve",
                        "fuse.optimiser.row.max_reprojection_error_px", 0.1, 1000));
+    k.push_back(Double("fuse", "gps_gate_chi2",
+                       "the GPS outlier gate of the joint problem (as slam.gps_gate_chi2; 0: off)",
+                       "fuse.optimiser.row.gps_gate_chi2", 0, 1e6));
     k.push_back(Int("fuse", "max_iterations", "Levenberg-Marquardt iterations per solve",
                     "fuse.optimiser.row.max_iterations", 1, 100000));
     k.push_back(

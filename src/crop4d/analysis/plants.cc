@@ -23,22 +23,17 @@ OptionCheck PlantDetectionOptions::Check() const {
   return c.Result();
 }
 
-std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
-                                        const Eigen::AlignedBox2d& area,
-                                        const CanopyOptions& canopy,
-                                        const PlantDetectionOptions& o) {
-  CROP4D_CHECK(o.Check() && canopy.Check());
-  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
-  std::vector<DetectedPlant> plants;
-  if (area.isEmpty()) return plants;
-  const int cols = static_cast<int>(std::ceil(area.sizes().x() / o.cell_m)) + 1;
-  const int rows = static_cast<int>(std::ceil(area.sizes().y() / o.cell_m)) + 1;
-  // The canopy height of each cell (0: none).
+namespace {
+
+// The canopy height of each cell of the area's raster (0: none).
+cv::Mat CanopyRaster(const SessionCloud& cloud, const GroundFunction& ground,
+                     const Eigen::AlignedBox2d& area, const CanopyOptions& canopy, double cell_m,
+                     int rows, int cols) {
   cv::Mat height(rows, cols, CV_32F, cv::Scalar(0));
   for (std::size_t i = 0; i < cloud.points.size(); ++i) {
     const Eigen::Vector3d& p = cloud.points[i];
-    const int c = static_cast<int>((p.x() - area.min().x()) / o.cell_m);
-    const int r = static_cast<int>((p.y() - area.min().y()) / o.cell_m);
+    const int c = static_cast<int>((p.x() - area.min().x()) / cell_m);
+    const int r = static_cast<int>((p.y() - area.min().y()) / cell_m);
     if (c < 0 || r < 0 || c >= cols || r >= rows) continue;
     const double g = ground(p.x(), p.y());
     if (!std::isfinite(g)) continue;
@@ -47,44 +42,50 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
     float& cell = height.at<float>(r, c);
     cell = std::max(cell, static_cast<float>(h));
   }
-  // Islands: the mask closed by one cell (a sparse or dense cloud leaves gaps inside a plant),
-  // 8-connected.
-  cv::Mat mask = height > 0.0f;
-  cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
-                   cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
-  cv::Mat labels, stats, centroids;
-  cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  return height;
+}
 
-  // Peaks: two young plants whose leaves touch make one island, and its one stem would lose the
-  // smaller plant. Each island is split at its saddles by topological persistence: the cells,
-  // highest first, join the components of their already visited neighbours; where two
-  // components meet, the one with the lower peak ends there, and it stays a plant of its own
-  // when its peak rises at least the prominence (see PlantDetectionOptions) above that saddle.
-  // Cells the closing filled take the highest of their neighbours, so that a gap in the cloud is
-  // no saddle.
-  cv::Mat filled;
-  cv::dilate(height, filled, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
-  std::vector<int> order;
+// The peaks of the islands after the split at their saddles (see DetectPlants).
+struct Peaks {
+  cv::Mat filled;                // heights, the cells the closing filled at their highest neighbour
+  std::vector<int> order;        // the island cells (r · cols + c), highest first
+  cv::Mat owner;                 // the peak whose component a cell joined
+  std::vector<int> merged_into;  // where an insignificant peak's cells go (−1: a plant)
+  std::vector<int> first_cell;   // of each peak: its top
+  int cols = 0;
+  float Value(int k) const { return filled.at<float>(k / cols, k % cols); }
+};
+
+// Topological persistence over the island cells: the cells, highest first, join the components
+// of their already visited neighbours; where two components meet, the one with the lower peak
+// ends there, and it stays a plant of its own when its peak rises at least the prominence above
+// that saddle. Peaks are numbered as they appear.
+Peaks SplitAtSaddles(const cv::Mat& height, const cv::Mat& mask, const PlantDetectionOptions& o) {
+  const int rows = height.rows, cols = height.cols;
+  Peaks out;
+  out.cols = cols;
+  cv::dilate(height, out.filled, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
   for (int r = 0; r < rows; ++r) {
     const std::uint8_t* mr = mask.ptr<std::uint8_t>(r);
     for (int c = 0; c < cols; ++c) {
       if (mr[c] == 0) continue;
-      if (height.at<float>(r, c) > 0.0f) filled.at<float>(r, c) = height.at<float>(r, c);
-      order.push_back(r * cols + c);
+      if (height.at<float>(r, c) > 0.0f) out.filled.at<float>(r, c) = height.at<float>(r, c);
+      out.order.push_back(r * cols + c);
     }
   }
-  const auto value = [&](int k) { return filled.at<float>(k / cols, k % cols); };
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return value(a) > value(b); });
-  // Peaks are numbered as they appear. owner: the peak whose component a cell joined (−1: not
-  // visited); parent: union-find over peaks; merged_into: where an insignificant peak's cells go
-  // (−1: the peak is a plant of its own).
-  cv::Mat owner(rows, cols, CV_32S, cv::Scalar(-1));
-  std::vector<int> parent, merged_into, first_cell;
+  const auto value = [&](int k) { return out.Value(k); };
+  std::stable_sort(out.order.begin(), out.order.end(),
+                   [&](int a, int b) { return value(a) > value(b); });
+  // parent: union-find over peaks.
+  out.owner = cv::Mat(rows, cols, CV_32S, cv::Scalar(-1));
+  std::vector<int> parent;
+  std::vector<int>& merged_into = out.merged_into;
+  std::vector<int>& first_cell = out.first_cell;
   const auto find = [&](int a) {
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
   };
-  for (const int k : order) {
+  for (const int k : out.order) {
     const int r = k / cols, c = k % cols;
     std::array<int, 8> roots{};
     int num_roots = 0, best = -1;
@@ -92,7 +93,7 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
       for (int dc = -1; dc <= 1; ++dc) {
         const int rr = r + dr, cc = c + dc;
         if ((dr == 0 && dc == 0) || rr < 0 || cc < 0 || rr >= rows || cc >= cols) continue;
-        const int peak = owner.at<int>(rr, cc);
+        const int peak = out.owner.at<int>(rr, cc);
         if (peak < 0) continue;
         const int root = find(peak);
         if (std::find(roots.begin(), roots.begin() + num_roots, root) !=
@@ -104,7 +105,7 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
       }
     }
     if (best < 0) {  // a new peak
-      owner.at<int>(r, c) = static_cast<int>(parent.size());
+      out.owner.at<int>(r, c) = static_cast<int>(parent.size());
       parent.push_back(static_cast<int>(parent.size()));
       merged_into.push_back(-1);
       first_cell.push_back(k);
@@ -120,29 +121,41 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
       }
       parent[root] = best;
     }
-    owner.at<int>(r, c) = best;
+    out.owner.at<int>(r, c) = best;
   }
+  return out;
+}
 
+// The plants of the significant peaks whose island and own cells are large enough (and the
+// island not too large): the stem is the centre of the cells within top_fraction of the
+// peak's height.
+std::vector<DetectedPlant> PlantsOfPeaks(const Peaks& peaks, const cv::Mat& height,
+                                         const cv::Mat& labels, const cv::Mat& stats,
+                                         const Eigen::AlignedBox2d& area,
+                                         const PlantDetectionOptions& o) {
+  const int cols = peaks.cols;
   struct Peak {
     int island = 0;
     int cells = 0;
     Eigen::Vector3d sums = Eigen::Vector3d::Zero();  // x, y, count of top cells
   };
-  std::vector<Peak> peaks(parent.size());
-  for (const int k : order) {
-    int p = owner.at<int>(k / cols, k % cols);
-    while (merged_into[p] >= 0) p = merged_into[p];  // the plant an insignificant peak is part of
-    Peak& peak = peaks[p];
+  std::vector<Peak> by_peak(peaks.first_cell.size());
+  for (const int k : peaks.order) {
+    int p = peaks.owner.at<int>(k / cols, k % cols);
+    // The plant an insignificant peak is part of.
+    while (peaks.merged_into[p] >= 0) p = peaks.merged_into[p];
+    Peak& peak = by_peak[p];
     peak.island = labels.at<int>(k / cols, k % cols);
     ++peak.cells;
-    if (height.at<float>(k / cols, k % cols) >= o.top_fraction * value(first_cell[p])) {
+    if (height.at<float>(k / cols, k % cols) >= o.top_fraction * peaks.Value(peaks.first_cell[p])) {
       peak.sums += Eigen::Vector3d(k % cols + 0.5, k / cols + 0.5, 1.0);
     }
   }
   const double cell_area = o.cell_m * o.cell_m;
-  for (std::size_t p = 0; p < peaks.size(); ++p) {
-    const Peak& peak = peaks[p];
-    if (merged_into[p] >= 0) continue;  // part of another plant
+  std::vector<DetectedPlant> plants;
+  for (std::size_t p = 0; p < by_peak.size(); ++p) {
+    const Peak& peak = by_peak[p];
+    if (peaks.merged_into[p] >= 0) continue;  // part of another plant
     const int island_cells = stats.at<int>(peak.island, cv::CC_STAT_AREA);
     if (island_cells < o.min_cells || island_cells * cell_area > o.max_area_m2 ||
         peak.cells < o.min_cells || peak.sums.z() == 0) {
@@ -150,10 +163,40 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
     }
     DetectedPlant plant;
     plant.stem = area.min() + o.cell_m * peak.sums.head<2>() / peak.sums.z();
-    plant.height_m = value(first_cell[p]);
+    plant.height_m = peaks.Value(peaks.first_cell[p]);
     plant.area_m2 = peak.cells * cell_area;
     plants.push_back(plant);
   }
+  return plants;
+}
+
+}  // namespace
+
+std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
+                                        const Eigen::AlignedBox2d& area,
+                                        const CanopyOptions& canopy,
+                                        const PlantDetectionOptions& o) {
+  CROP4D_CHECK(o.Check() && canopy.Check());
+  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
+  std::vector<DetectedPlant> plants;
+  if (area.isEmpty()) return plants;
+  const int cols = static_cast<int>(std::ceil(area.sizes().x() / o.cell_m)) + 1;
+  const int rows = static_cast<int>(std::ceil(area.sizes().y() / o.cell_m)) + 1;
+  const cv::Mat height = CanopyRaster(cloud, ground, area, canopy, o.cell_m, rows, cols);
+  // Islands: the mask closed by one cell (a sparse or dense cloud leaves gaps inside a plant),
+  // 8-connected.
+  cv::Mat mask = height > 0.0f;
+  cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
+                   cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+  cv::Mat labels, stats, centroids;
+  cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+
+  // Peaks: two young plants whose leaves touch make one island, and its one stem would lose the
+  // smaller plant. Each island is split at its saddles by topological persistence (see
+  // PlantDetectionOptions for the prominence). Cells the closing filled take the highest of
+  // their neighbours, so that a gap in the cloud is no saddle.
+  const Peaks peaks = SplitAtSaddles(height, mask, o);
+  plants = PlantsOfPeaks(peaks, height, labels, stats, area, o);
   // Largest plants first, then drop those within min_spacing_m of a kept one.
   std::sort(plants.begin(), plants.end(),
             [](const DetectedPlant& a, const DetectedPlant& b) { return a.area_m2 > b.area_m2; });

@@ -137,29 +137,97 @@ OptionCheck GrowthOptions::Check() const {
   return c.Result();
 }
 
+namespace {
+
+// The valid observations sorted by day (stable), the intervals between consecutive distinct
+// days into fit->intervals; returns the number of distinct days.
+int SortedObservations(const std::vector<GrowthObservation>& observations,
+                       std::vector<GrowthObservation>* points, GrowthFit* fit) {
+  for (const GrowthObservation& o : observations) {
+    if (std::isfinite(o.day) && std::isfinite(o.height_m)) points->push_back(o);
+  }
+  std::stable_sort(
+      points->begin(), points->end(),
+      [](const GrowthObservation& a, const GrowthObservation& b) { return a.day < b.day; });
+  int distinct_days = 0;
+  for (std::size_t i = 0; i < points->size(); ++i) {
+    if (i == 0 || (*points)[i].day > (*points)[i - 1].day) ++distinct_days;
+    if (i > 0 && (*points)[i].day > (*points)[i - 1].day) {
+      const GrowthObservation& a = (*points)[i - 1];
+      const GrowthObservation& b = (*points)[i];
+      fit->intervals.push_back(
+          {a.day, b.day, a.height_m, b.height_m, (b.height_m - a.height_m) / (b.day - a.day)});
+    }
+  }
+  return distinct_days;
+}
+
+// The best logistic fit in (log K, log r, t0) within [lower, upper] over three starts (K at
+// 1.2, 2 and 3 times the highest observation): a converged one first, then the lowest cost.
+// False when every start failed.
+bool BestLogisticFit(const std::vector<GrowthObservation>& points, double max_height, double slope,
+                     const GrowthOptions& options, const double lower[3], const double upper[3],
+                     std::array<double, 3>* best, ceres::Solver::Summary* best_summary) {
+  // Starts inside the bounds (a margin keeps the solver off them at the start).
+  const auto inside = [&](int i, double value) {
+    const double margin = 1e-3 * (upper[i] - lower[i]);
+    return std::clamp(value, lower[i] + margin, upper[i] - margin);
+  };
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_QR;
+  solver_options.max_num_iterations = options.max_iterations;
+  solver_options.function_tolerance = 1e-12;
+  solver_options.gradient_tolerance = 1e-14;
+  solver_options.parameter_tolerance = 1e-12;
+  solver_options.logging_type = ceres::SILENT;
+  solver_options.minimizer_progress_to_stdout = false;
+  solver_options.num_threads = 1;
+
+  bool have_best = false;
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (const double factor : {1.2, 2.0, 3.0}) {
+    const double k0 = std::min(factor, options.max_asymptote_factor) * max_height;
+    const std::array<double, 3> start = Start(points, k0, slope);
+    double x[3] = {inside(0, std::log(start[0])), inside(1, std::log(std::max(start[1], 1e-300))),
+                   inside(2, start[2])};
+    ceres::Problem problem;
+    for (const GrowthObservation& p : points) {
+      ceres::LossFunction* loss =
+          options.robust_loss_m > 0.0 ? new ceres::CauchyLoss(options.robust_loss_m) : nullptr;
+      problem.AddResidualBlock(LogisticResidual::Create(p.day, p.height_m), loss, x);
+    }
+    for (int i = 0; i < 3; ++i) {
+      problem.SetParameterLowerBound(x, i, lower[i]);
+      problem.SetParameterUpperBound(x, i, upper[i]);
+    }
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options, &problem, &summary);
+    const bool finite = std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]) &&
+                        std::isfinite(summary.final_cost);
+    if (!finite || summary.termination_type == ceres::FAILURE) continue;
+    const bool converged = summary.termination_type == ceres::CONVERGENCE;
+    const bool best_converged = have_best && best_summary->termination_type == ceres::CONVERGENCE;
+    if (!have_best || (converged && !best_converged) ||
+        (converged == best_converged && summary.final_cost < best_cost)) {
+      have_best = true;
+      best_cost = summary.final_cost;
+      *best = {x[0], x[1], x[2]};
+      *best_summary = summary;
+    }
+  }
+  return have_best;
+}
+
+}  // namespace
+
 GrowthFit FitGrowth(std::vector<GrowthObservation> observations, const GrowthOptions& options) {
   CROP4D_CHECK(options.Check());
   GrowthFit fit;
 
   // Valid observations, by day.
   std::vector<GrowthObservation> points;
-  for (const GrowthObservation& o : observations) {
-    if (std::isfinite(o.day) && std::isfinite(o.height_m)) points.push_back(o);
-  }
-  std::stable_sort(
-      points.begin(), points.end(),
-      [](const GrowthObservation& a, const GrowthObservation& b) { return a.day < b.day; });
+  const int distinct_days = SortedObservations(observations, &points, &fit);
   fit.num_points = static_cast<int>(points.size());
-  int distinct_days = 0;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    if (i == 0 || points[i].day > points[i - 1].day) ++distinct_days;
-    if (i > 0 && points[i].day > points[i - 1].day) {
-      const GrowthObservation& a = points[i - 1];
-      const GrowthObservation& b = points[i];
-      fit.intervals.push_back(
-          {a.day, b.day, a.height_m, b.height_m, (b.height_m - a.height_m) / (b.day - a.day)});
-    }
-  }
   if (distinct_days < 3) {
     fit.status = GrowthFit::Status::kTooFewPoints;
     fit.message = fmt::format(
@@ -189,58 +257,9 @@ GrowthFit FitGrowth(std::vector<GrowthObservation> observations, const GrowthOpt
   const double lower[3] = {std::log(0.5 * max_height), std::log(1e-6), -2.0 * span};
   const double upper[3] = {std::log(options.max_asymptote_factor * max_height),
                            std::log(options.max_rate_per_day), 3.0 * span};
-  // Starts inside the bounds (a margin keeps the solver off them at the start).
-  const auto inside = [&](int i, double value) {
-    const double margin = 1e-3 * (upper[i] - lower[i]);
-    return std::clamp(value, lower[i] + margin, upper[i] - margin);
-  };
-
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::DENSE_QR;
-  solver_options.max_num_iterations = options.max_iterations;
-  solver_options.function_tolerance = 1e-12;
-  solver_options.gradient_tolerance = 1e-14;
-  solver_options.parameter_tolerance = 1e-12;
-  solver_options.logging_type = ceres::SILENT;
-  solver_options.minimizer_progress_to_stdout = false;
-  solver_options.num_threads = 1;
-
-  bool have_best = false;
-  double best_cost = std::numeric_limits<double>::infinity();
   std::array<double, 3> best{};
   ceres::Solver::Summary best_summary;
-  for (const double factor : {1.2, 2.0, 3.0}) {
-    const double k0 = std::min(factor, options.max_asymptote_factor) * max_height;
-    const std::array<double, 3> start = Start(points, k0, slope);
-    double x[3] = {inside(0, std::log(start[0])), inside(1, std::log(std::max(start[1], 1e-300))),
-                   inside(2, start[2])};
-    ceres::Problem problem;
-    for (const GrowthObservation& p : points) {
-      ceres::LossFunction* loss =
-          options.robust_loss_m > 0.0 ? new ceres::CauchyLoss(options.robust_loss_m) : nullptr;
-      problem.AddResidualBlock(LogisticResidual::Create(p.day, p.height_m), loss, x);
-    }
-    for (int i = 0; i < 3; ++i) {
-      problem.SetParameterLowerBound(x, i, lower[i]);
-      problem.SetParameterUpperBound(x, i, upper[i]);
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver_options, &problem, &summary);
-    const bool finite = std::isfinite(x[0]) && std::isfinite(x[1]) && std::isfinite(x[2]) &&
-                        std::isfinite(summary.final_cost);
-    if (!finite || summary.termination_type == ceres::FAILURE) continue;
-    // Prefer a converged start; among equals the lowest cost.
-    const bool converged = summary.termination_type == ceres::CONVERGENCE;
-    const bool best_converged = have_best && best_summary.termination_type == ceres::CONVERGENCE;
-    if (!have_best || (converged && !best_converged) ||
-        (converged == best_converged && summary.final_cost < best_cost)) {
-      have_best = true;
-      best_cost = summary.final_cost;
-      best = {x[0], x[1], x[2]};
-      best_summary = summary;
-    }
-  }
-  if (!have_best) {
+  if (!BestLogisticFit(points, max_height, slope, options, lower, upper, &best, &best_summary)) {
     fit.status = GrowthFit::Status::kNotConverged;
     fit.message = fmt::format("the solver failed on {} observations", points.size());
     return fit;

@@ -558,7 +558,12 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
 
   // (3) Reject (observations, and GPS fixes with the gate on), re-preintegrate, final solve.
   start = Clock::now();
-  if (op.gps_gate_chi2 > 0) summary.num_gps_rejected = problem.GateGps(op.gps_gate_chi2);
+  if (op.gps_gate_chi2 > 0) {
+    summary.num_gps_rejected = problem.GateGps(op.gps_gate_chi2);
+    if (summary.num_gps_rejected > 0) {
+      spdlog::info("joint problem: GPS outlier gate dropped {} fixes", summary.num_gps_rejected);
+    }
+  }
   std::vector<Eigen::Vector3d> kept_points;
   std::vector<int> kept_ids;
   std::vector<std::vector<bool>> kept_masks;

@@ -335,6 +335,10 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
     result.landmark_observations_kept = std::move(kept_masks);
   }
 
+  if (summary.num_gps_rejected > 0) {
+    spdlog::info("GPS outlier gate: {} of the pass's fixes dropped (residual beyond chi2 {})",
+                 summary.num_gps_rejected, options_.gps_gate_chi2);
+  }
   if (builder.estimates_time_offset() && summary.num_observations > 0) {
     summary.time_offset_estimated = true;
     summary.time_offset_s = builder.time_offset_s();

@@ -417,9 +417,9 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
   return sigmas[sigmas.size() / 2];
 }
 
-std::string JointOptimiser::Options::Error() const {
-  if (std::string why = row.Error(); !why.empty()) return "row." + why;
-  if (!alignment.Check()) return "alignment: invalid pass alignment options";
+OptionCheck JointOptimiser::Options::Check() const {
+  if (const OptionCheck why = row.Check(); !why.empty()) return "row." + why;
+  if (!alignment.Check()) return "alignment: invalid (no reason given)";
   for (const auto& [name, value] :
        {std::pair{"precise_gps_sigma_m", precise_gps_sigma_m},
         std::pair{"ground_tie_sigma_across_m", ground_tie_sigma_across_m},

@@ -83,10 +83,11 @@ class JointOptimiser {
     // sigma and bounds are.
     std::optional<bool> estimate_time_offset;
 
-    bool Check() const { return Error().empty(); }
     // Empty when the options are valid, otherwise the first invalid option and why, as
-    // "name: must be ..." ("row.name: ..." for the row-SLAM options).
-    std::string Error() const;
+    // "name: must be ... (got x)" ("row.name: ..." for the row-SLAM options;
+    // core/option_check.h).
+    OptionCheck Check() const;
+    std::string Error() const { return Check(); }
   };
 
   // One pass: its row-SLAM problem (initial_states from row SLAM; `tracks` is ignored, the

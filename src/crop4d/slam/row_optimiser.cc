@@ -103,7 +103,7 @@ void ApplyCameraHeight(const RowOptimiser::Options& options, const RowOptimiser:
 
 }  // namespace
 
-std::string RowOptimiser::Options::Error() const {
+OptionCheck RowOptimiser::Options::Check() const {
   const auto positive = [](const char* name, double value) -> std::string {
     return value > 0 ? std::string() : fmt::format("{}: must be > 0 (got {})", name, value);
   };
@@ -146,15 +146,13 @@ std::string RowOptimiser::Options::Error() const {
     return fmt::format("max_abs_time_offset_s: must be in (0, 1] s (got {})",
                        max_abs_time_offset_s);
   }
-  // The nested options of other modules report validity only.
-  if (!triangulation.Check()) return "triangulation: invalid triangulation options";
-  if (!gp.Check()) return "gp: invalid GP prior options";
-  if (!camera_height.Check()) return "camera_height: invalid camera height options";
-  if (!standstill.Check()) return "standstill: invalid standstill options";
-  return {};
+  OptionChecker nested;
+  nested.Nested("triangulation", triangulation.Check())
+      .Nested("gp", gp.Check())
+      .Nested("camera_height", camera_height.Check())
+      .Nested("standstill", standstill.Check());
+  return nested.Result();
 }
-
-bool RowOptimiser::Options::Check() const { return Error().empty(); }
 
 RowOptimiser::RowOptimiser(Options options) : options_(std::move(options)) {
   const std::string error = options_.Error();

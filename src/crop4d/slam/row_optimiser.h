@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/slam/camera_height_scale.h"
@@ -132,10 +133,10 @@ class RowOptimiser {
     // holds only over a short time.
     double max_abs_time_offset_s = 0.2;
 
-    bool Check() const;
     // Empty when the options are valid, otherwise the first invalid option and why, as
-    // "name: must be ..." (the field's name; the stages prefix their section).
-    std::string Error() const;
+    // "name: must be ... (got x)" (core/option_check.h; nested options "triangulation.name: ...").
+    OptionCheck Check() const;
+    std::string Error() const { return Check(); }
   };
 
   struct Input {

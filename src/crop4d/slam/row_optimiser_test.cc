@@ -359,6 +359,9 @@ TEST(RowOptimiser, OptionErrorsNameTheOptionAndWhy) {
   options.min_observations = 1;
   EXPECT_EQ(options.Error(), "min_observations: must be >= 2 (got 1)");
   options = RowOptimiser::Options();
+  options.triangulation.min_parallax_deg = 180;
+  EXPECT_EQ(options.Check().rfind("triangulation.min_parallax_deg: ", 0), 0u) << options.Check();
+  options = RowOptimiser::Options();
   options.gps_gate_chi2 = -1;
   EXPECT_EQ(options.Error(), "gps_gate_chi2: must be >= 0 (0: off) (got -1)");
 }

@@ -24,8 +24,8 @@
 #include "crop4d/core/version.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
-#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
@@ -590,7 +590,8 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
     auto it = light.find(ref);
     if (it != light.end()) return it->second;
     for (const slam::RowPass& p : workspace::ReadPassList(workspace, ref.session)) {
-      if (p.id == ref.pass) return light[ref] = workspace::LoadPassData(workspace, ref.session, p, {});
+      if (p.id == ref.pass)
+        return light[ref] = workspace::LoadPassData(workspace, ref.session, p, {});
     }
     throw InputError(workspace, 0, "pass " + ref.session + "/" + ref.pass + " missing");
   };

@@ -24,6 +24,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/workspace/stage_files.h"
+#include "crop4d/workspace/stage_summary.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -193,16 +194,20 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
     const std::string stamp = std::to_string(fingerprint.hash());
     // A damaged or stale summary, or a cloud changed since it was written: densify again.
     std::string why;
-    if (!options.force && fs::exists(ply_path) && workspace::SummaryUpToDate(json_path, stamp, &why)) {
-      std::ifstream in(json_path);
-      const json previous = json::parse(in);
-      spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
-      report.skipped = true;
-      report.num_poses = previous.value("poses", 0);
-      report.num_views = previous.value("views", 0);
-      report.stereo.num_points = previous.value("points", std::int64_t{0});
-      reports.push_back(report);
-      continue;
+    if (!options.force && fs::exists(ply_path) &&
+        workspace::SummaryUpToDate(json_path, stamp, &why)) {
+      try {
+        const workspace::DenseSummary previous = workspace::ReadDenseSummary(json_path.string());
+        spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
+        report.skipped = true;
+        report.num_poses = previous.poses;
+        report.num_views = previous.views;
+        report.stereo.num_points = previous.points;
+        reports.push_back(report);
+        continue;
+      } catch (const InputError& e) {
+        why = e.what();
+      }
     }
     if (!options.force && fs::exists(json_path)) spdlog::info("densify {}: again: {}", id, why);
 
@@ -315,7 +320,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
                           {"stereo", s.total_seconds},
                           {"total", report.seconds}};
     workspace::RecordOutputs(&summary, out_dir, {ply_path.filename().string()});
-    io::WriteFileAtomic(json_path.string(), summary.dump(2) + "\n");
+    workspace::WriteDenseSummary(json_path.string(), summary);
     spdlog::info("densify {}: {} points in {:.1f} s", id, s.num_points, report.seconds);
     reports.push_back(report);
   }

@@ -31,14 +31,15 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/slam_stage.h"
-#include "crop4d/workspace/stage_files.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/track_cloud.h"
+#include "crop4d/workspace/pass_data.h"
+#include "crop4d/workspace/stage_files.h"
+#include "crop4d/workspace/stage_summary.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -89,8 +90,7 @@ std::vector<fusion::JointLandmark> JoinLandmarks(
 
 // The pass's row-SLAM problem rebuilt from the session's data and summary.json's "problem".
 void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
-  const json summary = json::parse(pass->data.summary_json);
-  const json& problem = summary.at("problem");
+  const workspace::PassPriors& problem = pass->data.problem;
   const std::string where = pass->data.folder + "/summary.json";
   fusion::JointOptimiser::Pass& input = pass->input;
   input.initial_states = pass->data.states;
@@ -102,76 +102,43 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
     input.body_from_camera = streams.camera->sensor.body_from_sensor;
   }
   // Row SLAM without an IMU (cam+rtk, cam+gps): the GP prior carries the motion here too.
-  if (problem.value("use_imu", true)) {
+  if (problem.use_imu) {
     if (!streams.imu || streams.imu->samples.empty()) {
       throw InputError(where + ": the session has no IMU samples");
     }
     const slam::ImuStream& imu = *streams.imu;
     input.imu_samples = &imu.samples;
     // The noise row SLAM used: sensor.yaml's times the factor the data asked for.
-    const double noise_factor = problem.value("imu_noise_factor", 1.0);
-    if (!(noise_factor > 0)) {
-      throw InputError(where + ": an IMU noise factor that is not positive");
-    }
-    input.imu_noise = slam::ImuNoise(imu.sensor, noise_factor);
+    input.imu_noise = slam::ImuNoise(imu.sensor, problem.imu_noise_factor);
     input.imu_rate_hz = imu.sensor.rate_hz;
   }
-  const std::string gps_name = problem.value("gps", "");
-  if (!gps_name.empty()) {
+  if (!problem.gps.empty()) {
     const slam::GpsStream* gps = nullptr;
     for (const slam::GpsStream& g : streams.gps) {
-      if (g.sensor.name == gps_name) gps = &g;
+      if (g.sensor.name == problem.gps) gps = &g;
     }
-    if (gps == nullptr) throw InputError(where + ": GPS '" + gps_name + "' not in the session");
+    if (gps == nullptr) throw InputError(where + ": GPS '" + problem.gps + "' not in the session");
     std::vector<GpsOutage> outages;
-    for (const json& o : problem.at("gps_outages")) outages.push_back({o.at(0), o.at(1)});
+    for (const auto& [start, duration] : problem.gps_outages) outages.push_back({start, duration});
     input.gps_fixes = ApplyGpsOutages(gps->fixes, outages);
     input.p_body_antenna = gps->sensor.antenna_in_body;
   }
-  if (problem.contains("level_up_body") && !problem.at("level_up_body").is_null()) {
-    const std::vector<double> a = problem.at("level_up_body");
-    input.level_up_body = Eigen::Vector3d(a.at(0), a.at(1), a.at(2));
+  input.level_up_body = problem.level_up_body;
+  input.forward_axis_body = problem.forward_axis_body;
+  input.anchor_state = problem.anchor_state;
+  input.anchor_sigma_velocity = problem.anchor_sigma_velocity;
+  input.still_intervals =
+      workspace::StillFlags(problem.still_intervals, input.initial_states.size(), where);
+  if (problem.length_prior) {
+    input.length_prior_m = problem.length_prior->first;
+    input.length_prior_sigma_m = problem.length_prior->second;
   }
-  if (!problem.at("forward_axis_body").is_null()) {
-    const std::vector<double> a = problem.at("forward_axis_body");
-    input.forward_axis_body = Eigen::Vector3d(a.at(0), a.at(1), a.at(2));
-  }
-  input.anchor_state = problem.value("anchor_state", 0);
-  if (problem.contains("anchor_sigma_velocity") && !problem.at("anchor_sigma_velocity").is_null()) {
-    input.anchor_sigma_velocity = problem.at("anchor_sigma_velocity").get<double>();
-  }
-  if (problem.contains("still_intervals")) {
-    // [first, last) state index ranges of the standstills (slam_stage.cc).
-    const std::size_t n = input.initial_states.size();
-    for (const json& range : problem.at("still_intervals")) {
-      const std::size_t first = range.at(0), last = range.at(1);
-      if (first >= last || last >= n) {
-        throw InputError(where + ": a standstill outside the pass's states");
-      }
-      if (input.still_intervals.empty()) input.still_intervals.assign(n - 1, false);
-      std::fill(input.still_intervals.begin() + first, input.still_intervals.begin() + last, true);
-    }
-  }
-  if (problem.contains("length_prior") && !problem.at("length_prior").is_null()) {
-    const json& prior = problem.at("length_prior");
-    input.length_prior_m = prior.at("length_m").get<double>();
-    input.length_prior_sigma_m = prior.at("sigma_m").get<double>();
-    if (!(*input.length_prior_m > 0) || !(input.length_prior_sigma_m > 0)) {
-      throw InputError(where + ": a length prior that is not positive");
-    }
-  }
+  input.bias_prior_mean = problem.bias_prior_mean;
+  input.bias_prior_sigma = problem.bias_prior_sigma;
   // Row SLAM's camera-IMU time offset (null: not estimated): the joint problem starts from it.
-  if (const json& back_end = summary.at("back_end");
-      back_end.contains("time_offset_s") && back_end.at("time_offset_s").is_number()) {
+  const json back_end = json::parse(pass->data.summary_json).value("back_end", json::object());
+  if (back_end.contains("time_offset_s") && back_end.at("time_offset_s").is_number()) {
     input.time_offset_s = back_end.at("time_offset_s").get<double>();
-  }
-  const std::vector<double> mean = problem.at("bias_prior_mean");
-  for (int k = 0; k < 6; ++k) input.bias_prior_mean(k) = mean.at(k);
-  if (!problem.at("bias_prior_sigma").is_null()) {
-    const std::vector<double> sigma = problem.at("bias_prior_sigma");
-    slam::Vector6d s;
-    for (int k = 0; k < 6; ++k) s(k) = sigma.at(k);
-    input.bias_prior_sigma = s;
   }
 }
 
@@ -562,13 +529,11 @@ void LoadPassProblems(const io::Field& field, const std::string& workspace,
   for (auto& pass : passes) {
     const std::string& session = pass->data.session;
     pass->data = workspace::LoadPassData(workspace, session, pass->data.pass,
-                              {.features = true, .tracks = true, .states = true});
+                                         {.features = true, .tracks = true, .states = true});
     if (!streams->count(session)) {
       (*session_objects)[session] = std::make_unique<io::Session>(field.OpenSession(session));
-      const json summary = json::parse(pass->data.summary_json);
-      (*streams)[session] = std::make_unique<slam::SessionStreams>(
-          slam::LoadSessionStreams(field, *(*session_objects)[session], pass->data.camera,
-                                   summary.at("problem").value("imu", "")));
+      (*streams)[session] = std::make_unique<slam::SessionStreams>(slam::LoadSessionStreams(
+          field, *(*session_objects)[session], pass->data.camera, pass->data.problem.imu));
     }
     pass->streams = (*streams)[session].get();
     BuildInput(*pass->streams, pass.get());
@@ -733,6 +698,12 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
       complete &= fs::exists(out_dir / s / "poses.tum") && fs::exists(out_dir / s / "sparse.ply");
     }
     std::string why;
+    try {
+      workspace::ReadFusedSummary((out_dir / "summary.json").string());
+    } catch (const InputError& e) {
+      complete = false;
+      spdlog::info("fuse: fused again: {}", e.what());
+    }
     if (complete && workspace::SummaryUpToDate(out_dir / "summary.json", stamp, &why)) {
       spdlog::info("fuse: up to date, skipped (--force to fuse again)");
       report.skipped = true;
@@ -792,7 +763,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
                       SeasonQualityToJson(report.quality).dump(2) + "\n");
   // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.
   workspace::RecordOutputs(&summary, out_dir, workspace::FilesBelow(out_dir));
-  io::WriteFileAtomic((out_dir / "summary.json").string(), summary.dump(2) + "\n");
+  workspace::WriteFusedSummary((out_dir / "summary.json").string(), summary);
   return report;
 }
 

@@ -20,13 +20,17 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/workspace/pass_files.h"
 #include "crop4d/pipeline/pass_standstills.h"
-#include "crop4d/workspace/stage_files.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/time_offset_reprojection_factor.h"
 #include "crop4d/slam/track_cloud.h"
+#include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_files.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_priors.h"
+#include "crop4d/workspace/pass_summary.h"
+#include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -170,6 +174,12 @@ bool UpToDate(const std::string& folder, const std::string& fingerprint, bool ne
     return false;
   }
   std::string why;
+  try {
+    workspace::ReadPassSummary(summary_path.string());
+  } catch (const InputError& e) {
+    spdlog::debug("{}: solved again: {}", folder, e.what());
+    return false;
+  }
   if (workspace::SummaryUpToDate(summary_path, fingerprint, &why)) return true;
   spdlog::debug("{}: solved again: {}", folder, why);
   return false;
@@ -242,18 +252,6 @@ bool PassSelected(const SlamStageOptions& options, const slam::RowPass& pass) {
   } catch (const std::exception&) {
     return false;
   }
-}
-
-void WritePassList(const std::string& path, const std::vector<slam::RowPass>& passes) {
-  std::ostringstream out;
-  out << "pass,row,direction,t_begin [ns],t_end [ns],start_x [m],start_y [m],end_x [m],end_y "
-         "[m],length [m]\n";
-  for (const slam::RowPass& p : passes) {
-    out << p.id << ',' << p.row << ',' << p.direction << ',' << p.t_begin << ',' << p.t_end << ','
-        << p.start_world.x() << ',' << p.start_world.y() << ',' << p.end_world.x() << ','
-        << p.end_world.y() << ',' << p.length_m << '\n';
-  }
-  io::WriteFileAtomic(path, out.str());
 }
 
 // The span of a session processed as one trajectory: from its first to its last image with a
@@ -580,55 +578,30 @@ std::vector<slam::RowState> InitialStates(const SlamStageOptions& options,
 
 // summary.json's "problem": what the joint 4D problem needs to rebuild this pass's graph from
 // the session's data (fuse_stage.h): the sensors, the GPS receiver and outages, and the priors.
-json ProblemJson(const SlamStageOptions& options, const SessionContext& ctx,
-                 const slam::CameraStream* camera, bool use_imu,
-                 const slam::RowOptimiser::Input& input, const std::vector<bool>& still,
-                 const slam::RowOptimiser::Summary& s) {
+workspace::PassPriors ProblemPriors(const SlamStageOptions& options, const SessionContext& ctx,
+                                    const slam::CameraStream* camera, bool use_imu,
+                                    const slam::RowOptimiser::Input& input,
+                                    const std::vector<bool>& still,
+                                    const slam::RowOptimiser::Summary& s) {
   const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
-  const slam::ImuStream& imu = *ctx.streams.imu;
-  json problem;
-  problem["camera"] = camera != nullptr ? camera->sensor.name : "";
-  problem["imu"] = use_imu ? imu.sensor.name : "";
-  problem["use_imu"] = use_imu;
-  problem["level_up_body"] = input.level_up_body
-                                 ? json::array({input.level_up_body->x(), input.level_up_body->y(),
-                                                input.level_up_body->z()})
-                                 : json();
-  problem["gps"] = info.gps ? ctx.factor_gps_name : "";
-  json outages = json::array();
-  for (const GpsOutage& g : options.gps_outages) outages.push_back({g.start_s, g.duration_s});
-  problem["gps_outages"] = outages;
-  problem["imu_noise_factor"] = ctx.imu_noise_factor;
-  problem["anchor_state"] = input.anchor_state;
-  problem["anchor_sigma_velocity"] =
-      input.anchor_sigma_velocity ? json(*input.anchor_sigma_velocity) : json();
-  // The standstills as [first, last) state index ranges.
-  json still_ranges = json::array();
-  for (std::size_t k = 0; k < still.size(); ++k) {
-    if (!still[k]) continue;
-    if (!still_ranges.empty() && still_ranges.back()[1].get<std::size_t>() == k) {
-      still_ranges.back()[1] = k + 1;
-    } else {
-      still_ranges.push_back({k, k + 1});
-    }
-  }
-  problem["still_intervals"] = still_ranges;
-  problem["forward_axis_body"] =
-      input.forward_axis_body
-          ? json::array({input.forward_axis_body->x(), input.forward_axis_body->y(),
-                         input.forward_axis_body->z()})
-          : json();
-  problem["bias_prior_mean"] = std::vector<double>(
-      input.bias_prior_mean.data(), input.bias_prior_mean.data() + input.bias_prior_mean.size());
-  problem["bias_prior_sigma"] = input.bias_prior_sigma
-                                    ? json(std::vector<double>(input.bias_prior_sigma->data(),
-                                                               input.bias_prior_sigma->data() + 6))
-                                    : json();
-  // The length the camera-height step held the pass at (null: none).
-  problem["length_prior"] = s.length_prior_m > 0 ? json{{"length_m", s.length_prior_m},
-                                                        {"sigma_m", s.length_prior_sigma_m}}
-                                                 : json();
-  return problem;
+  workspace::PassPriors p;
+  p.camera = camera != nullptr ? camera->sensor.name : "";
+  p.imu = use_imu ? ctx.streams.imu->sensor.name : "";
+  p.use_imu = use_imu;
+  p.level_up_body = input.level_up_body;
+  p.gps = info.gps ? ctx.factor_gps_name : "";
+  for (const GpsOutage& g : options.gps_outages)
+    p.gps_outages.emplace_back(g.start_s, g.duration_s);
+  p.imu_noise_factor = ctx.imu_noise_factor;
+  p.anchor_state = input.anchor_state;
+  p.anchor_sigma_velocity = input.anchor_sigma_velocity;
+  p.still_intervals = workspace::StillRanges(still);
+  p.forward_axis_body = input.forward_axis_body;
+  p.bias_prior_mean = input.bias_prior_mean;
+  p.bias_prior_sigma = input.bias_prior_sigma;
+  if (s.length_prior_m > 0)
+    p.length_prior = std::make_pair(s.length_prior_m, s.length_prior_sigma_m);
+  return p;
 }
 
 // summary.json's "back_end": the row optimiser's counts, fit and cost.
@@ -918,7 +891,8 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   RecordSensorGaps(ctx, pass, times, camera, use_imu, &summary);
   const slam::RowOptimiser::Result result = optimiser.Solve(input);
   const slam::RowOptimiser::Summary& s = result.summary;
-  summary["problem"] = ProblemJson(options, ctx, camera, use_imu, input, still, s);
+  summary["problem"] =
+      workspace::ToJson(ProblemPriors(options, ctx, camera, use_imu, input, still, s));
 
   // Outputs: poses, cloud, summary.
   start = Clock::now();
@@ -988,7 +962,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                         {"outputs", output_seconds},
                         {"total", SecondsSince(start_total)}};
   workspace::RecordOutputs(&summary, folder, PassOutputs(folder));
-  io::WriteFileAtomic((fs::path(folder) / "summary.json").string(), summary.dump(2) + "\n");
+  workspace::WritePassSummary((fs::path(folder) / "summary.json").string(), summary);
   return outcome;
 }
 
@@ -1209,7 +1183,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
                      options.max_window_s);
       }
     }
-    WritePassList((fs::path(workspace) / "sessions" / id / "passes.csv").string(), passes);
+    workspace::WritePassList(workspace::Layout(workspace).PassList(id).string(), passes);
     spdlog::info("session {}: {} passes, sensors {}", id, passes.size(),
                  slam::ToString(ctx.sensors));
     json options_json = OptionsJson(options, ctx.sensors);

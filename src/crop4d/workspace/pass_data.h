@@ -9,23 +9,23 @@
 
 #include "crop4d/features/feature_extractor.h"
 #include "crop4d/geometry/rigid.h"
-#include "crop4d/workspace/pass_files.h"
 #include "crop4d/slam/row_passes.h"
+#include "crop4d/workspace/pass_files.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_priors.h"
 
 namespace crop4d::workspace {
-
-// The passes of a session from WS/sessions/<session>/passes.csv (empty when there is none).
-std::vector<slam::RowPass> ReadPassList(const std::string& workspace, const std::string& session);
 
 struct PassData {
   std::string session;
   slam::RowPass pass;
   std::string folder;
-  // From summary.json: the sensor set, the camera's name (empty without), the fingerprint and
-  // the whole summary as JSON text.
+  // From summary.json (pass_summary.h): the sensor set, the camera's name (empty without), the
+  // fingerprint, the problem's priors and the whole summary as JSON text.
   std::string sensors;
   std::string camera;
   std::string fingerprint;
+  PassPriors problem;
   std::string summary_json;
   // Row SLAM's world_from_camera at every image (poses.tum; world_from_body without camera).
   std::vector<Timestamp> times;

@@ -1,0 +1,96 @@
+#include "crop4d/workspace/stage_summary.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include "crop4d/core/error.h"
+#include "crop4d/io/atomic_file.h"
+
+namespace crop4d::workspace {
+
+using json = nlohmann::json;
+
+void WriteVersionedJson(const std::string& path, json summary, int schema) {
+  summary["schema"] = schema;
+  io::WriteFileAtomic(path, summary.dump(2) + "\n");
+}
+
+json ReadVersionedJson(const std::string& path, int schema, const std::string& rerun) {
+  if (!std::filesystem::exists(path)) {
+    throw InputError(path, 0, "missing (run `" + rerun + "` first)");
+  }
+  std::ifstream in(path);
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    throw InputError(
+        path, 0, std::string("not valid JSON (") + e.what() + "); rerun `" + rerun + " --force`");
+  }
+  const json found = j.is_object() ? j.value("schema", json()) : json();
+  if (!found.is_number_integer() || found.get<int>() != schema) {
+    throw InputError(path, 0,
+                     "written by another crop4d version (schema " +
+                         (found.is_null() ? std::string("none") : found.dump()) +
+                         ", this crop4d reads " + std::to_string(schema) + "); rerun `" + rerun +
+                         " --force`");
+  }
+  return j;
+}
+
+namespace {
+
+// Runs `read` on the parsed summary; a missing or mistyped field is an InputError on `path`.
+template <typename F>
+void Fields(const std::string& path, const std::string& rerun, F read) {
+  try {
+    read();
+  } catch (const json::exception& e) {
+    throw InputError(path, 0,
+                     std::string("a missing or mistyped field (") + e.what() + "); rerun `" +
+                         rerun + " --force`");
+  }
+}
+
+}  // namespace
+
+void WriteFusedSummary(const std::string& path, json summary) {
+  WriteVersionedJson(path, std::move(summary), kFusedSummarySchema);
+}
+
+FusedSummary ReadFusedSummary(const std::string& path) {
+  const std::string rerun = "crop4d fuse";
+  FusedSummary s;
+  s.json = ReadVersionedJson(path, kFusedSummarySchema, rerun);
+  Fields(path, rerun, [&] {
+    s.fingerprint = s.json.at("fingerprint").get<std::string>();
+    s.sessions = s.json.at("sessions").get<std::vector<std::string>>();
+    const json& joint = s.json.at("joint");
+    s.passes = joint.at("passes").get<int>();
+    s.landmarks = joint.at("landmarks").get<int>();
+    s.shared_landmarks = joint.at("shared_landmarks").get<int>();
+    s.reprojection_rms_px = joint.at("reprojection_rms_px").get<double>();
+    s.converged = joint.at("converged").get<bool>();
+  });
+  return s;
+}
+
+void WriteDenseSummary(const std::string& path, json summary) {
+  WriteVersionedJson(path, std::move(summary), kDenseSummarySchema);
+}
+
+DenseSummary ReadDenseSummary(const std::string& path) {
+  const std::string rerun = "crop4d densify";
+  DenseSummary s;
+  s.json = ReadVersionedJson(path, kDenseSummarySchema, rerun);
+  Fields(path, rerun, [&] {
+    s.fingerprint = s.json.at("fingerprint").get<std::string>();
+    s.session = s.json.at("session").get<std::string>();
+    s.poses = s.json.at("poses").get<int>();
+    s.views = s.json.at("views").get<int>();
+    s.points = s.json.at("points").get<std::int64_t>();
+  });
+  return s;
+}
+
+}  // namespace crop4d::workspace

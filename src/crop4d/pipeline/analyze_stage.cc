@@ -22,6 +22,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/pipeline/analyze_plots.h"
 #include "crop4d/pipeline/season_quality.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/workspace/analysis_rasters.h"
 #include "crop4d/workspace/analysis_results.h"
 #include "crop4d/workspace/analysis_summary.h"
@@ -39,60 +40,6 @@ using json = nlohmann::json;
 // 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out;
 // 5: ground filter; 6: Cloud-Optimized GeoTIFFs and the height-change rasters.
 constexpr int kAnalyzeStageRevision = 6;
-
-json OptionsJson(const AnalyzeStageOptions& o) {
-  return {{"sites_file", o.sites_file},
-          {"cloud", o.cloud},
-          {"vegetation",
-           {{"index", analysis::GreennessIndexName(o.vegetation.index)},
-            {"threshold",
-             std::isfinite(o.vegetation.threshold) ? json(o.vegetation.threshold) : json("auto")},
-            {"min_threshold", o.vegetation.min_threshold},
-            {"min_separability", o.vegetation.min_separability}}},
-          {"terrain",
-           {{"cell_m", o.terrain.cell_m},
-            {"fit_radius_m", o.terrain.fit_radius_m},
-            {"min_points", o.terrain.min_points},
-            {"outlier_sigmas", o.terrain.outlier_sigmas},
-            {"use_later_sessions", o.terrain.use_later_sessions},
-            {"later_tolerance_m", o.terrain.later_tolerance_m},
-            {"vegetation_clearance_m", o.terrain.vegetation_clearance_m},
-            {"max_fill_distance_m", o.terrain.max_fill_distance_m},
-            {"ground_filter",
-             {{"window_m", o.terrain.ground_filter.window_m},
-              {"cell_m", o.terrain.ground_filter.cell_m},
-              {"max_height_m", o.terrain.ground_filter.max_height_m}}}}},
-          {"canopy",
-           {{"min_height_m", o.canopy.min_height_m},
-            {"min_height_any_colour_m", o.canopy.min_height_any_colour_m},
-            {"cell_m", o.canopy.cell_m},
-            {"top", analysis::CanopyTopName(o.canopy.top)},
-            {"top_radius_m", o.canopy.top_radius_m},
-            {"plant_top_quantile", o.canopy.plant_top_quantile},
-            {"max_shrink_m", o.canopy.max_shrink_m},
-            {"crown_radius_m", o.canopy.crown_radius_m},
-            {"min_peak_fraction", o.canopy.min_peak_fraction},
-            {"top_quantile", o.canopy.top_quantile},
-            {"min_canopy_cells", o.canopy.min_canopy_cells}}},
-          {"plants",
-           {{"cell_m", o.plants.cell_m},
-            {"min_cells", o.plants.min_cells},
-            {"max_area_m2", o.plants.max_area_m2},
-            {"top_fraction", o.plants.top_fraction},
-            {"min_spacing_m", o.plants.min_spacing_m},
-            {"min_prominence_m", o.plants.min_prominence_m},
-            {"min_prominence_fraction", o.plants.min_prominence_fraction}}},
-          {"plane",
-           {{"inlier_threshold_m", o.plane.inlier_threshold_m},
-            {"iterations", o.plane.iterations},
-            {"seed", o.plane.seed}}},
-          {"growth", {{"robust_loss_m", o.growth.robust_loss_m}}},
-          {"lone_point_radius_m", o.lone_point_radius_m},
-          {"raster_cell_m", o.raster_cell_m},
-          {"margin_m", o.margin_m},
-          {"write_rasters", o.write_rasters},
-          {"write_plots", o.write_plots}};
-}
 
 // A session to analyse: its id, date and cloud.
 struct SessionInput {
@@ -175,7 +122,7 @@ std::string InputsFingerprint(const AnalyzeStageOptions& options,
   Fnv1aHasher fingerprint;
   fingerprint.Add(kAnalyzeStageRevision);
   fingerprint.AddString(kVersion);
-  fingerprint.AddString(OptionsJson(options).dump());
+  fingerprint.AddString(AnalyzeOptionsJson(options).dump());
   for (const io::Site& s : sites) {
     fingerprint.AddString(s.id);
     fingerprint.Add(s.center_enu.x());
@@ -367,7 +314,7 @@ workspace::AnalysisSummary Summary(const AnalyzeReport& report, const std::strin
   workspace::AnalysisSummary summary;
   summary.fingerprint = stamp;
   summary.version = kVersion;
-  summary.options = OptionsJson(options);
+  summary.options = AnalyzeOptionsJson(options);
   summary.area_min = {area.min().x(), area.min().y()};
   summary.area_max = {area.max().x(), area.max().y()};
   for (const AnalyzeSessionReport& r : report.sessions) {

@@ -25,6 +25,7 @@
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/workspace/pass_data.h"
 #include "crop4d/workspace/stage_files.h"
 
@@ -104,54 +105,6 @@ std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string&
   return ctx;
 }
 
-json OptionsJson(const AssociateStageOptions& o, const std::string& method) {
-  const association::RobustMatcher::Options& r = o.robust;
-  json j = {{"method", method},
-            {"min_overlap", o.image_pairs.min_overlap},
-            {"max_pairs_per_image", o.image_pairs.max_pairs_per_image},
-            {"stride", o.image_pairs.stride},
-            {"max_axis_angle_deg", o.image_pairs.max_axis_angle_deg},
-            {"footprint_range_m", o.image_pairs.footprint.max_range_m},
-            {"max_scale_change", o.image_pairs.max_scale_change}};
-  if (method == "robust") {
-    j["prealign"] = o.prealign;
-    j["prealign_stride"] = o.prealign_stride;
-    j["prealign_radius_m"] = o.prealign_radius_m;
-    j["imprecise_sigma_position_m"] = o.imprecise_sigma_position_m;
-    j["alignment_min_inliers"] = o.alignment.min_inliers;
-    j["prealigned_sigma_position_m"] = o.prealigned_sigma_position_m;
-    j["alignment_inlier_threshold_m"] = o.alignment.inlier_threshold_m;
-    j["min_track_length"] = o.min_track_length;
-    j["max_landmark_distance_m"] = o.max_landmark_distance_m;
-    j["surface_points"] = o.surface_points;
-    if (o.surface_points) {
-      j["surface_neighbors"] = o.surface.num_neighbors;
-      j["surface_max_pixel_distance_px"] = o.surface.max_pixel_distance_px;
-      j["surface_min_sigma_m"] = o.surface.min_sigma_m;
-      j["surface_max_sigma_m"] = o.surface.max_sigma_m;
-      j["surface_min_incidence_cos"] = o.surface.min_incidence_cos;
-    }
-    j["min_search_radius_px"] = r.min_search_radius_px;
-    j["search_sigmas"] = r.search_sigmas;
-    j["sigma_position_m"] = r.sigma_position_m;
-    j["sigma_rotation_rad"] = r.sigma_rotation_rad;
-    j["max_search_radius_px"] = r.max_search_radius_px;
-    j["max_scale_ratio"] = r.max_scale_ratio;
-    j["warp_min_baseline_m"] = r.warp_min_baseline_m;
-    j["upright_after_warp"] = r.upright_after_warp;
-    j["max_ratio"] = r.max_ratio;
-    j["max_descriptor_distance"] = r.max_descriptor_distance;
-    j["verify"] = r.verify;
-    j["ransac_px"] = r.verification.max_error_px;
-    j["min_inliers"] = r.verification.min_num_inliers;
-  } else {
-    j["ratio"] = o.naive.descriptors.max_ratio;
-    j["ransac_px"] = o.naive.verification.max_error_px;
-    j["min_inliers"] = o.naive.verification.min_num_inliers;
-  }
-  return j;
-}
-
 template <typename Body>
 void InArena(int num_threads, Body&& body) {
   if (num_threads <= 0) {
@@ -193,7 +146,7 @@ std::string PairFingerprint(const std::string& method, const AssociateStageOptio
   Fnv1aHasher hasher;
   hasher.Add(kAssociateStageRevision);
   hasher.AddString(kVersion);
-  hasher.AddString(OptionsJson(options, method).dump());
+  hasher.AddString(AssociateOptionsJson(options, method).dump());
   hasher.AddString(a.label() + " " + a.fingerprint);
   hasher.AddString(b.label() + " " + b.fingerprint);
   return std::to_string(hasher.hash());
@@ -314,7 +267,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
   report.pair = pair;
   report.method = method;
   const auto start = Clock::now();
-  const json options_json = OptionsJson(options, method);
+  const json options_json = AssociateOptionsJson(options, method);
   const fs::path bin = out_dir / association::AssociationFileName(pair.a, pair.b);
   const fs::path summary_path = fs::path(bin).replace_extension(".json");
 

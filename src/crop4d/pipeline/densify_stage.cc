@@ -23,6 +23,7 @@
 #include "crop4d/io/image_sequence.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/workspace/stage_files.h"
 #include "crop4d/workspace/stage_summary.h"
 
@@ -39,48 +40,6 @@ constexpr int kDensifyStageRevision = 1;
 json BoxJson(const Eigen::AlignedBox2d& box) {
   if (box.isEmpty()) return json::array();
   return {box.min().x(), box.min().y(), box.max().x(), box.max().y()};
-}
-
-json OptionsJson(const DensifyStageOptions& o, const std::vector<Eigen::Vector2d>& centers) {
-  const dense::HeightFieldStereo::Options& s = o.stereo;
-  json boxes = json::array();
-  for (const Eigen::AlignedBox2d& b : o.boxes) boxes.push_back(BoxJson(b));
-  json points = json::array();
-  for (const Eigen::Vector2d& c : centers) points.push_back({c.x(), c.y()});
-  return {{"camera", o.camera},
-          {"margin_m", o.margin_m},
-          {"boxes", boxes},
-          {"centers", points},
-          {"radius_m", centers.empty() ? 0.0 : o.radius_m},
-          {"cell_m", s.cell_m},
-          {"tile_cells", s.tile_cells},
-          {"patch_radius", s.patch_radius},
-          {"below_ground_m", s.below_ground_m},
-          {"max_canopy_height_m", s.max_canopy_height_m},
-          {"coarse_step_m", s.coarse_step_m},
-          {"fine_half_range_m", s.fine_half_range_m},
-          {"fine_step_m", s.fine_step_m},
-          {"max_views", s.max_views},
-          {"max_view_distance_m", s.max_view_distance_m},
-          {"image_margin_px", s.image_margin_px},
-          {"min_reference_separation_m", s.min_reference_separation_m},
-          {"min_views", s.min_views},
-          {"min_score", s.min_score},
-          {"min_texture", s.min_texture},
-          {"min_uniqueness", s.min_uniqueness},
-          {"top_surface_margin", s.top_surface_margin},
-          {"top_surface_min_reference_score", s.top_surface_min_reference_score},
-          {"top_surface_min_height_m", s.top_surface_min_height_m},
-          {"top_surface_min_excess_green", s.top_surface_min_excess_green},
-          {"min_neighbours", s.min_neighbours},
-          {"neighbour_tolerance_m", s.neighbour_tolerance_m},
-          {"cross_check_m", s.cross_check_m},
-          {"vegetation_weight", s.vegetation_weight},
-          {"highpass_sigma_px", s.highpass_sigma_px},
-          {"highpass_gain", s.highpass_gain},
-          {"ground_tile_m", o.ground.tile_m},
-          {"ground_quantile", o.ground.quantile},
-          {"ground_min_points", o.ground.min_points}};
 }
 
 // The crop rows widened by the margin, or the sparse cloud's extent.
@@ -182,7 +141,7 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
     }
 
     // Fingerprint of the inputs and options.
-    const json options_json = OptionsJson(options, centers);
+    const json options_json = DensifyOptionsJson(options, centers);
     Fnv1aHasher fingerprint;
     fingerprint.Add(kDensifyStageRevision);
     fingerprint.AddString(options_json.dump());

@@ -33,6 +33,7 @@
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
@@ -140,38 +141,6 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
   if (back_end.contains("time_offset_s") && back_end.at("time_offset_s").is_number()) {
     input.time_offset_s = back_end.at("time_offset_s").get<double>();
   }
-}
-
-json OptionsJson(const FuseStageOptions& o) {
-  const slam::RowOptimiser::Options& r = o.optimiser.row;
-  return {{"method", o.method},
-          {"max_matches_per_image_pair", o.max_matches_per_image_pair},
-          {"reprojection_sigma_px", r.reprojection_sigma_px},
-          {"reprojection_loss_scale", r.reprojection_loss_scale},
-          {"max_reprojection_error_px", r.max_reprojection_error_px},
-          {"min_observations", r.min_observations},
-          {"max_iterations", r.max_iterations},
-          {"iterative_schur", r.iterative_schur},
-          {"max_linear_iterations", r.max_linear_iterations},
-          {"function_tolerance", r.function_tolerance},
-          {"gps_loss_scale", r.gps_loss_scale},
-          {"cloud_min_parallax_deg", o.cloud.min_parallax_deg},
-          {"cloud_max_reprojection_error_px", o.cloud.max_reprojection_error_px},
-          {"write_colmap", o.write_colmap},
-          {"max_imu_gap_s", o.quality.max_imu_gap_s},
-          {"ground_ties", o.ground_ties},
-          {"ground_tie_max_matches", o.ground_tie_max_matches},
-          {"ground_tie",
-           {{"max_excess_green", o.ground_tie.max_excess_green},
-            {"band_half_width_m", o.ground_tie.band_half_width_m},
-            {"min_depth_below_camera_m", o.ground_tie.min_depth_below_camera_m},
-            {"segment_m", o.ground_tie.segment_m},
-            {"cell_along_m", o.ground_tie.cell_along_m},
-            {"cell_across_m", o.ground_tie.cell_across_m},
-            {"min_points", o.ground_tie.min_points},
-            {"max_heading_difference_deg", o.ground_tie.max_heading_difference_deg},
-            {"sigma_across_m", o.optimiser.ground_tie_sigma_across_m},
-            {"sigma_vertical_m", o.optimiser.ground_tie_sigma_vertical_m}}}};
 }
 
 // The image file names of a camera stream by timestamp.
@@ -461,7 +430,7 @@ json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Res
   const fusion::JointOptimiser::Summary& s = result.summary;
   json summary;
   summary["fingerprint"] = stamp;
-  summary["options"] = OptionsJson(options);
+  summary["options"] = FuseOptionsJson(options);
   summary["sessions"] = sessions;
   summary["associations"] = {{"files", report.num_association_files},
                              {"cross_matches", report.num_cross_matches},
@@ -659,7 +628,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   Fnv1aHasher fingerprint;
   fingerprint.Add(kFuseStageRevision);
   fingerprint.AddString(kVersion);
-  fingerprint.AddString(OptionsJson(options).dump());
+  fingerprint.AddString(FuseOptionsJson(options).dump());
   std::vector<std::string> sessions;
   for (const std::string& session : field.session_ids()) {
     bool any = false;

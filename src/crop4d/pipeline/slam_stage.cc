@@ -21,6 +21,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/pass_standstills.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/time_offset_reprojection_factor.h"
@@ -38,78 +39,6 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using nlohmann::json;
-
-// The options that change a pass's result, as JSON (in summary.json and the fingerprint).
-json OptionsJson(const SlamStageOptions& o, slam::SensorSet sensors) {
-  const features::FrontEnd::Options& fe = o.front_end;
-  const slam::RowOptimiser::Options& op = o.optimiser;
-  json outages = json::array();
-  for (const GpsOutage& g : o.gps_outages) outages.push_back({g.start_s, g.duration_s});
-  return {
-      {"sensors", slam::ToString(sensors)},
-      {"camera", o.camera},
-      {"imu", o.imu},
-      {"gps_outages", outages},
-      {"state_rate_hz", o.state_rate_hz},
-      {"session_state_rate_hz", o.session_state_rate_hz},
-      {"session_solve_max_sigma_m", o.session_solve_max_sigma_m},
-      {"motion_constraint", o.motion_constraint},
-      {"standstills", o.standstills},
-      {"imu_noise_auto", o.imu_noise_auto},
-      {"camera_height_m", o.camera_height_m},
-      {"use_camera_height", o.use_camera_height},
-      {"session_bias_sigma", {o.session_bias_sigma_gyro, o.session_bias_sigma_accel}},
-      {"front_end",
-       {{"extraction_hash", fe.extraction.Hash()},
-        {"max_features", fe.extraction.max_num_features},
-        {"max_image_size", fe.extraction.max_image_size},
-        {"spatial_grid_cells", fe.extraction.spatial_grid_cells},
-        {"matching",
-         fe.matching.descriptors.method == features::DescriptorMatchOptions::Method::kExhaustive
-             ? "exhaustive"
-             : "flann"},
-        {"flann_trees", fe.matching.descriptors.num_trees},
-        {"flann_checks", fe.matching.descriptors.num_checks},
-        {"cross_check", fe.matching.descriptors.cross_check},
-        {"num_neighbors", fe.num_neighbors},
-        {"ratio", fe.matching.descriptors.max_ratio},
-        {"min_track_length", fe.tracks.min_track_length}}},
-      {"optimiser",
-       {{"reprojection_sigma_px", op.reprojection_sigma_px},
-        {"reprojection_loss_scale", op.reprojection_loss_scale},
-        {"max_reprojection_error_px", op.max_reprojection_error_px},
-        {"min_observations", op.min_observations},
-        {"gps_loss_scale", op.gps_loss_scale},
-        {"gp_qc_translation", op.gp.qc_translation},
-        {"gp_qc_rotation", op.gp.qc_rotation},
-        {"max_iterations", op.max_iterations},
-        {"estimate_time_offset", op.estimate_time_offset},
-        {"time_offset_prior_sigma_s", op.time_offset_prior_sigma_s},
-        {"max_abs_time_offset_s", op.max_abs_time_offset_s}}},
-      {"standstill",
-       {{"window_s", op.standstill.window_s},
-        {"mean_change_sigmas", op.standstill.mean_change_sigmas},
-        {"max_gravity_error", op.standstill.max_gravity_error},
-        {"gyro_floor", op.standstill.gyro_floor},
-        {"accel_floor", op.standstill.accel_floor},
-        {"max_image_motion_px", op.standstill.max_image_motion_px},
-        {"max_gps_speed", op.standstill.max_gps_speed},
-        {"min_duration_s", op.standstill.min_duration_s},
-        {"sigmas",
-         {op.standstill.sigma_velocity, op.standstill.sigma_rate, op.standstill.sigma_translation,
-          op.standstill.sigma_rotation}}}},
-      {"visual_initialisation",
-       {{"min_correspondences", o.visual_initialisation.min_correspondences},
-        {"ransac_threshold_px", o.visual_initialisation.ransac_threshold_px},
-        {"ransac_confidence", o.visual_initialisation.ransac_confidence},
-        {"min_inlier_fraction", o.visual_initialisation.min_inlier_fraction},
-        {"min_step_m", o.visual_initialisation.min_step_m},
-        {"min_usable_fraction", o.visual_initialisation.min_usable_fraction}}},
-      {"cloud",
-       {{"min_parallax_deg", o.cloud.min_parallax_deg},
-        {"max_reprojection_error_px", o.cloud.max_reprojection_error_px}}},
-  };
-}
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
@@ -1186,7 +1115,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
     workspace::WritePassList(workspace::Layout(workspace).PassList(id).string(), passes);
     spdlog::info("session {}: {} passes, sensors {}", id, passes.size(),
                  slam::ToString(ctx.sensors));
-    json options_json = OptionsJson(options, ctx.sensors);
+    json options_json = SlamOptionsJson(options, ctx.sensors);
     // The height in effect, so that a change of the option or of sensor.yaml solves again.
     options_json["camera_height_m"] = CameraHeight(options, ctx.streams);
 

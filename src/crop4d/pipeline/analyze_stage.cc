@@ -342,15 +342,27 @@ workspace::AnalysisSummary Summary(const AnalyzeReport& report, const std::strin
 }
 
 }  // namespace
-bool AnalyzeStageOptions::Check() const {
-  return (cloud == "auto" || cloud == "dense" || cloud == "sparse") && vegetation.Check() &&
-         terrain.Check() && canopy.Check() && plants.Check() && plane.Check() && growth.Check() &&
-         raster_cell_m > 0.0 && margin_m >= 0.0 && lone_point_radius_m >= 0.0;
+
+OptionCheck AnalyzeStageOptions::Check() const {
+  if (cloud != "auto" && cloud != "dense" && cloud != "sparse") {
+    return "cloud: must be auto, dense or sparse (got '" + cloud + "')";
+  }
+  OptionChecker c;
+  c.Greater("raster_cell_m", raster_cell_m, 0.0)
+      .AtLeast("margin_m", margin_m, 0.0)
+      .AtLeast("lone_point_radius_m", lone_point_radius_m, 0.0)
+      .Nested("vegetation", vegetation.Check())
+      .Nested("terrain", terrain.Check())
+      .Nested("canopy", canopy.Check())
+      .Nested("plants", plants.Check())
+      .Nested("plane", plane.Check())
+      .Nested("growth", growth.Check());
+  return c.Result();
 }
 
 AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string& workspace,
                               const AnalyzeStageOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("RunAnalyzeStage: invalid options");
+  if (const std::string why = options.Check(); !why.empty()) throw InputError("analyze." + why);
   const auto t0 = std::chrono::steady_clock::now();
   AnalyzeReport report;
   const io::Field field(field_folder);

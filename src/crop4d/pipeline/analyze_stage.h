@@ -49,6 +49,7 @@
 #include "crop4d/analysis/sites.h"
 #include "crop4d/analysis/terrain.h"
 #include "crop4d/analysis/vegetation.h"
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 
 namespace crop4d::pipeline {
@@ -77,7 +78,7 @@ struct AnalyzeStageOptions {
   bool write_plots = true;
   bool force = false;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct AnalyzeSessionReport {

@@ -2,7 +2,6 @@
 
 #include <spdlog/spdlog.h>
 #include <tbb/parallel_for.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
@@ -21,6 +20,7 @@
 #include "crop4d/core/hash.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
+#include "crop4d/core/task_arena.h"
 #include "crop4d/core/version.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
@@ -103,16 +103,6 @@ std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string&
     ctx->planes = std::make_unique<association::LocalPlanes>(std::move(positions));
   }
   return ctx;
-}
-
-template <typename Body>
-void InArena(int num_threads, Body&& body) {
-  if (num_threads <= 0) {
-    body();
-    return;
-  }
-  tbb::task_arena arena(num_threads);
-  arena.execute(body);
 }
 
 // Pass b's frame relative to pass a's (association/prealignment.h).
@@ -410,10 +400,12 @@ std::string AssociateStageOptions::Check() const {
   if (num_threads < 0) return "num_threads: must be >= 0 (0: all cores)";
   // The nested options of the modules (docs/fusion.md, association).
   if (!alignment.Check()) return "alignment: invalid pass alignment options";
-  if (!image_pairs.Check()) return "image_pairs: invalid image pair selection options";
-  if (surface_points && !surface.Check()) return "surface: invalid surface point options";
-  if (!robust.Check()) return "robust: invalid robust matcher options";
-  if (!naive.Check()) return "naive: invalid naive matcher options";
+  if (const std::string why = image_pairs.Check(); !why.empty()) return "image_pairs." + why;
+  if (surface_points) {
+    if (const std::string why = surface.Check(); !why.empty()) return "surface." + why;
+  }
+  if (const std::string why = robust.Check(); !why.empty()) return "robust." + why;
+  if (const std::string why = naive.Check(); !why.empty()) return "naive." + why;
   return {};
 }
 

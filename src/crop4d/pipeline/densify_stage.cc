@@ -77,8 +77,8 @@ std::string DensifyStageOptions::Check() const {
   if (!(radius_m > 0)) return "radius_m: must be > 0";
   if (num_threads < 0) return "num_threads: must be >= 0 (0: all cores)";
   // The nested options of the modules (docs/run.md, densify).
-  if (!stereo.Check()) return "stereo: invalid height-field stereo options";
-  if (!ground.Check()) return "ground: invalid ground level options";
+  if (const std::string why = stereo.Check(); !why.empty()) return "stereo." + why;
+  if (const std::string why = ground.Check(); !why.empty()) return "ground." + why;
   return {};
 }
 

@@ -610,8 +610,8 @@ std::string FuseStageOptions::Check() const {
   if (ground_tie_max_matches < 0) return "ground_tie_max_matches: must be >= 0";
   // The nested options of the modules (docs/fusion.md).
   if (!ground_tie.Check()) return "ground_tie: invalid ground tie options";
-  if (!optimiser.Check()) return "optimiser: invalid joint optimiser options";
-  if (!cloud.Check()) return "cloud: invalid triangulation options";
+  if (const std::string why = optimiser.Check(); !why.empty()) return "optimiser." + why;
+  if (const std::string why = cloud.Check(); !why.empty()) return "cloud." + why;
   return {};
 }
 

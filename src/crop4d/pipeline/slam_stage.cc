@@ -981,14 +981,14 @@ std::string SlamStageOptions::Check() const {
   if (!(window_overlap_s >= 0)) return "window_overlap_s: must be >= 0";
   if (!(max_window_s > window_overlap_s)) return "max_window_s: must be > window_overlap_s";
   // The nested options of the modules (their fields are documented in docs/slam.md).
-  if (!front_end.Check()) return "front_end: invalid front-end options";
-  if (!passes.Check()) return "passes: invalid row-pass options";
-  if (!initialisation.Check()) return "initialisation: invalid initialisation options";
-  if (!visual_initialisation.Check()) {
-    return "visual_initialisation: invalid visual initialisation options";
+  if (const std::string why = front_end.Check(); !why.empty()) return "front_end." + why;
+  if (const std::string why = passes.Check(); !why.empty()) return "passes." + why;
+  if (const std::string why = initialisation.Check(); !why.empty()) return "initialisation." + why;
+  if (const std::string why = visual_initialisation.Check(); !why.empty()) {
+    return "visual_initialisation." + why;
   }
-  if (!optimiser.Check()) return "optimiser: invalid row optimiser options";
-  if (!cloud.Check()) return "cloud: invalid triangulation options";
+  if (const std::string why = optimiser.Check(); !why.empty()) return "optimiser." + why;
+  if (const std::string why = cloud.Check(); !why.empty()) return "cloud." + why;
   return {};
 }
 

@@ -58,7 +58,7 @@ TEST(StageOptionsTest, SlamNamesTheOptionAndWhy) {
   EXPECT_EQ(o.Check(), "gps_outages: a duration must be > 0");
   o = SlamStageOptions();
   o.optimiser.max_iterations = 0;
-  EXPECT_EQ(o.Check(), "optimiser: invalid row optimiser options");
+  EXPECT_EQ(o.Check(), "optimiser.max_iterations: must be > 0 (got 0)");
 }
 
 TEST(StageOptionsTest, AssociateNamesTheOptionAndWhy) {

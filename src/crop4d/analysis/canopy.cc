@@ -187,7 +187,7 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
                        const io::Site& site, const CanopyOptions& o,
                        const std::vector<Eigen::Vector2d>* stems,
                        const std::vector<double>* max_tops) {
-  CROP4D_CHECK(o.Check());
+  CROP4D_CHECK_OPTIONS(o, "MeasureSite");
   CROP4D_CHECK(max_tops == nullptr || (stems != nullptr && max_tops->size() == stems->size()));
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
   SiteCanopy result;
@@ -247,7 +247,7 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
 std::vector<float> CanopyHeightModel(
     const SessionCloud& cloud, const GroundFunction& ground, std::size_t num_cells,
     const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of, const CanopyOptions& o) {
-  CROP4D_CHECK(o.Check());
+  CROP4D_CHECK_OPTIONS(o, "CanopyHeightModel");
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
   std::vector<float> chm(num_cells, std::numeric_limits<float>::quiet_NaN());
   for (std::size_t n = 0; n < cloud.points.size(); ++n) {
@@ -266,7 +266,7 @@ std::vector<float> CanopyHeightModel(
 
 std::vector<float> CanopyHeightModel(const SessionCloud& cloud, const TerrainModel& terrain,
                                      const GridSpec& grid, const CanopyOptions& o) {
-  CROP4D_CHECK(grid.Check());
+  CROP4D_CHECK_OPTIONS(grid, "CanopyHeightModel");
   const auto cell_of = [&](const Eigen::Vector2d& xy) -> std::ptrdiff_t {
     const long i = std::lround((xy.x() - grid.origin.x()) / grid.cell_m);
     const long j = std::lround((xy.y() - grid.origin.y()) / grid.cell_m);

@@ -221,7 +221,7 @@ bool BestLogisticFit(const std::vector<GrowthObservation>& points, double max_he
 }  // namespace
 
 GrowthFit FitGrowth(std::vector<GrowthObservation> observations, const GrowthOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "FitGrowth");
   GrowthFit fit;
 
   // Valid observations, by day.

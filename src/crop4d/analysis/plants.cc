@@ -176,7 +176,8 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
                                         const Eigen::AlignedBox2d& area,
                                         const CanopyOptions& canopy,
                                         const PlantDetectionOptions& o) {
-  CROP4D_CHECK(o.Check() && canopy.Check());
+  CROP4D_CHECK_OPTIONS(o, "DetectPlants");
+  CROP4D_CHECK_OPTIONS(canopy, "DetectPlants");
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
   std::vector<DetectedPlant> plants;
   if (area.isEmpty()) return plants;

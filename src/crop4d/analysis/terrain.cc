@@ -248,7 +248,8 @@ GridSpec GridSpec::Covering(const Eigen::AlignedBox2d& box, double cell_m) {
 
 TerrainModel::TerrainModel(GridSpec grid, std::vector<float> heights)
     : grid_(grid), heights_(std::move(heights)) {
-  CROP4D_CHECK(grid_.Check() && heights_.size() == grid_.size());
+  CROP4D_CHECK_OPTIONS(grid_, "TerrainModel::TerrainModel");
+  CROP4D_CHECK(heights_.size() == grid_.size());
 }
 
 double TerrainModel::Height(double x, double y) const {
@@ -292,7 +293,7 @@ OptionCheck TerrainOptions::Check() const {
 TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
                           const Eigen::AlignedBox2d& bounds, const TerrainOptions& options,
                           TerrainSummary* summary) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "BuildTerrain");
   const auto t0 = std::chrono::steady_clock::now();
   TerrainSummary s;
   const GridSpec grid = GridSpec::Covering(bounds, options.cell_m);
@@ -371,7 +372,7 @@ OptionCheck PlaneOptions::Check() const {
 std::optional<GroundPlane> FitSiteGroundPlane(const GroundCloud& earliest,
                                               const Eigen::Vector2d& center, double radius_m,
                                               const PlaneOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "FitSiteGroundPlane");
   if (earliest.points == nullptr) return std::nullopt;
   std::vector<Eigen::Vector3d> pts;
   for (std::size_t i = 0; i < earliest.points->size(); ++i) {

@@ -140,7 +140,7 @@ double VegetationClassification::Fraction() const {
 
 VegetationClassification ClassifyVegetation(const std::vector<std::array<std::uint8_t, 3>>& colors,
                                             const VegetationOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "ClassifyVegetation");
   VegetationClassification out;
   out.index.resize(colors.size());
   for (std::size_t i = 0; i < colors.size(); ++i) {

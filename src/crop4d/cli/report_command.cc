@@ -31,7 +31,7 @@ int RunReport(ReportArgs& args) {
   o.cross_section = !args.no_cross_section;
   o.cross_section_row = args.row;
   o.cross_section_dense = !args.sparse_section;
-  if (!o.Check()) throw InputError("crop4d report", 0, "invalid options");
+  if (const std::string why = o.Check(); !why.empty()) throw InputError("crop4d report", 0, why);
   const auto lock = LockWorkspace(args.workspace, "crop4d report", /*create=*/false);
   const report::HtmlReportResult result =
       report::WriteHtmlReport(args.workspace, args.field, args.output, o);

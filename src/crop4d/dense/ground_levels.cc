@@ -18,7 +18,7 @@ OptionCheck GroundLevels::Options::Check() const {
 GroundLevels::GroundLevels(const std::vector<Eigen::Vector3d>& points,
                            const Eigen::AlignedBox2d& bounds, const Options& options)
     : options_(options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "GroundLevels");
   if (bounds.isEmpty()) return;
   origin_ = bounds.min();
   cols_ = std::max(1, static_cast<int>(std::ceil(bounds.sizes().x() / options.tile_m)));

@@ -557,7 +557,7 @@ OptionCheck HeightFieldStereo::Options::Check() const {
 }
 
 HeightFieldStereo::HeightFieldStereo(const Options& options) : options_(options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "HeightFieldStereo");
 }
 
 namespace {
@@ -1393,7 +1393,7 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
   Result result;
   Summary& summary = result.summary;
   summary.num_views = static_cast<int>(views.size());
-  CROP4D_CHECK(camera.Check());
+  CROP4D_CHECK_OPTIONS(camera, "HeightFieldStereo::Run");
   if (region.bounds.isEmpty() || !ground.valid() || views.empty()) {
     summary.total_seconds = SecondsSince(start);
     return result;

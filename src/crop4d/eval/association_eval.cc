@@ -126,16 +126,21 @@ void MatchCounts::Add(const MatchCounts& o) {
   correct_near += o.correct_near;
 }
 
-bool AssociationEvalOptions::Check() const {
-  return std::isfinite(max_distance_m) && max_distance_m > 0.0 &&
-         std::isfinite(coarse_distance_m) && coarse_distance_m > 0.0 && near_depth_m > 0.0 &&
-         true_point.Check();
+OptionCheck AssociationEvalOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_distance_m", max_distance_m, 0.0)
+      .Finite("max_distance_m", max_distance_m)
+      .Greater("coarse_distance_m", coarse_distance_m, 0.0)
+      .Finite("coarse_distance_m", coarse_distance_m)
+      .Greater("near_depth_m", near_depth_m, 0.0)
+      .Nested("true_point", true_point.Check());
+  return c.Result();
 }
 
 AssociationEval EvaluateAssociations(const std::vector<AssociationInput>& inputs,
                                      const SessionTimeline& timeline, TruthGeometry& truth,
                                      const AssociationEvalOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateAssociations");
   AssociationEval eval;
   eval.options = options;
 

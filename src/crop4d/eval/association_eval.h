@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "crop4d/association/association_file.h"
+#include "crop4d/core/option_check.h"
 #include "crop4d/eval/truth_geometry.h"
 
 namespace crop4d::eval {
@@ -104,7 +105,7 @@ struct AssociationEvalOptions {
   double near_depth_m = 5.0;
   TruePointOptions true_point;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One association file, read, with the layout of its two passes.

@@ -189,12 +189,16 @@ std::string Cm(double value_m, bool sign = false) {
 
 std::vector<SiteHeight> ReadSiteTruth(const std::string& path) { return ReadTruthTable(path); }
 
-bool CanopyEvalOptions::Check() const { return std::isfinite(max_error_m) && max_error_m >= 0.0; }
+OptionCheck CanopyEvalOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("max_error_m", max_error_m, 0.0).Finite("max_error_m", max_error_m);
+  return c.Result();
+}
 
 CanopyMethodEval EvaluateCanopyHeights(const std::vector<SiteHeight>& estimates,
                                        const std::vector<SiteHeight>& truth,
                                        const CanopyEvalOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateCanopyHeights");
   CanopyMethodEval eval;
   std::map<std::pair<std::string, std::string>, const SiteHeight*> by_key;
   for (const SiteHeight& e : estimates) by_key[{e.site_id, e.session}] = &e;
@@ -258,7 +262,7 @@ CanopyMethodEval EvaluateCanopyHeights(const std::vector<SiteHeight>& estimates,
 
 bool EvaluateWorkspaceCanopy(const std::string& workspace, const std::string& field,
                              const CanopyEvalOptions& options, CanopyEval* eval, std::string* why) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateWorkspaceCanopy");
   const workspace::Layout ws(workspace);
   const auto relative = [&](const fs::path& p) {
     return p.lexically_relative(ws.root()).generic_string();

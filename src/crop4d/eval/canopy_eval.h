@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/eval/plant_eval.h"
 #include "crop4d/workspace/analysis_tables.h"
 
@@ -49,7 +50,7 @@ struct CanopyEvalOptions {
   // Evaluate only these sessions (empty: all).
   std::vector<std::string> sessions;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One truth row and its estimate.

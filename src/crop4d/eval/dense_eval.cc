@@ -46,9 +46,14 @@ void SummariseTops(std::vector<double> errors, double tolerance, PlantTopStats* 
 
 }  // namespace
 
-bool DenseEvalOptions::Check() const {
-  return std::isfinite(top_radius_m) && top_radius_m > 0.0 && std::isfinite(tolerance_m) &&
-         tolerance_m > 0.0 && ground.Check();
+OptionCheck DenseEvalOptions::Check() const {
+  OptionChecker c;
+  c.Greater("top_radius_m", top_radius_m, 0.0)
+      .Finite("top_radius_m", top_radius_m)
+      .Greater("tolerance_m", tolerance_m, 0.0)
+      .Finite("tolerance_m", tolerance_m)
+      .Nested("ground", ground.Check());
+  return c.Result();
 }
 
 std::vector<std::string> FindDenseClouds(const std::string& workspace,
@@ -74,7 +79,7 @@ std::vector<std::string> FindDenseClouds(const std::string& workspace,
 DenseSessionEval EvaluateDenseCloud(const std::vector<Eigen::Vector3d>& points,
                                     const std::vector<PlantFootprint>& plants,
                                     const TerrainGrid& terrain, const DenseEvalOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateDenseCloud");
   DenseSessionEval s;
   s.points = static_cast<std::int64_t>(points.size());
 
@@ -130,7 +135,7 @@ DenseSessionEval EvaluateDenseCloud(const std::vector<Eigen::Vector3d>& points,
 DenseEval EvaluateDenseClouds(const std::string& workspace, const std::string& field,
                               const std::vector<std::string>& files,
                               const DenseEvalOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateDenseClouds");
   DenseEval eval;
   eval.options = options;
   const fs::path truth = fs::path(field) / "ground_truth";

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/eval/ground_misalignment.h"
 
 namespace crop4d::eval {
@@ -36,7 +37,7 @@ struct DenseEvalOptions {
   // The soil points.
   GroundSelectionOptions ground;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // Error statistics of the plant tops (cloud top - true height), m; NaN without values.

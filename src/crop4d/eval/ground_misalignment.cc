@@ -216,16 +216,20 @@ bool TerrainGrid::Height(double x, double y, double* z) const {
   return true;
 }
 
-bool GroundSelectionOptions::Check() const {
-  return std::isfinite(plant_margin_m) && plant_margin_m >= 0.0 &&
-         std::isfinite(max_terrain_distance_m) && max_terrain_distance_m > 0.0;
+OptionCheck GroundSelectionOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("plant_margin_m", plant_margin_m, 0.0)
+      .Finite("plant_margin_m", plant_margin_m)
+      .Greater("max_terrain_distance_m", max_terrain_distance_m, 0.0)
+      .Finite("max_terrain_distance_m", max_terrain_distance_m);
+  return c.Result();
 }
 
 std::vector<Eigen::Vector3d> SelectGroundPoints(const std::vector<Eigen::Vector3d>& points,
                                                 const std::vector<PlantFootprint>& plants,
                                                 const TerrainGrid& terrain,
                                                 const GroundSelectionOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "SelectGroundPoints");
   double reach = 0.0;  // the largest keep-out radius
   std::vector<Eigen::Vector2d> stems;
   std::vector<double> keep_out;
@@ -268,15 +272,20 @@ std::vector<Eigen::Vector3d> SelectGroundPoints(const std::vector<Eigen::Vector3
   return ground;
 }
 
-bool GroundMisalignmentOptions::Check() const {
-  return std::isfinite(radius_m) && radius_m > 0.0 && min_points >= 3 &&
-         std::isfinite(max_slope_deg) && max_slope_deg > 0.0 && max_slope_deg <= 90.0 &&
-         max_query_points >= 1;
+OptionCheck GroundMisalignmentOptions::Check() const {
+  OptionChecker c;
+  c.Greater("radius_m", radius_m, 0.0)
+      .Finite("radius_m", radius_m)
+      .AtLeast("min_points", min_points, 3)
+      .Greater("max_slope_deg", max_slope_deg, 0.0)
+      .AtMost("max_slope_deg", max_slope_deg, 90.0)
+      .AtLeast("max_query_points", max_query_points, 1);
+  return c.Result();
 }
 
 GroundMisalignment ComputeGroundMisalignment(const std::vector<SessionGround>& sessions,
                                              const GroundMisalignmentOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "ComputeGroundMisalignment");
   std::vector<Grid2d> grids;
   grids.reserve(sessions.size());
   for (const SessionGround& s : sessions)

@@ -28,6 +28,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::eval {
 
 // A plant's footprint on one date (FIELD/ground_truth/<session>/plants.csv).
@@ -74,7 +76,7 @@ struct GroundSelectionOptions {
   // line and outliers.
   double max_terrain_distance_m = 0.10;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // The ground points of one session's cloud (step 1 above). Points outside the terrain grid are
@@ -96,7 +98,7 @@ struct GroundMisalignmentOptions {
   // dense clouds; every point still serves as a neighbour).
   int max_query_points = 20000;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One session's ground points.

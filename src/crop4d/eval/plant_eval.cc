@@ -126,11 +126,16 @@ void JudgeTops(const std::vector<SitePlantRow>& rows,
 
 }  // namespace
 
-bool PlantEvalOptions::Check() const { return max_stem_offset_m > 0.0 && max_top_error_m > 0.0; }
+OptionCheck PlantEvalOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_stem_offset_m", max_stem_offset_m, 0.0)
+      .Greater("max_top_error_m", max_top_error_m, 0.0);
+  return c.Result();
+}
 
 bool EvaluateSitePlants(const std::string& workspace, const std::string& field,
                         const PlantEvalOptions& options, PlantEval* eval, std::string* why) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateSitePlants");
   const workspace::Layout ws(workspace);
   const std::string file = ws.SitePlants().lexically_relative(ws.root()).generic_string();
   std::error_code ec;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/workspace/analysis_tables.h"
 
 namespace crop4d::eval {
@@ -36,7 +37,7 @@ struct PlantEvalOptions {
   // Evaluate only these sessions (empty: all).
   std::vector<std::string> sessions;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One site's true and found plants.

@@ -82,8 +82,10 @@ ErrorStats ErrorStats::Pool(const std::vector<ErrorStats>& parts) {
   return s;
 }
 
-bool TrajectoryMetricsOptions::Check() const {
-  return std::isfinite(rpe_distance_m) && rpe_distance_m >= 0.0;
+OptionCheck TrajectoryMetricsOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("rpe_distance_m", rpe_distance_m, 0.0).Finite("rpe_distance_m", rpe_distance_m);
+  return c.Result();
 }
 
 double RotationAngleDeg(const Eigen::Quaterniond& q) {
@@ -160,7 +162,7 @@ TrajectoryMetrics ComputeTrajectoryMetrics(const std::vector<Rigid3>& estimate,
                                            const std::vector<Rigid3>& truth,
                                            const TrajectoryMetricsOptions& options) {
   CROP4D_CHECK(estimate.size() == truth.size());
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "ComputeTrajectoryMetrics");
   const std::size_t n = estimate.size();
   TrajectoryMetrics m;
   m.num_poses = static_cast<int>(n);

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/io/tum.h"
@@ -75,7 +76,7 @@ struct TrajectoryMetricsOptions {
   // last, divided by the whole true path length (end-to-end drift).
   double rpe_distance_m = 1.0;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct TrajectoryMetrics {

@@ -41,9 +41,13 @@ float FromMillimetres(std::uint16_t mm) {
 
 }  // namespace
 
-bool TruePointOptions::Check() const {
-  return std::isfinite(max_edge_m) && max_edge_m > 0.0 && std::isfinite(max_depth_m) &&
-         max_depth_m > 0.0;
+OptionCheck TruePointOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_edge_m", max_edge_m, 0.0)
+      .Finite("max_edge_m", max_edge_m)
+      .Greater("max_depth_m", max_depth_m, 0.0)
+      .Finite("max_depth_m", max_depth_m);
+  return c.Result();
 }
 
 const char* ToString(TruePointStatus status) {

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/core/timestamp.h"
 #include "crop4d/geometry/camera.h"
 #include "crop4d/geometry/rigid.h"
@@ -76,7 +77,7 @@ struct TruePointOptions {
   // saturates at 65.5 m), m.
   double max_depth_m = 60.0;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 enum class TruePointStatus {

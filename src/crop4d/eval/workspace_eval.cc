@@ -737,15 +737,22 @@ void PoolPasses(WorkspaceEval* eval_ptr) {
 
 }  // namespace
 
-bool WorkspaceEvalOptions::Check() const {
-  return metrics.Check() && std::isfinite(max_dt_s) && max_dt_s >= 0.0 && association.Check() &&
-         clouds.selection.Check() && clouds.misalignment.Check() && canopy_options.Check() &&
-         dense_options.Check();
+OptionCheck WorkspaceEvalOptions::Check() const {
+  OptionChecker c;
+  c.Nested("metrics", metrics.Check())
+      .AtLeast("max_dt_s", max_dt_s, 0.0)
+      .Finite("max_dt_s", max_dt_s)
+      .Nested("association", association.Check())
+      .Nested("clouds.selection", clouds.selection.Check())
+      .Nested("clouds.misalignment", clouds.misalignment.Check())
+      .Nested("canopy", canopy_options.Check())
+      .Nested("dense", dense_options.Check());
+  return c.Result();
 }
 
 WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string& field,
                                 const WorkspaceEvalOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "EvaluateWorkspace");
   std::error_code ec;
   if (!fs::is_directory(workspace, ec))
     throw InputError(workspace, 0, "workspace folder not found");

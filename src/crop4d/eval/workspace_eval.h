@@ -34,6 +34,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/eval/association_eval.h"
 #include "crop4d/eval/canopy_eval.h"
 #include "crop4d/eval/dense_eval.h"
@@ -73,7 +74,7 @@ struct WorkspaceEvalOptions {
   bool dense = true;
   DenseEvalOptions dense_options;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One row pass.

@@ -82,16 +82,23 @@ int NearestState(const std::vector<geometry::Rigid3>& cameras, const Eigen::Vect
 
 }  // namespace
 
-bool GroundTieOptions::Check() const {
-  return max_excess_green > -1 && band_half_width_m > 0 && min_depth_below_camera_m >= 0 &&
-         segment_m > 0 && cell_along_m > 0 && cell_across_m > 0 && min_points > 0 &&
-         max_heading_difference_deg > 0 && max_heading_difference_deg < 90;
+OptionCheck GroundTieOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_excess_green", max_excess_green, -1)
+      .Greater("band_half_width_m", band_half_width_m, 0)
+      .AtLeast("min_depth_below_camera_m", min_depth_below_camera_m, 0)
+      .Greater("segment_m", segment_m, 0)
+      .Greater("cell_along_m", cell_along_m, 0)
+      .Greater("cell_across_m", cell_across_m, 0)
+      .Greater("min_points", min_points, 0)
+      .Between("max_heading_difference_deg", max_heading_difference_deg, 0.0, 90.0);
+  return c.Result();
 }
 
 std::vector<GroundTie> ComputeGroundTies(const GroundTiePass& a, const GroundTiePass& b,
                                          const GroundTieOptions& options,
                                          GroundTieSummary* summary) {
-  if (!options.Check()) throw std::invalid_argument("ComputeGroundTies: invalid options");
+  CROP4D_CHECK_OPTIONS(options, "ComputeGroundTies");
   if (a.colors.size() != a.points.size() || b.colors.size() != b.points.size()) {
     throw std::invalid_argument("ComputeGroundTies: one colour per point needed");
   }

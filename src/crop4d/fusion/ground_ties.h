@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/rigid.h"
 
 namespace crop4d::fusion {
@@ -50,7 +51,7 @@ struct GroundTieOptions {
   // The two tracks must be parallel within this angle, degrees (the same row).
   double max_heading_difference_deg = 10.0;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 // One pass as the ties see it: its cameras (world_from_camera of every state, in state order)

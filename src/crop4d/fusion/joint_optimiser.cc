@@ -419,7 +419,7 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
 
 OptionCheck JointOptimiser::Options::Check() const {
   if (const OptionCheck why = row.Check(); !why.empty()) return "row." + why;
-  if (!alignment.Check()) return "alignment: invalid (no reason given)";
+  if (const OptionCheck why = alignment.Check(); !why.empty()) return "alignment." + why;
   for (const auto& [name, value] :
        {std::pair{"precise_gps_sigma_m", precise_gps_sigma_m},
         std::pair{"ground_tie_sigma_across_m", ground_tie_sigma_across_m},

@@ -45,9 +45,13 @@ std::vector<int> Inliers(const std::vector<Eigen::Vector3d>& a,
 
 }  // namespace
 
-bool PassAlignmentOptions::Check() const {
-  return inlier_threshold_m > 0 && ransac_iterations > 0 && min_inliers >= 2 &&
-         min_sample_distance_m >= 0;
+OptionCheck PassAlignmentOptions::Check() const {
+  OptionChecker c;
+  c.Greater("inlier_threshold_m", inlier_threshold_m, 0)
+      .Greater("ransac_iterations", ransac_iterations, 0)
+      .AtLeast("min_inliers", min_inliers, 2)
+      .AtLeast("min_sample_distance_m", min_sample_distance_m, 0);
+  return c.Result();
 }
 
 PassAlignment AlignPasses4Dof(const std::vector<Eigen::Vector3d>& points_a,

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/geometry/rigid.h"
 
 namespace crop4d::fusion {
@@ -28,7 +29,7 @@ struct PassAlignmentOptions {
   double min_sample_distance_m = 0.5;
   std::uint32_t seed = 1;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct PassAlignment {

@@ -215,7 +215,9 @@ std::vector<ColmapCamera> ReadCameras(const std::string& path) {
     camera.intrinsics = CameraFromColmap(reader, t[1], params);
     camera.intrinsics.width = width;
     camera.intrinsics.height = height;
-    if (!camera.intrinsics.Check()) reader.Fail("invalid intrinsics (focal length ≤ 0?)");
+    if (const std::string why = camera.intrinsics.Check(); !why.empty()) {
+      reader.Fail("invalid intrinsics: " + why);
+    }
     cameras.push_back(camera);
   }
   return cameras;

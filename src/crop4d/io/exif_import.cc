@@ -468,8 +468,10 @@ void ExifImportOptions::Check() const {
   if (utc_offset_s && std::abs(*utc_offset_s) > 14 * 3600) {
     throw InputError("--time-zone", 0, "UTC offsets lie within ±14:00");
   }
-  if (camera && !camera->camera.Check()) {
-    throw InputError(camera_source, 0, "the camera calibration is not valid");
+  if (camera) {
+    if (const std::string why = camera->camera.Check(); !why.empty()) {
+      throw InputError(camera_source, 0, "the camera calibration is not valid: " + why);
+    }
   }
   if (!antenna_in_body.allFinite()) throw InputError("--antenna", 0, "must be finite");
 }

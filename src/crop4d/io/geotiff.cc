@@ -168,12 +168,12 @@ UtmGrid FieldUtm::GridCovering(const Eigen::AlignedBox2d& enu_box, double cell_m
   // Rounding of the divisions must not leave the far edges uncovered.
   while (grid.min_easting + grid.width * cell_m < e_hi) ++grid.width;
   while (grid.max_northing - grid.height * cell_m > n_lo) ++grid.height;
-  CROP4D_CHECK_MSG(grid.Check(), "the ENU box is too large for a grid of this cell size");
+  CROP4D_CHECK_MSG(grid.Check().empty(), "the ENU box is too large for a grid of this cell size");
   return grid;
 }
 
 std::vector<Eigen::Vector2d> FieldUtm::EnuCellCentres(const UtmGrid& grid) const {
-  CROP4D_CHECK(grid.Check());
+  CROP4D_CHECK_OPTIONS(grid, "FieldUtm::EnuCellCentres");
   CROP4D_CHECK(grid.epsg == epsg_);
   // Lattice of exactly converted cells: every `stride` cells (≤ 8 m) and the last one.
   constexpr double kLatticeSpacingM = 8.0;
@@ -239,7 +239,7 @@ int GeoTiffOverviewCount(int width, int height) {
 
 void WriteGeoTiff(const std::string& path, const UtmGrid& grid, const std::vector<float>& values,
                   const GeoTiffWriteOptions& options) {
-  CROP4D_CHECK(grid.Check());
+  CROP4D_CHECK_OPTIONS(grid, "WriteGeoTiff");
   CROP4D_CHECK(values.size() == grid.num_cells());
   for (const auto& [key, value] : options.metadata) {
     CROP4D_CHECK_MSG(ValidMetadataKey(key), "invalid GeoTIFF metadata key '" + key + "'");
@@ -393,7 +393,9 @@ GeoTiffRaster ReadGeoTiff(const std::string& path) {
   raster.grid.cell_m = t[1];
   raster.grid.width = dataset->GetRasterXSize();
   raster.grid.height = dataset->GetRasterYSize();
-  if (!raster.grid.Check()) throw InputError(path, 0, "invalid raster size or geotransform");
+  if (const std::string why = raster.grid.Check(); !why.empty()) {
+    throw InputError(path, 0, "invalid raster size or geotransform: " + why);
+  }
 
   GDALRasterBand* band = dataset->GetRasterBand(1);
   raster.values.resize(raster.grid.num_cells());

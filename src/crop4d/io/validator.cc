@@ -375,7 +375,7 @@ std::string NameProblem(const std::string& name) {
 }
 
 ValidationReport ValidateField(const std::string& folder, const ValidateOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "ValidateField");
   ValidationReport report;
   report.folder = folder;
   Diagnostics::Options diag_options;

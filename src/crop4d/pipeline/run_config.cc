@@ -541,7 +541,7 @@ bool RunConfig::Check(std::string* message) const {
     if (!why.empty()) return fail(section + why);
   }
   if (!analyze.Check()) return fail("invalid analyze options");
-  if (!eval_options.Check()) return fail("invalid eval options");
+  if (const std::string why = eval_options.Check(); !why.empty()) return fail("eval." + why);
   return true;
 }
 

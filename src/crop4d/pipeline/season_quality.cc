@@ -76,7 +76,11 @@ PassFacts PassFactsFromSummary(const json& summary) {
   return f;
 }
 
-bool QualityOptions::Check() const { return max_imu_gap_s > 0.0 && std::isfinite(max_imu_gap_s); }
+OptionCheck QualityOptions::Check() const {
+  OptionChecker c;
+  c.Greater("max_imu_gap_s", max_imu_gap_s, 0.0).Finite("max_imu_gap_s", max_imu_gap_s);
+  return c.Result();
+}
 
 bool SeasonQuality::Protects(const std::string& session) const {
   if (!any_trusted) return true;
@@ -95,7 +99,7 @@ std::vector<const SessionGrade*> SeasonQuality::Degraded() const {
 }
 
 SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOptions& options) {
-  if (!options.Check()) throw std::invalid_argument("GradeSeason: invalid options");
+  CROP4D_CHECK_OPTIONS(options, "GradeSeason");
   SeasonQuality q;
   std::map<std::string, std::size_t> index;
   std::vector<Positioning> positioning;

@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::pipeline {
 
 // How a pass was positioned, from its sensor set: worst to best.
@@ -51,7 +53,7 @@ struct QualityOptions {
   // A pass without IMU samples for longer than this degrades its session, s.
   double max_imu_gap_s = 1.0;
 
-  bool Check() const;
+  OptionCheck Check() const;
 };
 
 struct SessionGrade {

@@ -70,7 +70,7 @@ OptionCheck CrossSectionOptions::Check() const {
 
 std::vector<Eigen::Vector2d> PointsInSlice(const io::PlyPointCloud& cloud,
                                            const CrossSectionSlice& slice) {
-  CROP4D_CHECK(slice.Check());
+  CROP4D_CHECK_OPTIONS(slice, "PointsInSlice");
   const Eigen::Vector2d along_axis = slice.direction.normalized();
   const Eigen::Vector2d across_axis(-along_axis.y(), along_axis.x());
   const double half_thickness = 0.5 * slice.thickness_m;
@@ -229,7 +229,7 @@ CrossSectionFigure DrawCrossSection(const std::vector<io::PlyPointCloud>& clouds
                                     const std::vector<std::string>& labels,
                                     const CrossSectionOptions& options) {
   CROP4D_CHECK(clouds.size() == labels.size());
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "DrawCrossSection");
   const int n = static_cast<int>(clouds.size());
   CrossSectionFigure figure;
 

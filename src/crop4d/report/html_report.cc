@@ -630,7 +630,7 @@ std::string HtmlEscape(const std::string& text) {
 
 std::string BuildHtmlReport(const std::string& workspace, const std::string& field_folder,
                             const HtmlReportOptions& options, HtmlReportResult* result) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "BuildHtmlReport");
   if (!html::IsDir(workspace)) {
     throw InputError(workspace, 0, "the workspace folder does not exist");
   }

@@ -225,7 +225,7 @@ struct Layout {
 };
 
 Layout ComputeLayout(const LinePlot& plot, const PlotOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "ComputeLayout");
   CheckPlot(plot);
   Layout layout;
   const Ranges ranges = PlotRanges(plot);
@@ -512,7 +512,7 @@ cv::Mat DrawLinePlot(const LinePlot& plot, const PlotOptions& options, PlotFrame
 cv::Mat DrawPlotGrid(const std::vector<LinePlot>& plots, int columns, const PlotOptions& panel,
                      std::vector<PlotFrame>* frames) {
   CROP4D_CHECK(columns >= 1);
-  CROP4D_CHECK(panel.Check());
+  CROP4D_CHECK_OPTIONS(panel, "DrawPlotGrid");
   if (frames != nullptr) frames->clear();
   if (plots.empty()) {
     cv::Mat image(panel.height, panel.width, CV_8UC3, kWhite);

@@ -107,7 +107,7 @@ cv::Mat PeriodicValueNoise(int size_px, int cells, std::uint64_t seed) {
 }
 
 cv::Mat GenerateSoilTexture(const SoilTextureOptions& o) {
-  CROP4D_CHECK(o.Check());
+  CROP4D_CHECK_OPTIONS(o, "GenerateSoilTexture");
   const int S = o.size_px;
   const int mask = S - 1;
   const float texel_m = static_cast<float>(o.extent_m / S);

@@ -81,7 +81,7 @@ OptionCheck GpPriorFactor::Options::Check() const {
 }
 
 GpPriorFactor::GpPriorFactor(const Options& options, double dt) : dt_(dt) {
-  if (!options.Check() || !(dt > 0.0)) {
+  if (!options.Check().empty() || !(dt > 0.0)) {
     throw std::invalid_argument("GpPriorFactor: Qc and dt must be positive");
   }
   Matrix6d Qc = Matrix6d::Zero();

@@ -16,7 +16,7 @@ ReprojectionFactor::ReprojectionFactor(const geometry::PinholeRadTan& camera,
                                        const geometry::Rigid3& body_from_camera,
                                        const Eigen::Vector2d& pixel, double sigma_px)
     : camera_(camera), pixel_(pixel) {
-  if (!camera.Check() || !(sigma_px > 0.0)) {
+  if (!camera.Check().empty() || !(sigma_px > 0.0)) {
     throw std::invalid_argument("ReprojectionFactor: invalid camera or sigma");
   }
   const geometry::Rigid3 camera_from_body = body_from_camera.Inverse();

@@ -18,7 +18,7 @@ TimeOffsetReprojectionFactor::TimeOffsetReprojectionFactor(const geometry::Pinho
                                                            double sigma_px,
                                                            std::optional<FixedMotion> motion)
     : camera_(camera), pixel_(pixel), motion_(std::move(motion)) {
-  if (!camera.Check() || !(sigma_px > 0.0)) {
+  if (!camera.Check().empty() || !(sigma_px > 0.0)) {
     throw std::invalid_argument("TimeOffsetReprojectionFactor: invalid camera or sigma");
   }
   const geometry::Rigid3 camera_from_body = body_from_camera.Inverse();

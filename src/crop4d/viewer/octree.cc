@@ -29,19 +29,16 @@ T Get(const std::string& bytes, std::size_t offset) {
 
 }  // namespace
 
-bool OctreeOptions::Check(std::string* why) const {
-  const auto fail = [why](const char* text) {
-    if (why != nullptr) *why = text;
-    return false;
-  };
-  if (max_points_per_node < 1) return fail("octree: max_points_per_node must be at least 1");
-  if (grid_cells < 2 || grid_cells > 1024) return fail("octree: grid_cells must be in [2, 1024]");
-  if (max_depth < 0 || max_depth > 20) return fail("octree: max_depth must be in [0, 20]");
-  return true;
+OptionCheck OctreeOptions::Check() const {
+  OptionChecker c;
+  c.AtLeast("max_points_per_node", max_points_per_node, 1)
+      .InRange("grid_cells", grid_cells, 2, 1024)
+      .InRange("max_depth", max_depth, 0, 20);
+  return c.Result();
 }
 
 Octree BuildOctree(const std::vector<Eigen::Vector3d>& points, const OctreeOptions& options) {
-  CROP4D_CHECK(options.Check());
+  CROP4D_CHECK_OPTIONS(options, "BuildOctree");
   Octree tree;
   if (points.empty()) return tree;
   Eigen::AlignedBox3d box;
@@ -140,13 +137,15 @@ Tile DecodeTile(const std::string& bytes, const std::string& name) {
   if (bytes.size() < kHeaderBytes || std::memcmp(bytes.data(), kMagic, 4) != 0)
     throw InputError(name, 0, "not a crop4d viewer tile (no C4DT header)");
   if (Get<std::uint32_t>(bytes, 4) != kVersion)
-    throw InputError(name, 0, "tile format version " +
-                                  std::to_string(Get<std::uint32_t>(bytes, 4)) + ", expected 1");
+    throw InputError(
+        name, 0,
+        "tile format version " + std::to_string(Get<std::uint32_t>(bytes, 4)) + ", expected 1");
   const std::size_t n = Get<std::uint32_t>(bytes, 8);
   if (bytes.size() != kHeaderBytes + 9 * n)
-    throw InputError(name, 0, "tile of " + std::to_string(n) + " points has " +
-                                  std::to_string(bytes.size()) + " bytes, expected " +
-                                  std::to_string(kHeaderBytes + 9 * n));
+    throw InputError(name, 0,
+                     "tile of " + std::to_string(n) + " points has " +
+                         std::to_string(bytes.size()) + " bytes, expected " +
+                         std::to_string(kHeaderBytes + 9 * n));
   Tile tile;
   for (int k = 0; k < 3; ++k) tile.min[k] = Get<double>(bytes, 16 + 8 * k);
   tile.side = Get<double>(bytes, 40);

@@ -30,6 +30,8 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
+
 namespace crop4d::viewer {
 
 struct OctreeOptions {
@@ -43,7 +45,7 @@ struct OctreeOptions {
 
   // max_points_per_node ≥ 1, grid_cells in [2, 1024], max_depth in [0, 20]; `why` says what is
   // wrong.
-  bool Check(std::string* why = nullptr) const;
+  OptionCheck Check() const;
 };
 
 struct OctreeNode {

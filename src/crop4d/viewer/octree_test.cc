@@ -52,8 +52,9 @@ TEST(OctreeTest, InnerNodesKeepOnePointPerGridCellAndLeavesAreSmall) {
   std::set<std::string> names;
   for (const OctreeNode& node : tree.nodes) {
     names.insert(node.name);
-    if (node.name != "r") EXPECT_TRUE(names.count(node.name.substr(0, node.name.size() - 1)))
-        << "parent after child: " << node.name;
+    if (node.name != "r")
+      EXPECT_TRUE(names.count(node.name.substr(0, node.name.size() - 1)))
+          << "parent after child: " << node.name;
     EXPECT_EQ(node.depth + 1, int(node.name.size()));
     if (node.child_mask == 0) {
       EXPECT_LE(node.points.size(), std::size_t(options.max_points_per_node)) << node.name;
@@ -69,9 +70,9 @@ TEST(OctreeTest, InnerNodesKeepOnePointPerGridCellAndLeavesAreSmall) {
     }
     // Its children exist exactly where its mask says, with half its side.
     for (int c = 0; c < 8; ++c) {
-      const auto child = std::find_if(tree.nodes.begin(), tree.nodes.end(), [&](const OctreeNode& n) {
-        return n.name == node.name + char('0' + c);
-      });
+      const auto child =
+          std::find_if(tree.nodes.begin(), tree.nodes.end(),
+                       [&](const OctreeNode& n) { return n.name == node.name + char('0' + c); });
       EXPECT_EQ(bool(node.child_mask & (1 << c)), child != tree.nodes.end()) << node.name << c;
       if (child != tree.nodes.end()) EXPECT_DOUBLE_EQ(child->side, node.side / 2);
     }
@@ -128,7 +129,7 @@ TEST(OctreeTest, MalformedTilesAreRejected) {
   const std::string good = EncodeTile(tree.nodes[0], points, {});
   EXPECT_NO_THROW(DecodeTile(good));
   EXPECT_THROW(DecodeTile(good.substr(0, good.size() - 1)), InputError);  // truncated
-  EXPECT_THROW(DecodeTile("C4DT"), InputError);                          // header cut
+  EXPECT_THROW(DecodeTile("C4DT"), InputError);                           // header cut
   std::string magic = good;
   magic[0] = 'X';
   EXPECT_THROW(DecodeTile(magic), InputError);
@@ -143,11 +144,12 @@ TEST(OctreeTest, MalformedTilesAreRejected) {
 
 TEST(OctreeTest, OptionsAreChecked) {
   OctreeOptions o;
-  EXPECT_TRUE(o.Check());
+  EXPECT_EQ(o.Check(), "");
   o.grid_cells = 1;
-  std::string why;
-  EXPECT_FALSE(o.Check(&why));
-  EXPECT_NE(why.find("grid_cells"), std::string::npos);
+  EXPECT_EQ(o.Check(), "grid_cells: must be in [2, 1024] (got 1)");
+  o = OctreeOptions{};
+  o.max_depth = 21;
+  EXPECT_EQ(o.Check(), "max_depth: must be in [0, 20] (got 21)");
 }
 
 }  // namespace

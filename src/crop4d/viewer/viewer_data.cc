@@ -380,23 +380,19 @@ bool PlaceAnalysisTerrain(const SharedGrid& grid, const io::FieldInfo& field,
 
 }  // namespace
 
-bool ViewerDataOptions::Check(std::string* why) const {
-  if (!octree.Check(why)) return false;
-  if (!(grid_cell_m > 0) || !std::isfinite(grid_cell_m)) {
-    if (why != nullptr) *why = "viewer: grid_cell_m must be positive";
-    return false;
-  }
-  if (max_trajectory_points < 2 || max_grid_cells < 1) {
-    if (why != nullptr) *why = "viewer: max_trajectory_points ≥ 2 and max_grid_cells ≥ 1";
-    return false;
-  }
-  return true;
+OptionCheck ViewerDataOptions::Check() const {
+  OptionChecker c;
+  c.Nested("octree", octree.Check())
+      .Greater("grid_cell_m", grid_cell_m, 0.0)
+      .Finite("grid_cell_m", grid_cell_m)
+      .AtLeast("max_trajectory_points", max_trajectory_points, 2)
+      .AtLeast("max_grid_cells", max_grid_cells, 1);
+  return c.Result();
 }
 
 ViewerDataSummary WriteViewerData(const std::string& workspace, const std::string& out,
                                   const ViewerDataOptions& options) {
-  std::string why;
-  CROP4D_CHECK_MSG(options.Check(&why), why);
+  CROP4D_CHECK_OPTIONS(options, "WriteViewerData");
   const workspace::Layout layout(workspace);
   const fs::path& ws = layout.root();
   const fs::path dir(out);

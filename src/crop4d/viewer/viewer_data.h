@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/core/option_check.h"
 #include "crop4d/viewer/octree.h"
 
 namespace crop4d::viewer {
@@ -45,7 +46,7 @@ struct ViewerDataOptions {
   // The field folder (optional): its origin places analysis/dtm.tif, its sites their markers.
   std::string field;
 
-  bool Check(std::string* why = nullptr) const;
+  OptionCheck Check() const;
 };
 
 struct ViewerDataSummary {

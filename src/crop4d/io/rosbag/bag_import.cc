@@ -204,11 +204,11 @@ CameraSensor CameraFromInfo(const RosCameraInfo& info, const std::string& name,
   }
   double* coefficients[] = {&c.k1, &c.k2, &c.p1, &c.p2, &c.k3};
   for (std::size_t i = 0; i < info.D.size() && i < 5; ++i) *coefficients[i] = info.D[i];
-  if (!c.Check()) {
+  if (const std::string why = c.Check(); !why.empty()) {
     throw InputError(where, 0,
                      fmt::format("CameraInfo is not a usable calibration (size {}x{}, K [{}, {}, "
-                                 "{}, {}])",
-                                 info.width, info.height, c.fx, c.fy, c.cx, c.cy));
+                                 "{}, {}]): {}",
+                                 info.width, info.height, c.fx, c.fy, c.cx, c.cy, why));
   }
   if (info.K[1] != 0.0) {
     spdlog::warn("import: {}: CameraInfo skew K[0][1] = {} is left out (crop4d's model has none)",

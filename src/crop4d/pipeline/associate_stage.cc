@@ -26,6 +26,7 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/pipeline/stage_option_fields.h"
+#include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_data.h"
 #include "crop4d/workspace/stage_files.h"
 
@@ -419,7 +420,7 @@ std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
     std::vector<slam::RowPass> passes;
     for (const slam::RowPass& p : workspace::ReadPassList(workspace, id)) {
       if (p.row < 0) continue;
-      const fs::path summary = fs::path(PassFolder(workspace, id, p.id)) / "summary.json";
+      const fs::path summary = workspace::Layout(workspace).PassSummary(id, p.id);
       if (!fs::exists(summary)) continue;
       std::ifstream in(summary);
       try {
@@ -542,7 +543,7 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
   };
   for (const PassPair& pair : pairs) {
     for (const std::string& method : methods) {
-      const fs::path out_dir = fs::path(workspace) / "associations" / method;
+      const fs::path out_dir = workspace::Layout(workspace).AssociationsDir(method);
       const std::string fingerprint =
           PairFingerprint(method, options, get_light(pair.a), get_light(pair.b));
       if (!options.force) {

@@ -24,6 +24,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/stage_option_fields.h"
+#include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/stage_files.h"
 #include "crop4d/workspace/stage_summary.h"
 
@@ -87,16 +88,16 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
                                                   const DensifyStageOptions& options) {
   if (const std::string why = options.Check(); !why.empty()) throw InputError("densify." + why);
   const io::Field field(field_folder);
-  const fs::path fused_dir = fs::path(workspace) / "fused";
-  const fs::path out_dir = fs::path(workspace) / "dense";
+  const workspace::Layout layout(workspace);
+  const fs::path out_dir = layout.DenseDir();
 
   std::vector<std::string> sessions = options.sessions;
   if (sessions.empty()) {
     for (const std::string& id : field.session_ids()) {
-      if (fs::exists(fused_dir / id / "poses.tum")) sessions.push_back(id);
+      if (fs::exists(layout.FusedPoses(id))) sessions.push_back(id);
     }
     if (sessions.empty()) {
-      throw InputError(fused_dir.string(), 0,
+      throw InputError(layout.FusedDir().string(), 0,
                        "no fused poses of any session (run `crop4d fuse` first)");
     }
   } else {
@@ -108,10 +109,10 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
     }
   }
   for (const std::string& id : sessions) {
-    for (const char* file : {"poses.tum", "sparse.ply"}) {
-      if (!fs::exists(fused_dir / id / file)) {
+    for (const fs::path& file : {layout.FusedPoses(id), layout.FusedSparse(id)}) {
+      if (!fs::exists(file)) {
         throw InputError(
-            (fused_dir / id / file).string(), 0,
+            file.string(), 0,
             "missing: session " + id + " has not been fused (run `crop4d fuse` first)");
       }
     }
@@ -130,10 +131,10 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
     const Clock::time_point start = Clock::now();
     DensifySessionReport report;
     report.session = id;
-    const fs::path poses_path = fused_dir / id / "poses.tum";
-    const fs::path sparse_path = fused_dir / id / "sparse.ply";
-    const fs::path ply_path = out_dir / (id + ".ply");
-    const fs::path json_path = out_dir / (id + ".json");
+    const fs::path poses_path = layout.FusedPoses(id);
+    const fs::path sparse_path = layout.FusedSparse(id);
+    const fs::path ply_path = layout.DenseCloud(id);
+    const fs::path json_path = layout.DenseSummary(id);
     report.ply_path = ply_path.string();
     const io::Session session = field.OpenSession(id);
     if (session.FindCamera(options.camera) == nullptr) {

@@ -38,6 +38,7 @@
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/track_cloud.h"
+#include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_data.h"
 #include "crop4d/workspace/stage_files.h"
 #include "crop4d/workspace/stage_summary.h"
@@ -344,7 +345,8 @@ std::vector<bool> GradeSessions(const std::vector<std::unique_ptr<LoadedPass>>& 
 // WS/fused/landmarks.ply: the joint landmarks, with how many passes and sessions see each.
 void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                          const std::vector<fusion::JointLandmark>& landmarks,
-                         const fusion::JointOptimiser::Result& result, const fs::path& out_dir) {
+                         const fusion::JointOptimiser::Result& result,
+                         const workspace::Layout& layout) {
   io::PlyPointCloud cloud;
   io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
   io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
@@ -365,7 +367,7 @@ void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
   cloud.scalars = {num_passes, num_sessions};
   io::PlyWriteOptions ply;
   ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
-  io::WritePly((out_dir / "landmarks.ply").string(), cloud, ply);
+  io::WritePly(layout.FusedLandmarks().string(), cloud, ply);
 }
 
 // WS/fused/colmap: the whole 4D reconstruction as a COLMAP text model (one camera per session,
@@ -373,7 +375,7 @@ void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
 void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                  const std::vector<std::vector<geometry::Rigid3>>& cameras,
                  const std::vector<fusion::JointLandmark>& landmarks,
-                 const fusion::JointOptimiser::Result& result, const fs::path& out_dir) {
+                 const fusion::JointOptimiser::Result& result, const workspace::Layout& layout) {
   io::ColmapModel model;
   std::map<std::string, std::uint32_t> camera_of_session;
   std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
@@ -419,7 +421,7 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
     point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
     model.points.push_back(std::move(point));
   }
-  io::WriteColmapText((out_dir / "colmap").string(), model);
+  io::WriteColmapText(layout.FusedColmapDir().string(), model);
 }
 
 // The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
@@ -575,7 +577,7 @@ std::vector<std::vector<geometry::Rigid3>> FusedCameras(
 void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                          const std::vector<std::vector<geometry::Rigid3>>& cameras,
                          const std::vector<std::string>& sessions, const FuseStageOptions& options,
-                         const fs::path& out_dir) {
+                         const workspace::Layout& layout) {
   for (const std::string& session : sessions) {
     std::vector<io::StampedPose> poses;
     std::vector<const LoadedPass*> session_passes;
@@ -590,12 +592,12 @@ void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
     }
     std::sort(poses.begin(), poses.end(),
               [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
-    io::WriteTum((out_dir / session / "poses.tum").string(), poses,
+    io::WriteTum(layout.FusedPoses(session).string(), poses,
                  "world_from_camera of session " + session +
                      " after 4D fusion (all passes), field ENU frame");
     io::PlyWriteOptions ply;
     ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
-    io::WritePly((out_dir / session / "sparse.ply").string(),
+    io::WritePly(layout.FusedSparse(session).string(),
                  SessionCloud(session_passes, session_cameras, options.cloud), ply);
   }
 }
@@ -647,7 +649,8 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   if (passes.empty()) {
     throw InputError(workspace + ": no row pass with a camera (run `crop4d slam` first)");
   }
-  const fs::path association_dir = fs::path(workspace) / "associations" / options.method;
+  const workspace::Layout layout(workspace);
+  const fs::path association_dir = layout.AssociationsDir(options.method);
   std::vector<fs::path> association_files;
   if (fs::is_directory(association_dir)) {
     for (const auto& entry : fs::directory_iterator(association_dir)) {
@@ -660,20 +663,20 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
     fingerprint.AddString(workspace::FileHash(path));
   }
   const std::string stamp = std::to_string(fingerprint.hash());
-  const fs::path out_dir = fs::path(workspace) / "fused";
-  if (!options.force && fs::exists(out_dir / "summary.json")) {
+  const fs::path out_dir = layout.FusedDir();
+  if (!options.force && fs::exists(layout.FusedSummary())) {
     bool complete = true;
     for (const std::string& s : sessions) {
-      complete &= fs::exists(out_dir / s / "poses.tum") && fs::exists(out_dir / s / "sparse.ply");
+      complete &= fs::exists(layout.FusedPoses(s)) && fs::exists(layout.FusedSparse(s));
     }
     std::string why;
     try {
-      workspace::ReadFusedSummary((out_dir / "summary.json").string());
+      workspace::ReadFusedSummary(layout.FusedSummary().string());
     } catch (const InputError& e) {
       complete = false;
       spdlog::info("fuse: fused again: {}", e.what());
     }
-    if (complete && workspace::SummaryUpToDate(out_dir / "summary.json", stamp, &why)) {
+    if (complete && workspace::SummaryUpToDate(layout.FusedSummary(), stamp, &why)) {
       spdlog::info("fuse: up to date, skipped (--force to fuse again)");
       report.skipped = true;
       report.num_sessions = static_cast<int>(sessions.size());
@@ -722,9 +725,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
 
   // Outputs.
   const std::vector<std::vector<geometry::Rigid3>> cameras = FusedCameras(passes, result, &report);
-  WriteSessionOutputs(passes, cameras, sessions, options, out_dir);
-  WriteJointLandmarks(passes, landmarks, result, out_dir);
-  if (options.write_colmap) WriteColmap(passes, cameras, landmarks, result, out_dir);
+  WriteSessionOutputs(passes, cameras, sessions, options, layout);
+  WriteJointLandmarks(passes, landmarks, result, layout);
+  if (options.write_colmap) WriteColmap(passes, cameras, landmarks, result, layout);
   report.seconds = SecondsSince(start);
 
   json summary = FuseSummaryJson(report, result, stamp, options, sessions);
@@ -732,7 +735,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
                       SeasonQualityToJson(report.quality).dump(2) + "\n");
   // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.
   workspace::RecordOutputs(&summary, out_dir, workspace::FilesBelow(out_dir));
-  workspace::WriteFusedSummary((out_dir / "summary.json").string(), summary);
+  workspace::WriteFusedSummary(layout.FusedSummary().string(), summary);
   return report;
 }
 

@@ -92,14 +92,16 @@ std::string DataStamp(const io::Session& session) {
   return out.str();
 }
 
-bool UpToDate(const std::string& folder, const std::string& fingerprint, bool needs_cloud) {
-  const fs::path summary_path = fs::path(folder) / "summary.json";
-  for (const char* name : {"poses.tum", "states.csv"}) {
-    if (!fs::exists(fs::path(folder) / name)) return false;
+bool UpToDate(const workspace::Layout& layout, const std::string& session, const std::string& pass,
+              const std::string& fingerprint, bool needs_cloud) {
+  const std::string folder = layout.PassDir(session, pass).string();
+  const fs::path summary_path = layout.PassSummary(session, pass);
+  for (const fs::path& file : {layout.PassPoses(session, pass), layout.PassStates(session, pass)}) {
+    if (!fs::exists(file)) return false;
   }
   if (!fs::exists(summary_path)) return false;
-  if (needs_cloud && (!fs::exists(fs::path(folder) / "landmarks.ply") ||
-                      !fs::exists(fs::path(folder) / "tracks.bin"))) {
+  if (needs_cloud && (!fs::exists(layout.PassLandmarks(session, pass)) ||
+                      !fs::exists(layout.PassTracks(session, pass)))) {
     return false;
   }
   std::string why;
@@ -115,11 +117,14 @@ bool UpToDate(const std::string& folder, const std::string& fingerprint, bool ne
 }
 
 // The files of a pass that the later stages read, as recorded in its summary (those written).
-std::vector<std::string> PassOutputs(const std::string& folder) {
+std::vector<std::string> PassOutputs(const workspace::Layout& layout, const std::string& session,
+                                     const std::string& pass) {
   std::vector<std::string> out;
-  for (const char* name :
-       {"poses.tum", "states.csv", "initial_poses.tum", "tracks.bin", "landmarks.ply"}) {
-    if (fs::exists(fs::path(folder) / name)) out.push_back(name);
+  for (const fs::path& file :
+       {layout.PassPoses(session, pass), layout.PassStates(session, pass),
+        layout.PassInitialPoses(session, pass), layout.PassTracks(session, pass),
+        layout.PassLandmarks(session, pass)}) {
+    if (fs::exists(file)) out.push_back(file.filename().string());
   }
   return out;
 }
@@ -411,13 +416,13 @@ struct PassFrontEnd {
 };
 PassFrontEnd RunFrontEnd(const SlamStageOptions& options, const SessionContext& ctx,
                          const slam::CameraStream& camera_stream, const slam::RowPass& pass,
-                         const std::string& folder, const std::vector<Timestamp>& times,
+                         const workspace::Layout& layout, const std::vector<Timestamp>& times,
                          json* summary) {
   PassFrontEnd out;
   const slam::CameraStream* camera = &camera_stream;
   auto start = Clock::now();
   features::FrontEnd::Options fe = options.front_end;
-  fe.cache_path = (fs::path(folder) / "features.bin").string();
+  fe.cache_path = layout.PassFeatures(ctx.session->id(), pass.id).string();
   fe.show_progress = options.show_progress;
   const features::FrontEnd front_end(fe, &camera->sensor.camera);
   std::vector<std::string> keys;
@@ -559,7 +564,7 @@ json BackEndJson(const slam::RowOptimiser::Summary& s) {
 // final poses) and the observations behind its landmarks and cloud points (tracks.bin, for
 // association and the joint 4D problem, pass_files.h). Returns the number of cloud points.
 int WritePassCloud(const SlamStageOptions& options, const SessionContext& ctx,
-                   const slam::RowPass& pass, const std::string& folder,
+                   const slam::RowPass& pass, const workspace::Layout& layout,
                    const slam::CameraStream* camera, const features::FrontEnd::Result& front,
                    const std::vector<slam::LandmarkTrack>& tracks,
                    const std::vector<features::Track>& all_tracks,
@@ -591,11 +596,11 @@ int WritePassCloud(const SlamStageOptions& options, const SessionContext& ctx,
     pass_tracks.cloud.push_back({track_cloud.points_world[k], track_cloud.colors[k],
                                  all_tracks[track_cloud.track_indices[k]].observations});
   }
-  workspace::WritePassTracks((fs::path(folder) / "tracks.bin").string(), pass_tracks);
+  workspace::WritePassTracks(layout.PassTracks(ctx.session->id(), pass.id).string(), pass_tracks);
   io::PlyWriteOptions ply_options;
   ply_options.comment =
       "crop4d sparse cloud of " + ctx.session->id() + "/" + pass.id + ", field ENU frame (metres)";
-  io::WritePly((fs::path(folder) / "landmarks.ply").string(), cloud, ply_options);
+  io::WritePly(layout.PassLandmarks(ctx.session->id(), pass.id).string(), cloud, ply_options);
   (*summary)["cloud"] = {{"tracks", all_tracks.size()}, {"points", cloud.size()}};
   return static_cast<int>(cloud.size());
 }
@@ -736,7 +741,7 @@ slam::RowOptimiser::Input PassInput(const SlamStageOptions& options, const Sessi
 }
 
 PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const slam::RowPass& pass,
-                    const std::string& folder, const std::string& fingerprint,
+                    const workspace::Layout& layout, const std::string& fingerprint,
                     const json& options_json, const std::vector<Timestamp>& times) {
   const auto start_total = Clock::now();
   const slam::SensorSetInfo info = slam::Describe(ctx.sensors);
@@ -756,7 +761,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
   const slam::CameraStream* camera = info.camera ? &*ctx.streams.camera : nullptr;
   PassFrontEnd front_end;
   if (camera != nullptr) {
-    front_end = RunFrontEnd(options, ctx, *camera, pass, folder, times, &summary);
+    front_end = RunFrontEnd(options, ctx, *camera, pass, layout, times, &summary);
   }
   const features::FrontEnd::Result& front = front_end.front;
   const std::vector<slam::LandmarkTrack>& tracks = front_end.tracks;
@@ -796,7 +801,7 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
           {state.t, camera != nullptr ? state.nav.world_from_body * camera->sensor.body_from_sensor
                                       : state.nav.world_from_body});
     }
-    io::WriteTum((fs::path(folder) / "initial_poses.tum").string(), initial_poses,
+    io::WriteTum(layout.PassInitialPoses(ctx.session->id(), pass.id).string(), initial_poses,
                  "initial guess of " + ctx.session->id() + "/" + pass.id + " from GPS and IMU");
   }
 
@@ -840,19 +845,19 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
     poses.push_back({state.t, pose});
     cameras.push_back(pose);
   }
-  io::WriteTum((fs::path(folder) / "poses.tum").string(), poses,
+  io::WriteTum(layout.PassPoses(ctx.session->id(), pass.id).string(), poses,
                std::string(camera != nullptr ? "world_from_camera" : "world_from_body") +
                    " of session " + ctx.session->id() + ", pass " + pass.id + " (" +
                    slam::ToString(ctx.sensors) + "), field ENU frame");
 
-  workspace::WritePassStates((fs::path(folder) / "states.csv").string(), result.states);
+  workspace::WritePassStates(layout.PassStates(ctx.session->id(), pass.id).string(), result.states);
 
   PassOutcome outcome;
   outcome.num_states = static_cast<int>(result.states.size());
   outcome.num_images = camera != nullptr ? front.summary.num_images : 0;
   outcome.num_landmarks = s.num_landmarks_final;
   if (camera != nullptr) {
-    outcome.num_cloud_points = WritePassCloud(options, ctx, pass, folder, camera, front, tracks,
+    outcome.num_cloud_points = WritePassCloud(options, ctx, pass, layout, camera, front, tracks,
                                               all_tracks, cameras, result, &summary);
   }
   const double output_seconds = SecondsSince(start);
@@ -890,8 +895,10 @@ PassOutcome RunPass(const SlamStageOptions& options, SessionContext& ctx, const 
                         {"final_solve", s.final_solve_seconds},
                         {"outputs", output_seconds},
                         {"total", SecondsSince(start_total)}};
-  workspace::RecordOutputs(&summary, folder, PassOutputs(folder));
-  workspace::WritePassSummary((fs::path(folder) / "summary.json").string(), summary);
+  const std::string& session = ctx.session->id();
+  workspace::RecordOutputs(&summary, layout.PassDir(session, pass.id),
+                           PassOutputs(layout, session, pass.id));
+  workspace::WritePassSummary(layout.PassSummary(session, pass.id).string(), summary);
   return outcome;
 }
 
@@ -1013,13 +1020,14 @@ std::optional<PassMode> ParsePassMode(const std::string& text) {
 
 std::string PassFolder(const std::string& workspace, const std::string& session,
                        const std::string& pass_id) {
-  return (fs::path(workspace) / "sessions" / session / "rows" / pass_id).string();
+  return workspace::Layout(workspace).PassDir(session, pass_id).string();
 }
 
 std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std::string& workspace,
                                      const SlamStageOptions& options) {
   if (const std::string why = options.Check(); !why.empty()) throw InputError("slam." + why);
   const io::Field field(field_folder);
+  const workspace::Layout layout(workspace);
   std::vector<std::string> sessions = field.session_ids();
   if (!options.session.empty()) {
     if (std::find(sessions.begin(), sessions.end(), options.session) == sessions.end()) {
@@ -1112,7 +1120,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
                      options.max_window_s);
       }
     }
-    workspace::WritePassList(workspace::Layout(workspace).PassList(id).string(), passes);
+    workspace::WritePassList(layout.PassList(id).string(), passes);
     spdlog::info("session {}: {} passes, sensors {}", id, passes.size(),
                  slam::ToString(ctx.sensors));
     json options_json = SlamOptionsJson(options, ctx.sensors);
@@ -1125,7 +1133,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       report.session = id;
       report.pass = pass;
       report.sensors = slam::ToString(ctx.sensors);
-      report.folder = PassFolder(workspace, id, pass.id);
+      report.folder = layout.PassDir(id, pass.id).string();
       const auto start = Clock::now();
       // State times: the images in the pass, or a regular grid without a camera.
       std::vector<Timestamp> times;
@@ -1148,7 +1156,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
         continue;
       }
       const std::string fingerprint = Fingerprint(options_json, pass, times.size(), ctx.data_stamp);
-      if (!options.force && UpToDate(report.folder, fingerprint, info.camera)) {
+      if (!options.force && UpToDate(layout, id, pass.id, fingerprint, info.camera)) {
         report.skipped = true;
         report.num_states = static_cast<int>(times.size());
         report.message = "up to date";
@@ -1158,7 +1166,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
       }
       try {
         const PassOutcome outcome =
-            RunPass(options, ctx, pass, report.folder, fingerprint, options_json, times);
+            RunPass(options, ctx, pass, layout, fingerprint, options_json, times);
         report.num_states = outcome.num_states;
         report.num_images = outcome.num_images;
         report.num_landmarks = outcome.num_landmarks;

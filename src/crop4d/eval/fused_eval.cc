@@ -14,6 +14,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_summary.h"
 
 namespace crop4d::eval {
 namespace {
@@ -29,11 +30,13 @@ bool Selected(const std::vector<std::string>& sessions, const std::string& sessi
 bool SessionFrameByConvention(const std::string& workspace, const std::string& session) {
   const workspace::Layout ws(workspace);
   for (const std::string& pass : ws.PassFolders(session)) {
-    std::ifstream in(ws.PassSummary(session, pass));
-    const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
-    if (!j.is_object() || !j.contains("trust") || !j["trust"].is_array()) continue;
-    for (const nlohmann::json& flag : j["trust"]) {
-      if (flag.is_string() && flag.get<std::string>() == "origin_by_convention") return true;
+    std::error_code ec;
+    if (!fs::exists(ws.PassSummary(session, pass), ec)) continue;
+    const workspace::PassSummary summary =
+        workspace::ReadPassSummary(ws.PassSummary(session, pass).string());
+    if (std::find(summary.trust.begin(), summary.trust.end(), "origin_by_convention") !=
+        summary.trust.end()) {
+      return true;
     }
   }
   return false;

@@ -21,6 +21,10 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/sim_config.h"
+#include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_priors.h"
+#include "crop4d/workspace/pass_summary.h"
 
 namespace crop4d::eval {
 namespace {
@@ -84,11 +88,14 @@ class StageEvalTest : public ::testing::Test {
     }
     testing::WriteFile(field() + "/ground_truth/terrain.csv", terrain);
 
-    testing::WriteFile(workspace() + "/sessions/" + kS1 + "/passes.csv",
-                       "pass,row,direction,t_begin [ns],t_end [ns]\nrow00,0,1,0,0\n"
-                       "row01,1,-1,0,0\n");
-    testing::WriteFile(workspace() + "/sessions/" + kS2 + "/passes.csv",
-                       "pass,row,direction,t_begin [ns],t_end [ns]\nrow00,0,1,0,0\n");
+    const workspace::Layout ws(workspace());
+    fs::create_directories(ws.SessionDir(kS1));
+    fs::create_directories(ws.SessionDir(kS2));
+    workspace::WritePassList(ws.PassList(kS1).string(),
+                             {slam::RowPass{.id = "row00", .row = 0, .direction = 1},
+                              slam::RowPass{.id = "row01", .row = 1, .direction = -1}});
+    workspace::WritePassList(ws.PassList(kS2).string(),
+                             {slam::RowPass{.id = "row00", .row = 0, .direction = 1}});
   }
 
   void AddPass(const std::string& session, int first, double x, double y, double heading,
@@ -293,8 +300,14 @@ TEST_F(StageEvalTest, AFusedSessionWithoutGpsIsAlignedByHeadingAndShift) {
   // Session 1's passes say its frame is a convention (no GPS): its fused poses, 1 cm off, are
   // aligned by heading and shift first; session 2 keeps its 1 cm.
   WriteFusedAndClouds();
-  testing::WriteFile(workspace() + "/sessions/" + kS1 + "/rows/row00/summary.json",
-                     R"({"pose_frame": "camera", "trust": ["origin_by_convention"]})");
+  const workspace::Layout ws(workspace());
+  fs::create_directories(ws.PassDir(kS1, "row00"));
+  workspace::WritePassSummary(ws.PassSummary(kS1, "row00").string(),
+                              {{"pose_frame", "camera"},
+                               {"sensors", "cam+imu"},
+                               {"fingerprint", "f"},
+                               {"problem", workspace::ToJson(workspace::PassPriors{})},
+                               {"trust", {"origin_by_convention"}}});
   const WorkspaceEval eval = EvaluateWorkspace(workspace(), field(), NoRendering());
   ASSERT_TRUE(eval.fused.has_value());
   ASSERT_EQ(eval.fused->sessions.size(), 2u);

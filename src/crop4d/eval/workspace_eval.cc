@@ -24,6 +24,8 @@
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/sim_config.h"
 #include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_summary.h"
 
 namespace crop4d::eval {
 namespace {
@@ -504,41 +506,27 @@ SessionTimeline ReadTimeline(const std::string& field) {
   return timeline;
 }
 
-bool ParseInt(std::string_view text, int* value) {
-  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), *value);
-  return ec == std::errc() && ptr == text.data() + text.size();
-}
-
 // Row and direction of every pass of a session: WS/sessions/<session>/passes.csv (pass,row,
 // direction,...), else each pass's summary.json. Passes found in neither are missing.
 std::map<std::string, PassLayout> ReadPassLayouts(const std::string& workspace,
                                                   const std::string& session) {
   std::map<std::string, PassLayout> layouts;
+  for (const slam::RowPass& p : workspace::ReadPassList(workspace, session)) {
+    layouts[p.id] = PassLayout{p.row, p.direction};
+  }
   const workspace::Layout ws(workspace);
   std::error_code ec;
-  if (fs::exists(ws.PassList(session), ec)) {
-    io::CsvReader reader(ws.PassList(session).string());
-    io::CsvRecord record;
-    while (reader.Next(&record)) {
-      PassLayout layout;
-      if (record.fields.size() < 3 || !ParseInt(record.fields[1], &layout.row) ||
-          !ParseInt(record.fields[2], &layout.direction)) {
-        continue;  // the header line, or a line this reader does not need
-      }
-      layouts[std::string(record.fields[0])] = layout;
-    }
-  }
   for (const std::string& pass : SubFolders(ws.RowsDir(session))) {
     if (layouts.count(pass) > 0 || !fs::exists(ws.PassSummary(session, pass), ec)) continue;
     try {
-      const json j = json::parse(ReadWholeFile(ws.PassSummary(session, pass)));
+      const json& j = workspace::ReadPassSummary(ws.PassSummary(session, pass).string()).json;
       PassLayout layout;
       if (j.contains("row") && j["row"].is_number_integer()) layout.row = j["row"].get<int>();
       if (j.contains("direction") && j["direction"].is_number_integer()) {
         layout.direction = j["direction"].get<int>();
       }
       layouts[pass] = layout;
-    } catch (const std::exception&) {
+    } catch (const InputError&) {
       // Not readable: the pass stays without layout.
     }
   }

@@ -31,6 +31,8 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/pipeline/fuse_outputs.h"
+#include "crop4d/pipeline/fuse_pass.h"
 #include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/pipeline/stage_option_fields.h"
@@ -46,24 +48,20 @@
 namespace crop4d::pipeline {
 namespace {
 
+using fuse::CloudOfTracks;
+using fuse::ImageFeatureKey;
+using fuse::ImageNames;
+using fuse::LoadedPass;
+using fuse::WriteColmap;
+using fuse::WriteJointLandmarks;
+using fuse::WriteSessionOutputs;
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
 constexpr int kFuseStageRevision = 3;  // 3: degraded sessions do not move the others
-
-struct LoadedPass {
-  workspace::PassData data;
-  fusion::JointOptimiser::Pass input;
-  const slam::SessionStreams* streams = nullptr;
-  // Cloud track of each (image, feature) of the pass.
-  std::unordered_map<std::uint64_t, int> cloud_of;
-};
-
-std::uint64_t ImageFeatureKey(int image, int feature) {
-  return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
-}
 
 // The joint landmarks over the passes with `use[p]` (fusion/cross_pass_tracks.h), each
 // observation with its keypoint, each landmark with the mean colour of its keypoints.
@@ -144,30 +142,6 @@ void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
   }
 }
 
-// The image file names of a camera stream by timestamp.
-std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams) {
-  std::map<Timestamp, std::string> names;
-  if (streams.camera) {
-    for (const io::ImageEntry& e : streams.camera->images) names[e.t] = e.filename;
-  }
-  return names;
-}
-
-// The cloud tracks of a pass (their keypoints and colours) triangulated from the given cameras
-// (one per image).
-slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
-                               const slam::TriangulationOptions& options) {
-  const workspace::PassData& data = pass.data;
-  std::vector<slam::LandmarkTrack> tracks(data.tracks.cloud.size());
-  for (std::size_t i = 0; i < tracks.size(); ++i) {
-    for (const features::Observation& o : data.tracks.cloud[i].observations) {
-      tracks[i].observations.push_back({o.image, data.features[o.image].Point(o.feature)});
-    }
-    tracks[i].color = data.tracks.cloud[i].color;
-  }
-  return slam::TriangulateTrackCloud(*pass.input.camera, cameras, tracks, options);
-}
-
 // A pass as the ground ties see it: its row-SLAM cameras and cloud.
 fusion::GroundTiePass TiePass(const LoadedPass& pass, const slam::TriangulationOptions& options) {
   fusion::GroundTiePass tie;
@@ -178,28 +152,6 @@ fusion::GroundTiePass TiePass(const LoadedPass& pass, const slam::TriangulationO
   tie.points = cloud.points_world;
   tie.colors = cloud.colors;
   return tie;
-}
-
-// The clouds of a session's passes re-triangulated from the given cameras, with each point's
-// track length and reprojection error.
-io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
-                               const std::vector<std::vector<geometry::Rigid3>>& cameras,
-                               const slam::TriangulationOptions& options) {
-  io::PlyPointCloud cloud;
-  io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
-  io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
-  for (std::size_t p = 0; p < passes.size(); ++p) {
-    const slam::TrackCloud pass_cloud = CloudOfTracks(*passes[p], cameras[p], options);
-    cloud.points.insert(cloud.points.end(), pass_cloud.points_world.begin(),
-                        pass_cloud.points_world.end());
-    cloud.colors.insert(cloud.colors.end(), pass_cloud.colors.begin(), pass_cloud.colors.end());
-    length.values.insert(length.values.end(), pass_cloud.track_lengths.begin(),
-                         pass_cloud.track_lengths.end());
-    error.values.insert(error.values.end(), pass_cloud.reprojection_errors_px.begin(),
-                        pass_cloud.reprojection_errors_px.end());
-  }
-  cloud.scalars = {length, error};
-  return cloud;
 }
 
 // The landmark graph (fusion/cross_pass_tracks.h): each pass's landmarks, then the cross
@@ -340,88 +292,6 @@ std::vector<bool> GradeSessions(const std::vector<std::unique_ptr<LoadedPass>>& 
                      : "; no session is trusted: all are fused together");
   }
   return protects;
-}
-
-// WS/fused/landmarks.ply: the joint landmarks, with how many passes and sessions see each.
-void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
-                         const std::vector<fusion::JointLandmark>& landmarks,
-                         const fusion::JointOptimiser::Result& result,
-                         const workspace::Layout& layout) {
-  io::PlyPointCloud cloud;
-  io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
-  io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
-  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
-    std::set<int> seen_passes;
-    std::set<std::string> seen_sessions;
-    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-      if (!result.observations_kept[l][o]) continue;
-      seen_passes.insert(landmark.observations[o].pass);
-      seen_sessions.insert(passes[landmark.observations[o].pass]->data.session);
-    }
-    cloud.points.push_back(result.landmarks_world[l]);
-    cloud.colors.push_back(landmark.color);
-    num_passes.values.push_back(static_cast<double>(seen_passes.size()));
-    num_sessions.values.push_back(static_cast<double>(seen_sessions.size()));
-  }
-  cloud.scalars = {num_passes, num_sessions};
-  io::PlyWriteOptions ply;
-  ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
-  io::WritePly(layout.FusedLandmarks().string(), cloud, ply);
-}
-
-// WS/fused/colmap: the whole 4D reconstruction as a COLMAP text model (one camera per session,
-// images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
-void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
-                 const std::vector<std::vector<geometry::Rigid3>>& cameras,
-                 const std::vector<fusion::JointLandmark>& landmarks,
-                 const fusion::JointOptimiser::Result& result, const workspace::Layout& layout) {
-  io::ColmapModel model;
-  std::map<std::string, std::uint32_t> camera_of_session;
-  std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
-  for (std::size_t p = 0; p < passes.size(); ++p) {
-    const std::string& session = passes[p]->data.session;
-    if (!camera_of_session.count(session)) {
-      const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
-      camera_of_session[session] = id;
-      model.cameras.push_back({id, *passes[p]->input.camera});
-    }
-    const std::map<Timestamp, std::string> names = ImageNames(*passes[p]->streams);
-    for (std::size_t k = 0; k < cameras[p].size(); ++k) {
-      io::ColmapImage image;
-      image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
-      image.camera_id = camera_of_session[session];
-      const auto it = names.find(passes[p]->data.times[k]);
-      const std::string file =
-          it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
-      image.name = io::ColmapImageName(session + "/" + passes[p]->data.pass.id + "/" + file);
-      image.world_from_camera = cameras[p][k];
-      image_ids[p].push_back(image.image_id);
-      model.images.push_back(std::move(image));
-    }
-  }
-  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
-    io::ColmapPoint3D point;
-    point.point3d_id = static_cast<std::int64_t>(l);
-    point.xyz = result.landmarks_world[l];
-    point.rgb = landmark.color;
-    double error_sum = 0;
-    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-      if (!result.observations_kept[l][o]) continue;
-      const fusion::JointObservation& obs = landmark.observations[o];
-      io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
-      point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
-      image.points2d.push_back({obs.pixel, point.point3d_id});
-      const double e = slam::ReprojectionError(
-          *passes[obs.pass]->input.camera, passes[obs.pass]->input.body_from_camera,
-          result.states[obs.pass][obs.state].nav.world_from_body, point.xyz, obs.pixel);
-      error_sum += std::isfinite(e) ? e : 0.0;
-    }
-    point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
-    model.points.push_back(std::move(point));
-  }
-  io::WriteColmapText(layout.FusedColmapDir().string(), model);
 }
 
 // The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
@@ -570,36 +440,6 @@ std::vector<std::vector<geometry::Rigid3>> FusedCameras(
     report->passes.push_back(pr);
   }
   return cameras;
-}
-
-// WS/fused/<session>/poses.tum and sparse.ply: the session's fused cameras (all passes, in time
-// order) and its passes' clouds re-triangulated from them.
-void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
-                         const std::vector<std::vector<geometry::Rigid3>>& cameras,
-                         const std::vector<std::string>& sessions, const FuseStageOptions& options,
-                         const workspace::Layout& layout) {
-  for (const std::string& session : sessions) {
-    std::vector<io::StampedPose> poses;
-    std::vector<const LoadedPass*> session_passes;
-    std::vector<std::vector<geometry::Rigid3>> session_cameras;
-    for (std::size_t p = 0; p < passes.size(); ++p) {
-      if (passes[p]->data.session != session) continue;
-      session_passes.push_back(passes[p].get());
-      session_cameras.push_back(cameras[p]);
-      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
-        poses.push_back({passes[p]->data.times[k], cameras[p][k]});
-      }
-    }
-    std::sort(poses.begin(), poses.end(),
-              [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
-    io::WriteTum(layout.FusedPoses(session).string(), poses,
-                 "world_from_camera of session " + session +
-                     " after 4D fusion (all passes), field ENU frame");
-    io::PlyWriteOptions ply;
-    ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
-    io::WritePly(layout.FusedSparse(session).string(),
-                 SessionCloud(session_passes, session_cameras, options.cloud), ply);
-  }
 }
 
 }  // namespace

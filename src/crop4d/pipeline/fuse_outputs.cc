@@ -1,0 +1,152 @@
+#include "crop4d/pipeline/fuse_outputs.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+#include "crop4d/io/colmap_text.h"
+#include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
+#include "crop4d/slam/reprojection_factor.h"
+
+namespace crop4d::pipeline::fuse {
+namespace {
+
+// The clouds of a session's passes re-triangulated from the given cameras, with each point's
+// track length and reprojection error.
+io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
+                               const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                               const slam::TriangulationOptions& options) {
+  io::PlyPointCloud cloud;
+  io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
+  io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const slam::TrackCloud pass_cloud = CloudOfTracks(*passes[p], cameras[p], options);
+    cloud.points.insert(cloud.points.end(), pass_cloud.points_world.begin(),
+                        pass_cloud.points_world.end());
+    cloud.colors.insert(cloud.colors.end(), pass_cloud.colors.begin(), pass_cloud.colors.end());
+    length.values.insert(length.values.end(), pass_cloud.track_lengths.begin(),
+                         pass_cloud.track_lengths.end());
+    error.values.insert(error.values.end(), pass_cloud.reprojection_errors_px.begin(),
+                        pass_cloud.reprojection_errors_px.end());
+  }
+  cloud.scalars = {length, error};
+  return cloud;
+}
+
+}  // namespace
+
+// WS/fused/<session>/poses.tum and sparse.ply: the session's fused cameras (all passes, in time
+// order) and its passes' clouds re-triangulated from them.
+void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                         const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                         const std::vector<std::string>& sessions, const FuseStageOptions& options,
+                         const workspace::Layout& layout) {
+  for (const std::string& session : sessions) {
+    std::vector<io::StampedPose> poses;
+    std::vector<const LoadedPass*> session_passes;
+    std::vector<std::vector<geometry::Rigid3>> session_cameras;
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      if (passes[p]->data.session != session) continue;
+      session_passes.push_back(passes[p].get());
+      session_cameras.push_back(cameras[p]);
+      for (std::size_t k = 0; k < cameras[p].size(); ++k) {
+        poses.push_back({passes[p]->data.times[k], cameras[p][k]});
+      }
+    }
+    std::sort(poses.begin(), poses.end(),
+              [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
+    io::WriteTum(layout.FusedPoses(session).string(), poses,
+                 "world_from_camera of session " + session +
+                     " after 4D fusion (all passes), field ENU frame");
+    io::PlyWriteOptions ply;
+    ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
+    io::WritePly(layout.FusedSparse(session).string(),
+                 SessionCloud(session_passes, session_cameras, options.cloud), ply);
+  }
+}
+
+// WS/fused/landmarks.ply: the joint landmarks, with how many passes and sessions see each.
+void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                         const std::vector<fusion::JointLandmark>& landmarks,
+                         const fusion::JointOptimiser::Result& result,
+                         const workspace::Layout& layout) {
+  io::PlyPointCloud cloud;
+  io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
+  io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
+  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
+    std::set<int> seen_passes;
+    std::set<std::string> seen_sessions;
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (!result.observations_kept[l][o]) continue;
+      seen_passes.insert(landmark.observations[o].pass);
+      seen_sessions.insert(passes[landmark.observations[o].pass]->data.session);
+    }
+    cloud.points.push_back(result.landmarks_world[l]);
+    cloud.colors.push_back(landmark.color);
+    num_passes.values.push_back(static_cast<double>(seen_passes.size()));
+    num_sessions.values.push_back(static_cast<double>(seen_sessions.size()));
+  }
+  cloud.scalars = {num_passes, num_sessions};
+  io::PlyWriteOptions ply;
+  ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
+  io::WritePly(layout.FusedLandmarks().string(), cloud, ply);
+}
+
+// WS/fused/colmap: the whole 4D reconstruction as a COLMAP text model (one camera per session,
+// images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
+void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                 const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                 const std::vector<fusion::JointLandmark>& landmarks,
+                 const fusion::JointOptimiser::Result& result, const workspace::Layout& layout) {
+  io::ColmapModel model;
+  std::map<std::string, std::uint32_t> camera_of_session;
+  std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const std::string& session = passes[p]->data.session;
+    if (!camera_of_session.count(session)) {
+      const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
+      camera_of_session[session] = id;
+      model.cameras.push_back({id, *passes[p]->input.camera});
+    }
+    const std::map<Timestamp, std::string> names = ImageNames(*passes[p]->streams);
+    for (std::size_t k = 0; k < cameras[p].size(); ++k) {
+      io::ColmapImage image;
+      image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
+      image.camera_id = camera_of_session[session];
+      const auto it = names.find(passes[p]->data.times[k]);
+      const std::string file =
+          it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
+      image.name = io::ColmapImageName(session + "/" + passes[p]->data.pass.id + "/" + file);
+      image.world_from_camera = cameras[p][k];
+      image_ids[p].push_back(image.image_id);
+      model.images.push_back(std::move(image));
+    }
+  }
+  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
+    io::ColmapPoint3D point;
+    point.point3d_id = static_cast<std::int64_t>(l);
+    point.xyz = result.landmarks_world[l];
+    point.rgb = landmark.color;
+    double error_sum = 0;
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (!result.observations_kept[l][o]) continue;
+      const fusion::JointObservation& obs = landmark.observations[o];
+      io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
+      point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
+      image.points2d.push_back({obs.pixel, point.point3d_id});
+      const double e = slam::ReprojectionError(
+          *passes[obs.pass]->input.camera, passes[obs.pass]->input.body_from_camera,
+          result.states[obs.pass][obs.state].nav.world_from_body, point.xyz, obs.pixel);
+      error_sum += std::isfinite(e) ? e : 0.0;
+    }
+    point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
+    model.points.push_back(std::move(point));
+  }
+  io::WriteColmapText(layout.FusedColmapDir().string(), model);
+}
+
+}  // namespace crop4d::pipeline::fuse

@@ -1,0 +1,39 @@
+#pragma once
+
+// The fuse stage's outputs under WS/fused/ (workspace::Layout): each session's fused poses and
+// sparse cloud, the joint landmarks, and the whole reconstruction as a COLMAP text model.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "crop4d/fusion/cross_pass_tracks.h"
+#include "crop4d/fusion/joint_optimiser.h"
+#include "crop4d/geometry/rigid.h"
+#include "crop4d/pipeline/fuse_pass.h"
+#include "crop4d/pipeline/fuse_stage.h"
+#include "crop4d/workspace/layout.h"
+
+namespace crop4d::pipeline::fuse {
+
+// WS/fused/<session>/poses.tum and sparse.ply: the session's fused cameras (all passes, in time
+// order) and its passes' clouds re-triangulated from them.
+void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                         const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                         const std::vector<std::string>& sessions, const FuseStageOptions& options,
+                         const workspace::Layout& layout);
+
+// WS/fused/landmarks.ply: the joint landmarks, with how many passes and sessions see each.
+void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                         const std::vector<fusion::JointLandmark>& landmarks,
+                         const fusion::JointOptimiser::Result& result,
+                         const workspace::Layout& layout);
+
+// WS/fused/colmap: the whole 4D reconstruction as a COLMAP text model (one camera per session,
+// images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
+void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                 const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                 const std::vector<fusion::JointLandmark>& landmarks,
+                 const fusion::JointOptimiser::Result& result, const workspace::Layout& layout);
+
+}  // namespace crop4d::pipeline::fuse

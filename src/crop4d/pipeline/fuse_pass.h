@@ -1,0 +1,45 @@
+#pragma once
+
+// The fuse stage's view of one row pass (internal to pipeline/fuse_*.cc): its workspace data, its
+// row-SLAM problem for the joint optimiser, and its cloud tracks triangulated from given cameras.
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "crop4d/core/timestamp.h"
+#include "crop4d/fusion/joint_optimiser.h"
+#include "crop4d/geometry/rigid.h"
+#include "crop4d/slam/session_streams.h"
+#include "crop4d/slam/track_cloud.h"
+#include "crop4d/slam/triangulation.h"
+#include "crop4d/workspace/pass_data.h"
+
+namespace crop4d::pipeline::fuse {
+
+// A pass as the fuse stage holds it: its workspace data, its row-SLAM problem rebuilt for the
+// joint optimiser and the cloud track of each of its keypoints.
+struct LoadedPass {
+  workspace::PassData data;
+  fusion::JointOptimiser::Pass input;
+  const slam::SessionStreams* streams = nullptr;
+  // Cloud track of each (image, feature) of the pass.
+  std::unordered_map<std::uint64_t, int> cloud_of;
+};
+
+// The key of an (image, feature) of a pass in LoadedPass::cloud_of.
+inline std::uint64_t ImageFeatureKey(int image, int feature) {
+  return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
+}
+
+// The image file names of a camera stream by timestamp.
+std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams);
+
+// The cloud tracks of a pass (their keypoints and colours) triangulated from the given cameras
+// (one per image).
+slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
+                               const slam::TriangulationOptions& options);
+
+}  // namespace crop4d::pipeline::fuse

@@ -400,7 +400,7 @@ std::string AssociateStageOptions::Check() const {
   if (!(max_landmark_distance_m > 0)) return "max_landmark_distance_m: must be > 0";
   if (num_threads < 0) return "num_threads: must be >= 0 (0: all cores)";
   // The nested options of the modules (docs/fusion.md, association).
-  if (!alignment.Check()) return "alignment: invalid pass alignment options";
+  if (const std::string why = alignment.Check(); !why.empty()) return "alignment." + why;
   if (const std::string why = image_pairs.Check(); !why.empty()) return "image_pairs." + why;
   if (surface_points) {
     if (const std::string why = surface.Check(); !why.empty()) return "surface." + why;

@@ -451,7 +451,7 @@ std::string FuseStageOptions::Check() const {
   if (max_matches_per_image_pair < 0) return "max_matches_per_image_pair: must be >= 0 (0: all)";
   if (ground_tie_max_matches < 0) return "ground_tie_max_matches: must be >= 0";
   // The nested options of the modules (docs/fusion.md).
-  if (!ground_tie.Check()) return "ground_tie: invalid ground tie options";
+  if (const std::string why = ground_tie.Check(); !why.empty()) return "ground_tie." + why;
   if (const std::string why = optimiser.Check(); !why.empty()) return "optimiser." + why;
   if (const std::string why = cloud.Check(); !why.empty()) return "cloud." + why;
   return {};

@@ -49,6 +49,10 @@ TEST(StageOptionChecksTest, AssociatePassesANestedReasonUpWithItsKey) {
   EXPECT_EQ(InputErrorOf([&] { RunAssociateStage(kNoField, kNoWorkspace, o); }),
             "associate.naive." + o.naive.Check());
   o = AssociateStageOptions();
+  o.alignment.min_inliers = 1;
+  ASSERT_FALSE(o.alignment.Check().empty());
+  EXPECT_EQ(o.Check(), "alignment." + o.alignment.Check());
+  o = AssociateStageOptions();
   o.robust.search_sigmas = -1;
   ASSERT_FALSE(o.robust.Check().empty());
   EXPECT_EQ(o.Check(), "robust." + o.robust.Check());
@@ -60,6 +64,10 @@ TEST(StageOptionChecksTest, FusePassesANestedReasonUpWithItsKey) {
   EXPECT_EQ(o.Check(), "optimiser.row.max_iterations: must be > 0 (got 0)");
   EXPECT_EQ(InputErrorOf([&] { RunFuseStage(kNoField, kNoWorkspace, o); }),
             "fuse.optimiser.row.max_iterations: must be > 0 (got 0)");
+  o = FuseStageOptions();
+  o.ground_tie.min_points = -1;
+  ASSERT_FALSE(o.ground_tie.Check().empty());
+  EXPECT_EQ(o.Check(), "ground_tie." + o.ground_tie.Check());
 }
 
 TEST(StageOptionChecksTest, DensifyPassesANestedReasonUpWithItsKey) {

@@ -442,6 +442,18 @@ std::vector<std::vector<geometry::Rigid3>> FusedCameras(
   return cameras;
 }
 
+// The association files (<a>__<b>.bin) of a folder, sorted; none when it does not exist.
+std::vector<fs::path> AssociationFiles(const fs::path& folder) {
+  std::vector<fs::path> files;
+  if (fs::is_directory(folder)) {
+    for (const auto& entry : fs::directory_iterator(folder)) {
+      if (entry.path().extension() == ".bin") files.push_back(entry.path());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 }  // namespace
 
 std::string FuseStageOptions::Check() const {
@@ -491,13 +503,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   }
   const workspace::Layout layout(workspace);
   const fs::path association_dir = layout.AssociationsDir(options.method);
-  std::vector<fs::path> association_files;
-  if (fs::is_directory(association_dir)) {
-    for (const auto& entry : fs::directory_iterator(association_dir)) {
-      if (entry.path().extension() == ".bin") association_files.push_back(entry.path());
-    }
-  }
-  std::sort(association_files.begin(), association_files.end());
+  const std::vector<fs::path> association_files = AssociationFiles(association_dir);
   for (const fs::path& path : association_files) {
     fingerprint.AddString(path.filename().string());
     fingerprint.AddString(workspace::FileHash(path));

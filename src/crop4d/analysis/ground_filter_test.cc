@@ -84,16 +84,16 @@ TEST(GroundFilterTest, NoWindowEmptyInputAndNonFinitePointsKeepEverything) {
 }
 
 TEST(GroundFilterTest, CheckRejectsBadValues) {
-  EXPECT_TRUE(GroundFilterOptions{}.Check());
+  EXPECT_EQ(GroundFilterOptions{}.Check(), "");
   GroundFilterOptions o;
   o.cell_m = 0;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = {};
   o.window_m = -1;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = {};
   o.max_height_m = NAN;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
 }
 
 }  // namespace

@@ -174,22 +174,22 @@ TEST(FitGrowthTest, AStepStaysFinite) {
 }
 
 TEST(GrowthOptionsTest, CheckRejectsBadOptions) {
-  EXPECT_TRUE(GrowthOptions().Check());
+  EXPECT_EQ(GrowthOptions().Check(), "");
   GrowthOptions o;
   o.robust_loss_m = -0.01;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = GrowthOptions();
   o.max_iterations = 0;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = GrowthOptions();
   o.max_asymptote_factor = 0.9;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = GrowthOptions();
   o.max_rate_per_day = 0.0;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = GrowthOptions();
   o.robust_loss_m = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   EXPECT_STREQ(GrowthStatusName(GrowthFit::Status::kNotGrowing), "not_growing");
 }
 

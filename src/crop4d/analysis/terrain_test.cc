@@ -16,7 +16,7 @@ using testing_util::SampleGround;
 TEST(GridSpecTest, CoveringSnapsAndCovers) {
   const Eigen::AlignedBox2d box(Eigen::Vector2d(-0.33, 1.02), Eigen::Vector2d(2.71, 3.49));
   const GridSpec g = GridSpec::Covering(box, 0.05);
-  ASSERT_TRUE(g.Check());
+  ASSERT_EQ(g.Check(), "");
   EXPECT_NEAR(g.origin.x(), -0.35, 1e-12);
   EXPECT_NEAR(g.origin.y(), 1.0, 1e-12);
   EXPECT_GE(g.Node(g.width - 1, g.height - 1).x(), 2.71 - 1e-12);
@@ -199,15 +199,15 @@ TEST(BuildTerrainTest, NoGroundPointsGiveAnEmptyModelNotACrash) {
 
 TEST(TerrainOptionsTest, CheckRejectsBadValues) {
   TerrainOptions o;
-  EXPECT_TRUE(o.Check());
+  EXPECT_EQ(o.Check(), "");
   o.fit_radius_m = 0.01;  // smaller than a cell
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = TerrainOptions{};
   o.min_points = 3;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   PlaneOptions p;
   p.inlier_threshold_m = 0.0;
-  EXPECT_FALSE(p.Check());
+  EXPECT_NE(p.Check(), "");
 }
 
 }  // namespace

@@ -263,26 +263,26 @@ TEST(ClassifyVegetationTest, EmptyAndConstantInput) {
 }
 
 TEST(VegetationOptionsTest, CheckRejectsBadOptions) {
-  EXPECT_TRUE(VegetationOptions().Check());
+  EXPECT_EQ(VegetationOptions().Check(), "");
   VegetationOptions o;
   o.threshold = 0.1;
-  EXPECT_TRUE(o.Check());
+  EXPECT_EQ(o.Check(), "");
   o.threshold = std::numeric_limits<double>::infinity();
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = VegetationOptions();
   o.min_threshold = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = VegetationOptions();
   o.min_separability = 1.5;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o.min_separability = -0.1;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = VegetationOptions();
   o.histogram_bins = 1;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = VegetationOptions();
   o.index = static_cast<GreennessIndex>(7);
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
 }
 
 }  // namespace

@@ -329,13 +329,13 @@ TEST(PlaneWarpScaleTest, ReducedResolutionImageGivesTheSameDescriptors) {
 }
 
 TEST(PlaneWarpOptionsTest, Check) {
-  EXPECT_TRUE(PlaneWarpOptions().Check());
+  EXPECT_EQ(PlaneWarpOptions().Check(), "");
   PlaneWarpOptions options;
   options.descriptor_sigma = 0.1;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   options = PlaneWarpOptions();
   options.patches_per_batch = 0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
 }
 
 }  // namespace

@@ -186,16 +186,16 @@ TEST_F(DecisionTest, EmptyInputsGiveNoMatches) {
 }
 
 TEST(RobustMatcherOptionsTest, Check) {
-  EXPECT_TRUE(RobustMatcher::Options().Check());
+  EXPECT_EQ(RobustMatcher::Options().Check(), "");
   RobustMatcher::Options options;
   options.max_ratio = 1.5;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   options = RobustMatcher::Options();
   options.max_scale_ratio = 0.5;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   options = RobustMatcher::Options();
   options.max_search_radius_px = 1;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
 }
 
 // ---------------------------------------------------------------------------------------------

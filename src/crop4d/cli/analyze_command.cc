@@ -53,7 +53,7 @@ int RunAnalyze(AnalyzeArgs& args) {
   if (o.cloud != "auto" && o.cloud != "dense" && o.cloud != "sparse") {
     throw InputError("--cloud", 0, "expected auto, dense or sparse, got '" + o.cloud + "'");
   }
-  if (!o.Check()) throw InputError("crop4d analyze", 0, "invalid options");
+  if (const std::string why = o.Check(); !why.empty()) throw InputError("crop4d analyze", 0, why);
   std::optional<tbb::global_control> limit;
   if (args.threads > 0) {
     limit.emplace(tbb::global_control::max_allowed_parallelism, args.threads);

@@ -16,15 +16,12 @@
 
 namespace crop4d {
 
-// What Check() returns: empty when the options are valid, else the reason. It is a std::string;
-// its explicit bool (true when valid) keeps callers written for the former `bool Check()`
-// compiling (`if (!options.Check())`, `a.Check() && b.Check()`) until they read the reason.
+// What Check() returns: empty when the options are valid, else the reason.
 class OptionCheck : public std::string {
  public:
   OptionCheck() = default;
   OptionCheck(const char* reason) : std::string(reason) {}             // NOLINT: implicit by design
   OptionCheck(std::string reason) : std::string(std::move(reason)) {}  // NOLINT
-  explicit operator bool() const { return empty(); }
 };
 
 // Builds a Check() result: each test records the first failure and the later ones are skipped.
@@ -90,12 +87,6 @@ class OptionChecker {
   // A nested struct's Check(), passed up as "<key>.<its reason>".
   OptionChecker& Nested(const char* key, const OptionCheck& nested) {
     if (ok() && !nested.empty()) reason_ = std::string(key) + "." + nested;
-    return *this;
-  }
-
-  // A nested struct whose Check() still returns a bare bool: the key, without a reason.
-  OptionChecker& Nested(const char* key, bool nested_valid) {
-    if (ok() && !nested_valid) reason_ = std::string(key) + ": invalid (no reason given)";
     return *this;
   }
 

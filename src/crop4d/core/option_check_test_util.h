@@ -22,13 +22,12 @@ struct BrokenOption {
 template <class Options>
 void ExpectCheckNamesOption(const Options& valid, const std::vector<BrokenOption<Options>>& cases) {
   ASSERT_EQ(std::string(valid.Check()), "");
-  ASSERT_TRUE(static_cast<bool>(valid.Check()));
   for (const BrokenOption<Options>& c : cases) {
     Options o = valid;
     c.breaks(o);
     const std::string why = o.Check();
     EXPECT_EQ(why.substr(0, c.key.size() + 2), c.key + ": ") << "reason: '" << why << "'";
-    EXPECT_FALSE(static_cast<bool>(o.Check())) << c.key;
+    EXPECT_FALSE(why.empty()) << c.key;
   }
 }
 

@@ -298,7 +298,7 @@ TEST_F(AssociationEvalTest, MatchesNearTheVehicleAreCountedApart) {
   EXPECT_EQ(EvaluateAssociations({input}, timeline_, truth_, options).files[0].counts.correct_near,
             3);
   options.near_depth_m = 0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
 }
 
 TEST_F(AssociationEvalTest, NoInputGivesAnEmptyEvaluation) {

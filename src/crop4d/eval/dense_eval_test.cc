@@ -112,12 +112,12 @@ TEST(DenseEvalTest, EmptyCloudHasEveryPlantMissingAndNoStatistics) {
 
 TEST(DenseEvalTest, OptionsAndPlantsFileAreChecked) {
   DenseEvalOptions o;
-  EXPECT_TRUE(o.Check());
+  EXPECT_EQ(o.Check(), "");
   o.top_radius_m = 0.0;
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
   o = DenseEvalOptions();
   o.tolerance_m = std::nan("");
-  EXPECT_FALSE(o.Check());
+  EXPECT_NE(o.Check(), "");
 
   PidTempDir dir;
   WriteFile(dir / "plants.csv", "id,row,x,y,height_m,canopy_radius_m\n0,0,1,1,-0.2,0.1\n");

@@ -118,7 +118,7 @@ TEST(TrajectoryMetricsTest, RpeDistanceLongerThanThePathGivesNoPair) {
   EXPECT_EQ(m.rpe_rotation_deg_per_m.count, 0);
   EXPECT_EQ(m.ate_raw_m.count, 201);
   options.rpe_distance_m = -1.0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
 }
 
 TEST(TrajectoryMetricsTest, UmeyamaRecoversAKnownSE3) {

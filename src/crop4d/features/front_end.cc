@@ -40,7 +40,7 @@ OptionCheck FrontEnd::Options::Check() const {
 FrontEnd::FrontEnd(Options options, const geometry::PinholeRadTan* camera)
     : options_(std::move(options)), camera_(camera) {
   CROP4D_CHECK_OPTIONS(options_, "FrontEnd::Options");
-  CROP4D_CHECK_MSG(camera_ == nullptr || camera_->Check(), "invalid camera");
+  if (camera_ != nullptr) CROP4D_CHECK_OPTIONS(*camera_, "camera");
 }
 
 FrontEnd::Result FrontEnd::Run(const std::vector<std::string>& image_keys,

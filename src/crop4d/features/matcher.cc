@@ -380,7 +380,7 @@ std::vector<FeatureMatch> PairMatches::InlierMatches() const {
 PairMatcher::PairMatcher(Options options, const geometry::PinholeRadTan* camera)
     : options_(std::move(options)), camera_(camera) {
   CROP4D_CHECK_OPTIONS(options_, "PairMatcher::Options");
-  CROP4D_CHECK_MSG(camera_ == nullptr || camera_->Check(), "invalid camera");
+  if (camera_ != nullptr) CROP4D_CHECK_OPTIONS(*camera_, "camera");
 }
 
 Eigen::Vector2d PairMatcher::PointForGeometry(const FeatureSet& features, int i) const {

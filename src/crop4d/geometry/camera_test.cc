@@ -28,20 +28,20 @@ PinholeRadTan TestCamera() {
 }
 
 TEST(CameraTest, CheckAcceptsValidAndRejectsBadIntrinsics) {
-  EXPECT_TRUE(TestCamera().Check());
+  EXPECT_EQ(TestCamera().Check(), "");
   auto with = [](auto modify) {
     PinholeRadTan camera = TestCamera();
     modify(camera);
     return camera.Check();
   };
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.width = 0; }));
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.height = -5; }));
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.fx = 0.0; }));
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.fy = -900.0; }));
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.k1 = std::numeric_limits<double>::quiet_NaN(); }));
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.cx = std::numeric_limits<double>::infinity(); }));
-  EXPECT_FALSE(with([](PinholeRadTan& c) { c.p2 = std::numeric_limits<double>::infinity(); }));
-  EXPECT_FALSE(PinholeRadTan().Check());
+  EXPECT_NE(with([](PinholeRadTan& c) { c.width = 0; }), "");
+  EXPECT_NE(with([](PinholeRadTan& c) { c.height = -5; }), "");
+  EXPECT_NE(with([](PinholeRadTan& c) { c.fx = 0.0; }), "");
+  EXPECT_NE(with([](PinholeRadTan& c) { c.fy = -900.0; }), "");
+  EXPECT_NE(with([](PinholeRadTan& c) { c.k1 = std::numeric_limits<double>::quiet_NaN(); }), "");
+  EXPECT_NE(with([](PinholeRadTan& c) { c.cx = std::numeric_limits<double>::infinity(); }), "");
+  EXPECT_NE(with([](PinholeRadTan& c) { c.p2 = std::numeric_limits<double>::infinity(); }), "");
+  EXPECT_NE(PinholeRadTan().Check(), "");
 }
 
 TEST(CameraTest, IntrinsicMatrix) {

@@ -388,7 +388,9 @@ bool ColmapModel::Check(std::string* why) const {
     if (!camera_ids.insert(c.camera_id).second) {
       return fail(fmt::format("duplicate camera id {}", c.camera_id));
     }
-    if (!c.intrinsics.Check()) return fail(fmt::format("camera {} is invalid", c.camera_id));
+    if (const std::string invalid = c.intrinsics.Check(); !invalid.empty()) {
+      return fail(fmt::format("camera {} is invalid: {}", c.camera_id, invalid));
+    }
   }
   std::unordered_map<std::uint32_t, std::size_t> image_index;
   for (std::size_t i = 0; i < images.size(); ++i) {

@@ -135,7 +135,7 @@ TEST(FieldUtmTest, GridCoveringCoversTheBoxAndIsSnapped) {
   const Eigen::AlignedBox2d box(Eigen::Vector2d(-12.3, -3.1), Eigen::Vector2d(40.7, 100.9));
   const double cell = 0.05;
   const UtmGrid grid = utm.GridCovering(box, cell);
-  ASSERT_TRUE(grid.Check());
+  ASSERT_EQ(grid.Check(), "");
   EXPECT_EQ(grid.epsg, 32617);
   EXPECT_EQ(grid.cell_m, cell);
   // Edges on multiples of the cell size.

@@ -540,7 +540,7 @@ bool RunConfig::Check(std::string* message) const {
         std::pair{"fuse.", fuse.Check()}, std::pair{"densify.", densify_options.Check()}}) {
     if (!why.empty()) return fail(section + why);
   }
-  if (!analyze.Check()) return fail("invalid analyze options");
+  if (const std::string why = analyze.Check(); !why.empty()) return fail("analyze." + why);
   if (const std::string why = eval_options.Check(); !why.empty()) return fail("eval." + why);
   return true;
 }

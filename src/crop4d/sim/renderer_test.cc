@@ -362,11 +362,11 @@ TEST_F(RendererTest, LeavesSwayInTheWindAndNothingElseMoves) {
 
 TEST(RenderOptionsTest, Check) {
   RenderOptions options;
-  EXPECT_FALSE(options.Check());  // no camera
+  EXPECT_NE(options.Check(), "");  // no camera
   options.camera = Camera(64, 48);
-  EXPECT_TRUE(options.Check());
+  EXPECT_EQ(options.Check(), "");
   options.soil_texture_size = 1000;  // not a power of two
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
 }
 
 }  // namespace

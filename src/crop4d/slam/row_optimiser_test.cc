@@ -326,10 +326,10 @@ TEST(RowOptimiser, TimeOffsetOfSynchronisedClocksIsZero) {
 
 TEST(RowOptimiser, TimeOffsetOptionsAreChecked) {
   RowOptimiser::Options options;
-  EXPECT_TRUE(options.Check());
+  EXPECT_EQ(options.Check(), "");
   EXPECT_FALSE(options.estimate_time_offset);
   options.time_offset_prior_sigma_s = 0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   EXPECT_NE(options.Error().find("time_offset_prior_sigma_s"), std::string::npos);
   options = RowOptimiser::Options();
   options.max_abs_time_offset_s = -0.1;

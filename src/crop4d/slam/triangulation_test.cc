@@ -316,19 +316,19 @@ TEST(Triangulation, LongTrackOf40Views) {
 }
 
 TEST(Triangulation, OptionsAndNames) {
-  EXPECT_TRUE(TriangulationOptions().Check());
+  EXPECT_EQ(TriangulationOptions().Check(), "");
   TriangulationOptions options;
   options.max_depth_m = options.min_depth_m;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   options = {};
   options.max_reprojection_error_px = 0.0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   options = {};
   options.refine_iterations = -1;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   options = {};
   options.min_parallax_deg = -1.0;
-  EXPECT_FALSE(options.Check());
+  EXPECT_NE(options.Check(), "");
   EXPECT_STREQ(ToString(TriangulationStatus::kOk), "ok");
   EXPECT_STREQ(ToString(TriangulationStatus::kLargeError), "large reprojection error");
   EXPECT_STREQ(ToString(TriangulationStatus::kBehindCamera), "behind camera");

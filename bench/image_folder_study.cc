@@ -27,8 +27,8 @@
 #include "crop4d/io/exif_import.h"
 #include "crop4d/io/exif_test_writer.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/workspace/pass_data.h"
 
 namespace fs = std::filesystem;
 using namespace crop4d;

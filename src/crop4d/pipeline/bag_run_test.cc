@@ -22,10 +22,10 @@
 #include "crop4d/io/dataset_writer.h"
 #include "crop4d/io/rosbag/bag_import.h"
 #include "crop4d/io/rosbag/session_bag_writer.h"
-#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/season_run.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/sim/cached_field_test_util.h"
+#include "crop4d/workspace/pass_data.h"
 
 namespace crop4d::pipeline {
 namespace {

@@ -17,10 +17,10 @@
 #include "crop4d/io/exif_import.h"
 #include "crop4d/io/exif_test_writer.h"
 #include "crop4d/io/tum.h"
-#include "crop4d/workspace/pass_data.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
+#include "crop4d/workspace/pass_data.h"
 
 namespace crop4d::pipeline {
 namespace {

@@ -297,7 +297,7 @@ std::vector<std::vector<std::string>> Builder::UntrustedPasses() {
   };
   std::vector<std::vector<std::string>> rows;
   std::vector<fs::path> summaries;
-  for (const std::string& session : layout_.SessionsWithRows()) {
+  for (const std::string& session : layout_.SessionFolders()) {
     for (const std::string& pass : layout_.PassFolders(session)) {
       if (fs::exists(layout_.PassSummary(session, pass))) {
         summaries.push_back(layout_.PassSummary(session, pass));

@@ -108,7 +108,7 @@ std::vector<std::string> SubfolderNames(const fs::path& dir) {
 
 }  // namespace
 
-std::vector<std::string> Layout::SessionsWithRows() const { return SubfolderNames(SessionsDir()); }
+std::vector<std::string> Layout::SessionFolders() const { return SubfolderNames(SessionsDir()); }
 
 std::vector<std::string> Layout::PassFolders(const std::string& session) const {
   return SubfolderNames(RowsDir(session));

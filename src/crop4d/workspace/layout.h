@@ -98,7 +98,7 @@ class Layout {
   std::filesystem::path ViewerDir() const { return root_ / "viewer"; }
 
   // The sessions that have a folder under sessions/ (sorted; empty when there is none).
-  std::vector<std::string> SessionsWithRows() const;
+  std::vector<std::string> SessionFolders() const;
   // The pass folders of a session under rows/ (sorted names; empty when there is none).
   std::vector<std::string> PassFolders(const std::string& session) const;
 

@@ -66,14 +66,14 @@ TEST(LayoutTest, ListsSessionAndPassFoldersSortedAndIgnoresFiles) {
   const fs::path root = fs::path(testing::TempDir()) / "crop4d_layout_test";
   fs::remove_all(root);
   const Layout ws(root);
-  EXPECT_TRUE(ws.SessionsWithRows().empty());
+  EXPECT_TRUE(ws.SessionFolders().empty());
   EXPECT_TRUE(ws.PassFolders("none").empty());
   fs::create_directories(ws.PassDir("2016-07-01", "row01"));
   fs::create_directories(ws.PassDir("2016-07-01", "row00"));
   fs::create_directories(ws.SessionDir("2016-06-01"));
   std::ofstream(ws.SessionsDir() / "stray.txt") << "x";
   std::ofstream(ws.RowsDir("2016-07-01") / "notes.txt") << "x";
-  EXPECT_EQ(ws.SessionsWithRows(), (std::vector<std::string>{"2016-06-01", "2016-07-01"}));
+  EXPECT_EQ(ws.SessionFolders(), (std::vector<std::string>{"2016-06-01", "2016-07-01"}));
   EXPECT_EQ(ws.PassFolders("2016-07-01"), (std::vector<std::string>{"row00", "row01"}));
   fs::remove_all(root);
 }

@@ -4,6 +4,7 @@
 #include <system_error>
 
 #include "crop4d/core/error.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::cli {
 
@@ -18,7 +19,7 @@ std::unique_ptr<io::WorkspaceLock> LockWorkspace(const std::string& workspace,
       throw InputError(workspace, 0, "cannot create the workspace folder: " + ec.message());
     return nullptr;
   }
-  return std::make_unique<io::WorkspaceLock>(workspace, command);
+  return std::make_unique<io::WorkspaceLock>(workspace::Layout(workspace).Lock(), command);
 }
 
 }  // namespace crop4d::cli

@@ -61,13 +61,9 @@ bool Flock(int fd, int operation, const std::string& path) {
 
 }  // namespace
 
-std::string WorkspaceLock::LockPath(const std::string& workspace) {
-  return (std::filesystem::path(workspace) / ".crop4d.lock").string();
-}
-
-WorkspaceLock::WorkspaceLock(const std::string& workspace, const std::string& command,
+WorkspaceLock::WorkspaceLock(const std::filesystem::path& lock_file, const std::string& command,
                              IfBusy if_busy) {
-  const std::string path = LockPath(workspace);
+  const std::string path = lock_file.string();
   fd_ = OpenLockFile(path);
   try {
     if (!Flock(fd_, LOCK_EX | LOCK_NB, path)) {

@@ -486,7 +486,7 @@ RunResult RunSeason(const std::string& field_folder, const std::string& workspac
     throw InputError(workspace, 0, "cannot create the workspace folder: " + ec.message());
   }
   // Before anything is written: a second run must not touch the first one's files.
-  const io::WorkspaceLock lock(workspace, "crop4d run",
+  const io::WorkspaceLock lock(workspace::Layout(workspace).Lock(), "crop4d run",
                                options.wait_for_workspace ? io::WorkspaceLock::IfBusy::kWait
                                                           : io::WorkspaceLock::IfBusy::kFail);
   ScopedLogFile log_file(workspace::Layout(workspace).Log().string());

@@ -60,11 +60,8 @@ std::vector<std::string> FindDenseClouds(const std::string& workspace,
                                          const std::vector<std::string>& session_order,
                                          const std::vector<std::string>& sessions) {
   std::vector<std::string> names;
-  std::error_code ec;
   const workspace::Layout ws(workspace);
-  for (fs::directory_iterator it(ws.DenseDir(), ec), end; !ec && it != end; it.increment(ec)) {
-    if (!it->is_regular_file(ec) || it->path().extension() != ".ply") continue;
-    const std::string session = it->path().stem().string();
+  for (const std::string& session : ws.DenseCloudSessions()) {
     if (sessions.empty() || std::find(sessions.begin(), sessions.end(), session) != sessions.end())
       names.push_back(session);
   }

@@ -52,7 +52,7 @@ FusedEval EvaluateFusedTrajectories(const std::string& workspace, const std::str
   std::vector<std::string> names;
   std::error_code ec;
   const workspace::Layout ws(workspace);
-  for (const std::string& s : SubFolders(ws.FusedDir())) {
+  for (const std::string& s : ws.FusedSessionFolders(workspace::Layout::Order::kNatural)) {
     if (Selected(sessions, s) && fs::exists(ws.FusedPoses(s), ec)) {
       names.push_back(s);
     }
@@ -64,10 +64,10 @@ FusedEval EvaluateFusedTrajectories(const std::string& workspace, const std::str
   for (const std::string& session : names) {
     FusedSessionEval s;
     s.session = session;
-    s.poses_file = "fused/" + session + "/poses.tum";
+    s.poses_file = ws.FusedPoses(session).lexically_relative(ws.root()).generic_string();
     s.truth_file = "ground_truth/" + session + "/cam0_poses.tum";
     try {
-      const fs::path poses_path = fs::path(workspace) / s.poses_file;
+      const fs::path poses_path = ws.FusedPoses(session);
       const std::vector<io::StampedPose> estimate = io::ReadTum(poses_path.string());
       s.estimate_poses = static_cast<int>(estimate.size());
       if (estimate.empty()) throw InputError(poses_path.string(), 0, "holds no pose");
@@ -135,7 +135,9 @@ std::vector<SessionCloudFiles> FindCloudFiles(const std::string& workspace,
     return p.lexically_relative(ws.root()).generic_string();
   };
   std::vector<std::string> names;
-  for (const std::string& s : SubFolders(label == "fused" ? ws.FusedDir() : ws.SessionsDir())) {
+  constexpr auto kNatural = workspace::Layout::Order::kNatural;
+  for (const std::string& s :
+       label == "fused" ? ws.FusedSessionFolders(kNatural) : ws.SessionFolders(kNatural)) {
     if (Selected(sessions, s)) names.push_back(s);
   }
   SortByOrder(session_order, &names);
@@ -147,7 +149,7 @@ std::vector<SessionCloudFiles> FindCloudFiles(const std::string& workspace,
         c.files.push_back(relative(ws.FusedSparse(session)));
       }
     } else {
-      for (const std::string& pass : SubFolders(ws.RowsDir(session))) {
+      for (const std::string& pass : ws.PassFolders(session, kNatural)) {
         if (fs::is_regular_file(ws.PassLandmarks(session, pass), ec)) {
           c.files.push_back(relative(ws.PassLandmarks(session, pass)));
         }

@@ -19,10 +19,10 @@
 #include "crop4d/core/version.h"
 #include "crop4d/eval/natural_order.h"
 #include "crop4d/eval/time_offset_eval.h"
-#include "crop4d/io/atomic_file.h"
 #include "crop4d/io/csv.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/sim_config.h"
+#include "crop4d/workspace/eval_metrics.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_list.h"
 #include "crop4d/workspace/pass_summary.h"
@@ -516,7 +516,7 @@ std::map<std::string, PassLayout> ReadPassLayouts(const std::string& workspace,
   }
   const workspace::Layout ws(workspace);
   std::error_code ec;
-  for (const std::string& pass : SubFolders(ws.RowsDir(session))) {
+  for (const std::string& pass : ws.PassFolders(session, workspace::Layout::Order::kNatural)) {
     if (layouts.count(pass) > 0 || !fs::exists(ws.PassSummary(session, pass), ec)) continue;
     try {
       const json& j = workspace::ReadPassSummary(ws.PassSummary(session, pass).string()).json;
@@ -618,12 +618,12 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
 // The row passes of the workspace (of the selected sessions), in session and pass order.
 std::vector<PassEval> ListPasses(const workspace::Layout& ws, const WorkspaceEvalOptions& options) {
   std::vector<PassEval> passes;
-  for (const std::string& session : SubFolders(ws.SessionsDir())) {
+  for (const std::string& session : ws.SessionFolders(workspace::Layout::Order::kNatural)) {
     if (!options.sessions.empty() && std::find(options.sessions.begin(), options.sessions.end(),
                                                session) == options.sessions.end()) {
       continue;
     }
-    for (const std::string& pass_id : SubFolders(ws.RowsDir(session))) {
+    for (const std::string& pass_id : ws.PassFolders(session, workspace::Layout::Order::kNatural)) {
       PassEval pass;
       pass.session = session;
       pass.pass = pass_id;
@@ -761,7 +761,7 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   const std::vector<std::string> association_files =
       options.associations ? FindAssociationFiles(workspace) : std::vector<std::string>();
   bool has_fused = false;
-  for (const std::string& session : SubFolders(ws.FusedDir())) {
+  for (const std::string& session : ws.FusedSessionFolders()) {
     has_fused = has_fused || fs::exists(ws.FusedPoses(session), ec);
   }
   const bool has_canopy = options.canopy && fs::is_regular_file(ws.SiteHeights(), ec);
@@ -822,7 +822,10 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   return eval;
 }
 
-std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
+namespace {
+
+// The metrics.json object, keys in schema order.
+json MetricsObject(const WorkspaceEval& eval) {
   json root;
   root["crop4d_version"] = kVersion;
   root["workspace"] = eval.workspace;
@@ -902,13 +905,19 @@ std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
   }
   if (eval.dense) root["dense"] = DenseJson(*eval.dense);
   if (eval.canopy) root["canopy"] = CanopyJson(*eval.canopy);
-  return root.dump(2) + "\n";
+  return root;
+}
+
+}  // namespace
+
+std::string WorkspaceEvalJson(const WorkspaceEval& eval) {
+  return MetricsObject(eval).dump(2) + "\n";
 }
 
 std::string WriteWorkspaceEval(const WorkspaceEval& eval, const std::string& path) {
   const std::string out =
       path.empty() ? workspace::Layout(eval.workspace).EvalMetrics().string() : path;
-  io::WriteFileAtomic(out, WorkspaceEvalJson(eval));
+  workspace::WriteEvalMetrics(out, MetricsObject(eval));
   return out;
 }
 

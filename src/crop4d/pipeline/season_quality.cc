@@ -4,24 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
-#include "crop4d/core/error.h"
 #include "crop4d/workspace/layout.h"
 
 namespace crop4d::pipeline {
 namespace {
 
 using json = nlohmann::json;
-
-bool EndsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() &&
-         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 std::string PositioningWords(Positioning p) {
   switch (p) {
@@ -48,24 +39,6 @@ Positioning Standard(const std::vector<Positioning>& sessions) {
 
 }  // namespace
 
-const char* PositioningName(Positioning p) {
-  switch (p) {
-    case Positioning::kRtk:
-      return "rtk";
-    case Positioning::kGps:
-      return "gps";
-    case Positioning::kNone:
-      return "none";
-  }
-  return "none";
-}
-
-Positioning PositioningOf(const std::string& sensors) {
-  if (EndsWith(sensors, "+rtk")) return Positioning::kRtk;
-  if (EndsWith(sensors, "+gps")) return Positioning::kGps;
-  return Positioning::kNone;
-}
-
 PassFacts PassFactsFromSummary(const json& summary) {
   PassFacts f;
   f.session = summary.value("session", "");
@@ -80,22 +53,6 @@ OptionCheck QualityOptions::Check() const {
   OptionChecker c;
   c.Greater("max_imu_gap_s", max_imu_gap_s, 0.0).Finite("max_imu_gap_s", max_imu_gap_s);
   return c.Result();
-}
-
-bool SeasonQuality::Protects(const std::string& session) const {
-  if (!any_trusted) return true;
-  for (const SessionGrade& g : sessions) {
-    if (g.session == session) return g.trusted;
-  }
-  return true;
-}
-
-std::vector<const SessionGrade*> SeasonQuality::Degraded() const {
-  std::vector<const SessionGrade*> out;
-  for (const SessionGrade& g : sessions) {
-    if (!g.trusted) out.push_back(&g);
-  }
-  return out;
 }
 
 SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOptions& options) {
@@ -136,42 +93,12 @@ SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOpt
   return q;
 }
 
-json SeasonQualityToJson(const SeasonQuality& quality) {
-  json sessions = json::array();
-  for (const SessionGrade& g : quality.sessions) {
-    sessions.push_back({{"session", g.session}, {"trusted", g.trusted}, {"reasons", g.reasons}});
-  }
-  return {{"standard", PositioningName(quality.standard)},
-          {"any_trusted", quality.any_trusted},
-          {"sessions", sessions}};
-}
-
 std::string SeasonQualityPath(const std::string& workspace) {
   return workspace::Layout(workspace).FusedQuality().string();
 }
 
 SeasonQuality ReadSeasonQuality(const std::string& workspace) {
-  const std::string path = SeasonQualityPath(workspace);
-  SeasonQuality q;
-  std::ifstream in(path);
-  if (!in) return q;
-  try {
-    const json j = json::parse(in);
-    const std::string standard = j.at("standard").get<std::string>();
-    q.standard = standard == "rtk"   ? Positioning::kRtk
-                 : standard == "gps" ? Positioning::kGps
-                                     : Positioning::kNone;
-    q.any_trusted = j.at("any_trusted").get<bool>();
-    for (const json& s : j.at("sessions")) {
-      q.sessions.push_back({s.at("session").get<std::string>(), s.at("trusted").get<bool>(),
-                            s.at("reasons").get<std::vector<std::string>>()});
-    }
-  } catch (const json::exception& e) {
-    throw InputError(
-        path, 0,
-        std::string("cannot read the session grades (rerun `crop4d fuse --force`): ") + e.what());
-  }
-  return q;
+  return workspace::ReadSeasonQuality(SeasonQualityPath(workspace));
 }
 
 }  // namespace crop4d::pipeline

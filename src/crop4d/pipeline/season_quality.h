@@ -17,23 +17,24 @@
 // grades are reported and every session is used as before: there is nothing better to protect.
 //
 // `crop4d fuse` writes the grades to WS/fused/quality.json (its owner); analyze, run and report
-// read them from there.
+// read them from there. The grades' types and the file's typed reader and writer are in
+// workspace/season_quality.h; this header holds the grading.
 
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
 #include "crop4d/core/option_check.h"
+#include "crop4d/workspace/season_quality.h"
 
 namespace crop4d::pipeline {
 
-// How a pass was positioned, from its sensor set: worst to best.
-enum class Positioning { kNone = 0, kGps = 1, kRtk = 2 };
-
-// "none", "gps" or "rtk".
-const char* PositioningName(Positioning p);
-// The positioning of a sensor set name ("cam+imu+rtk" → kRtk, "cam+imu+gps" → kGps, else kNone).
-Positioning PositioningOf(const std::string& sensors);
+using workspace::Positioning;
+using workspace::PositioningName;
+using workspace::PositioningOf;
+using workspace::SeasonQuality;
+using workspace::SeasonQualityToJson;
+using workspace::SessionGrade;
 
 // What grading needs of one row pass.
 struct PassFacts {
@@ -56,35 +57,14 @@ struct QualityOptions {
   OptionCheck Check() const;
 };
 
-struct SessionGrade {
-  std::string session;
-  bool trusted = true;
-  std::vector<std::string> reasons;  // why it is degraded (empty when trusted)
-};
-
-struct SeasonQuality {
-  // The positioning that at least half of the sessions have.
-  Positioning standard = Positioning::kNone;
-  // Every session with passes, in the order of the facts.
-  std::vector<SessionGrade> sessions;
-  // False when no session is trusted: every session is then used (see above).
-  bool any_trusted = true;
-
-  // Whether `session` may set the frame, the terrain and the bounds of the others: a trusted
-  // session, any session when none is trusted, and a session without grade.
-  bool Protects(const std::string& session) const;
-  // The degraded sessions.
-  std::vector<const SessionGrade*> Degraded() const;
-};
-
 // Grades the sessions of `passes` (grouped by session, in order of first appearance).
 SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOptions& options);
 
-nlohmann::json SeasonQualityToJson(const SeasonQuality& quality);
-// Reads WS/fused/quality.json; a missing file gives an empty SeasonQuality (every session
-// protects). Throws InputError naming the file when it cannot be parsed.
+// WS/fused/quality.json of `workspace` read with workspace::ReadSeasonQuality: a missing file
+// gives an empty SeasonQuality (every session protects); a damaged one throws InputError naming
+// the file.
 SeasonQuality ReadSeasonQuality(const std::string& workspace);
-// The path of the file.
+// The path of the file (workspace::Layout::FusedQuality()).
 std::string SeasonQualityPath(const std::string& workspace);
 
 }  // namespace crop4d::pipeline

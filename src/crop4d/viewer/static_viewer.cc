@@ -6,6 +6,7 @@
 
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/viewer/bundle.h"
+#include "crop4d/workspace/layout.h"
 
 namespace crop4d::viewer {
 
@@ -13,16 +14,18 @@ namespace fs = std::filesystem;
 
 ViewerDataSummary WriteStaticViewer(const std::string& workspace, const std::string& dir,
                                     const ViewerDataOptions& options) {
+  // The page reads the tiles and the report at ws/, laid out as in a workspace.
+  const workspace::Layout bundled(fs::path(dir) / "ws");
   const ViewerDataSummary summary =
-      WriteViewerData(workspace, (fs::path(dir) / "ws" / "viewer").string(), options);
+      WriteViewerData(workspace, bundled.ViewerDir().string(), options);
   for (const BundledFile* f = kViewerBundle; f->path != nullptr; ++f)
     io::WriteFileAtomic((fs::path(dir) / f->path).string(), std::string(f->bytes()));
-  const fs::path report = fs::path(workspace) / "report.html";
+  const fs::path report = workspace::Layout(workspace).Report();
   if (fs::is_regular_file(report)) {
     std::ifstream in(report, std::ios::binary);
     std::ostringstream bytes;
     bytes << in.rdbuf();
-    io::WriteFileAtomic((fs::path(dir) / "ws" / "report.html").string(), bytes.str());
+    io::WriteFileAtomic(bundled.Report().string(), bytes.str());
   }
   return summary;
 }
@@ -33,8 +36,8 @@ std::string FormatViewerDataSummary(const ViewerDataSummary& summary) {
     out << "  " << s.id << " (" << s.date << "): " << s.points << " points from " << s.source
         << ", " << s.nodes << " tiles" << (s.rebuilt ? " (built)" : " (up to date)") << "\n";
   }
-  out << "  " << summary.sites << " measurement sites; terrain from "
-      << summary.terrain_source << "\n";
+  out << "  " << summary.sites << " measurement sites; terrain from " << summary.terrain_source
+      << "\n";
   return out.str();
 }
 

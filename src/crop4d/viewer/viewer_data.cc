@@ -247,16 +247,11 @@ std::map<std::string, std::string> SessionDates(const workspace::Layout& ws) {
 // there is none.
 std::map<std::string, fs::path> SessionClouds(const workspace::Layout& layout) {
   std::map<std::string, fs::path> clouds;
-  if (fs::is_directory(layout.FusedDir()))
-    for (const auto& e : fs::directory_iterator(layout.FusedDir())) {
-      const std::string id = e.path().filename().string();
-      if (fs::is_regular_file(layout.FusedSparse(id))) clouds[id] = layout.FusedSparse(id);
-    }
-  if (fs::is_directory(layout.DenseDir()))
-    for (const auto& e : fs::directory_iterator(layout.DenseDir())) {
-      const std::string id = e.path().stem().string();
-      if (e.path() == layout.DenseCloud(id) && fs::is_regular_file(e.path())) clouds[id] = e.path();
-    }
+  for (const std::string& id : layout.FusedSessionFolders()) {
+    if (fs::is_regular_file(layout.FusedSparse(id))) clouds[id] = layout.FusedSparse(id);
+  }
+  // A dense cloud replaces the session's sparse one.
+  for (const std::string& id : layout.DenseCloudSessions()) clouds[id] = layout.DenseCloud(id);
   if (clouds.empty())
     throw InputError(layout.root().string(), 0,
                      "no cloud to show: neither dense/<session>.ply nor fused/<session>/sparse.ply "

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "crop4d/core/natural_less.h"
+
 namespace crop4d::workspace {
 
 namespace fs = std::filesystem;
@@ -18,8 +20,8 @@ fs::path Layout::PassDir(const std::string& session, const std::string& pass) co
   return RowsDir(session) / pass;
 }
 
-fs::path Layout::PassProblem(const std::string& session, const std::string& pass) const {
-  return PassDir(session, pass) / "problem.json";
+fs::path Layout::PassMeasurements(const std::string& session, const std::string& pass) const {
+  return PassDir(session, pass) / "measurements.bin";
 }
 
 fs::path Layout::PassFeatures(const std::string& session, const std::string& pass) const {
@@ -94,24 +96,71 @@ fs::path Layout::EvalDepthDir(const std::string& session) const {
 
 namespace {
 
-// Names of the sub-folders of `dir`, sorted; empty when `dir` is missing or unreadable.
-std::vector<std::string> SubfolderNames(const fs::path& dir) {
+void Sort(std::vector<std::string>* names, Layout::Order order) {
+  if (order == Layout::Order::kNatural) {
+    std::sort(names->begin(), names->end(), NaturalLess);
+  } else {
+    std::sort(names->begin(), names->end());
+  }
+}
+
+// Names of the sub-folders of `dir` in `order`; empty when `dir` is missing or unreadable.
+std::vector<std::string> SubfolderNames(const fs::path& dir, Layout::Order order) {
   std::vector<std::string> names;
   std::error_code ec;
   for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code type_ec;
     if (it->is_directory(type_ec)) names.push_back(it->path().filename().string());
   }
-  std::sort(names.begin(), names.end());
+  Sort(&names, order);
   return names;
 }
 
 }  // namespace
 
-std::vector<std::string> Layout::SessionFolders() const { return SubfolderNames(SessionsDir()); }
+std::vector<std::string> Layout::SessionFolders(Order order) const {
+  return SubfolderNames(SessionsDir(), order);
+}
 
-std::vector<std::string> Layout::PassFolders(const std::string& session) const {
-  return SubfolderNames(RowsDir(session));
+std::vector<std::string> Layout::PassFolders(const std::string& session, Order order) const {
+  return SubfolderNames(RowsDir(session), order);
+}
+
+std::vector<std::string> Layout::FusedSessionFolders(Order order) const {
+  std::vector<std::string> names = SubfolderNames(FusedDir(), order);
+  const std::string colmap = FusedColmapDir().filename().string();
+  names.erase(std::remove(names.begin(), names.end(), colmap), names.end());
+  return names;
+}
+
+namespace {
+
+// The sessions of the files in `dir` whose path is `path(session)` (the session being the file's
+// stem), in `order`.
+template <typename PathOf>
+std::vector<std::string> SessionsOfFiles(const fs::path& dir, PathOf path, Layout::Order order) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    if (!it->is_regular_file(type_ec)) continue;
+    const std::string session = it->path().stem().string();
+    if (it->path() == path(session)) names.push_back(session);
+  }
+  Sort(&names, order);
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::string> Layout::DenseCloudSessions(Order order) const {
+  return SessionsOfFiles(
+      DenseDir(), [this](const std::string& s) { return DenseCloud(s); }, order);
+}
+
+std::vector<std::string> Layout::DenseSummarySessions(Order order) const {
+  return SessionsOfFiles(
+      DenseDir(), [this](const std::string& s) { return DenseSummary(s); }, order);
 }
 
 }  // namespace crop4d::workspace

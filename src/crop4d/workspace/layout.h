@@ -6,7 +6,7 @@
 //
 //   WS/crop4d.yaml, crop4d.log, run.json, run_log.jsonl, report.html, .crop4d.lock
 //   WS/sessions/<session>/passes.csv
-//   WS/sessions/<session>/rows/<pass>/  problem.json, features.bin, tracks.bin, states.csv,
+//   WS/sessions/<session>/rows/<pass>/  measurements.bin, features.bin, tracks.bin, states.csv,
 //                                       initial_poses.tum, poses.tum, landmarks.ply, summary.json
 //   WS/associations/<method>/<a>__<b>.bin + .json
 //   WS/fused/  summary.json, quality.json, landmarks.ply, colmap/, <session>/poses.tum + sparse.ply
@@ -16,7 +16,7 @@
 //   WS/eval/  metrics.json, inputs.fingerprint, depth/<session>/
 //   WS/viewer/  the viewer's tiles
 //
-// Paths only: no function here touches the disk except the two listings at the end.
+// Paths only: no function here touches the disk except the listings at the end.
 
 #include <filesystem>
 #include <string>
@@ -44,7 +44,7 @@ class Layout {
   std::filesystem::path PassList(const std::string& session) const;
   std::filesystem::path RowsDir(const std::string& session) const;
   std::filesystem::path PassDir(const std::string& session, const std::string& pass) const;
-  std::filesystem::path PassProblem(const std::string& session, const std::string& pass) const;
+  std::filesystem::path PassMeasurements(const std::string& session, const std::string& pass) const;
   std::filesystem::path PassFeatures(const std::string& session, const std::string& pass) const;
   std::filesystem::path PassTracks(const std::string& session, const std::string& pass) const;
   std::filesystem::path PassStates(const std::string& session, const std::string& pass) const;
@@ -97,10 +97,20 @@ class Layout {
   // The viewer's level-of-detail tiles (owned by the viewer).
   std::filesystem::path ViewerDir() const { return root_ / "viewer"; }
 
-  // The sessions that have a folder under sessions/ (sorted; empty when there is none).
-  std::vector<std::string> SessionFolders() const;
-  // The pass folders of a session under rows/ (sorted names; empty when there is none).
-  std::vector<std::string> PassFolders(const std::string& session) const;
+  // How a listing is sorted: by name (std::string's order) or in natural order ("row2" before
+  // "row10", core/natural_less.h).
+  enum class Order { kName, kNatural };
+  // The sessions that have a folder under sessions/ (empty when there is none).
+  std::vector<std::string> SessionFolders(Order order = Order::kName) const;
+  // The pass folders of a session under rows/ (empty when there is none).
+  std::vector<std::string> PassFolders(const std::string& session,
+                                       Order order = Order::kName) const;
+  // The session folders under fused/: every sub-folder but colmap/ (empty when there is none).
+  std::vector<std::string> FusedSessionFolders(Order order = Order::kName) const;
+  // The sessions with a dense cloud: the names of the dense/<session>.ply files.
+  std::vector<std::string> DenseCloudSessions(Order order = Order::kName) const;
+  // The sessions with a densify summary: the names of the dense/<session>.json files.
+  std::vector<std::string> DenseSummarySessions(Order order = Order::kName) const;
 
  private:
   std::filesystem::path root_;

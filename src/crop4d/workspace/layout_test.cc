@@ -5,6 +5,8 @@
 #include <fstream>
 #include <set>
 
+#include "crop4d/core/natural_less.h"
+
 namespace crop4d::workspace {
 namespace {
 
@@ -32,7 +34,7 @@ TEST(LayoutTest, EveryArtefactLivesWhereDesignSaysAndPathsAreDistinct) {
                                      ws.Report(),
                                      ws.Lock(),
                                      ws.PassList("s"),
-                                     ws.PassProblem("s", "p"),
+                                     ws.PassMeasurements("s", "p"),
                                      ws.PassFeatures("s", "p"),
                                      ws.PassTracks("s", "p"),
                                      ws.PassStates("s", "p"),
@@ -75,6 +77,42 @@ TEST(LayoutTest, ListsSessionAndPassFoldersSortedAndIgnoresFiles) {
   std::ofstream(ws.RowsDir("2016-07-01") / "notes.txt") << "x";
   EXPECT_EQ(ws.SessionFolders(), (std::vector<std::string>{"2016-06-01", "2016-07-01"}));
   EXPECT_EQ(ws.PassFolders("2016-07-01"), (std::vector<std::string>{"row00", "row01"}));
+  fs::remove_all(root);
+}
+
+TEST(LayoutTest, NaturalOrderPutsRow2BeforeRow10) {
+  EXPECT_TRUE(NaturalLess("row2", "row10"));
+  EXPECT_FALSE(NaturalLess("row10", "row2"));
+  EXPECT_TRUE(NaturalLess("row02", "row3"));
+  EXPECT_TRUE(NaturalLess("2016-05-9", "2016-05-10"));
+  EXPECT_TRUE(NaturalLess("row01", "row1"));  // equal as numbers: plain order decides
+  EXPECT_FALSE(NaturalLess("row1", "row1"));
+  EXPECT_TRUE(NaturalLess("a", "b"));
+  EXPECT_TRUE(NaturalLess("row", "row0"));
+}
+
+TEST(LayoutTest, ListsByNameOrInNaturalOrder) {
+  const fs::path root = fs::path(testing::TempDir()) / "crop4d_layout_order_test";
+  fs::remove_all(root);
+  const Layout ws(root);
+  EXPECT_TRUE(ws.FusedSessionFolders().empty());
+  EXPECT_TRUE(ws.DenseCloudSessions().empty());
+  EXPECT_TRUE(ws.DenseSummarySessions().empty());
+  for (const char* pass : {"row10", "row2", "row1"}) fs::create_directories(ws.PassDir("s", pass));
+  for (const char* session : {"s10", "s9"}) fs::create_directories(ws.FusedSessionDir(session));
+  fs::create_directories(ws.FusedColmapDir());
+  fs::create_directories(ws.DenseDir());
+  for (const char* session : {"s10", "s9"}) std::ofstream(ws.DenseCloud(session)) << "x";
+  std::ofstream(ws.DenseSummary("s9")) << "{}";
+  std::ofstream(ws.DenseDir() / "notes.txt") << "x";
+  using V = std::vector<std::string>;
+  EXPECT_EQ(ws.PassFolders("s"), (V{"row1", "row10", "row2"}));
+  EXPECT_EQ(ws.PassFolders("s", Layout::Order::kNatural), (V{"row1", "row2", "row10"}));
+  EXPECT_EQ(ws.FusedSessionFolders(), (V{"s10", "s9"}));
+  EXPECT_EQ(ws.FusedSessionFolders(Layout::Order::kNatural), (V{"s9", "s10"}));
+  EXPECT_EQ(ws.DenseCloudSessions(), (V{"s10", "s9"}));
+  EXPECT_EQ(ws.DenseCloudSessions(Layout::Order::kNatural), (V{"s9", "s10"}));
+  EXPECT_EQ(ws.DenseSummarySessions(), (V{"s9"}));
   fs::remove_all(root);
 }
 

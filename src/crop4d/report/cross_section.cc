@@ -342,11 +342,7 @@ std::vector<std::string> ListWorkspaceSessions(const std::string& workspace) {
     throw InputError(folder.string(), 0,
                      "the workspace has no sessions/ folder (run crop4d slam first)");
   }
-  std::vector<std::string> sessions;
-  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
-    if (entry.is_directory()) sessions.push_back(entry.path().filename().string());
-  }
-  std::sort(sessions.begin(), sessions.end());
+  const std::vector<std::string> sessions = workspace::Layout(workspace).SessionFolders();
   if (sessions.empty()) throw InputError(folder.string(), 0, "no session folder");
   return sessions;
 }

@@ -20,6 +20,11 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/report/cross_section.h"
 #include "crop4d/report/html_report_builder.h"
+#include "crop4d/workspace/association_summary.h"
+#include "crop4d/workspace/eval_metrics.h"
+#include "crop4d/workspace/pass_summary.h"
+#include "crop4d/workspace/season_quality.h"
+#include "crop4d/workspace/stage_summary.h"
 
 namespace crop4d::report {
 namespace html::detail {
@@ -38,6 +43,7 @@ std::string StatusBadge(const std::string& status) {
 struct DerivedStage {
   const char* name;
   std::vector<fs::path> files;
+  json (*read)(const fs::path& file);  // its typed reader (workspace/), to the file's JSON
   std::optional<double> (*seconds)(const json& summary);
   // "<n> <what><plural>" (the plural ending when n != 1), or `what` alone when `plural` is null.
   const char* what;
@@ -59,6 +65,17 @@ std::optional<double> SecondsElseTotal(const json& j) {
   const std::optional<double> t = Seconds(j);
   return t ? t : TotalSeconds(j);
 }
+
+json PassSummaryJson(const fs::path& p) { return workspace::ReadPassSummary(p.string()).json; }
+json AssociationSummaryJson(const fs::path& p) {
+  return workspace::ReadAssociationSummary(p.string()).json;
+}
+json FusedSummaryJson(const fs::path& p) { return workspace::ReadFusedSummary(p.string()).json; }
+json DenseSummaryJson(const fs::path& p) { return workspace::ReadDenseSummary(p.string()).json; }
+json AnalysisSummaryJson(const fs::path& p) {
+  return workspace::AnalysisSummaryJson(workspace::ReadAnalysisSummary(p));
+}
+json EvalMetricsJson(const fs::path& p) { return workspace::ReadEvalMetrics(p.string()).json; }
 
 }  // namespace
 
@@ -155,14 +172,11 @@ void Builder::ListSessions() {
   auto add = [&](const std::string& s) {
     if (!s.empty() && seen.insert(s).second) extra.push_back(s);
   };
-  for (const fs::path& d : ListDir(layout_.SessionsDir(), true)) add(d.filename().string());
-  for (const fs::path& d : ListDir(layout_.FusedDir(), true)) {
-    const std::string session = d.filename().string();
+  for (const std::string& session : layout_.SessionFolders()) add(session);
+  for (const std::string& session : layout_.FusedSessionFolders()) {
     if (IsFile(layout_.FusedPoses(session)) || IsFile(layout_.FusedSparse(session))) add(session);
   }
-  for (const fs::path& f : ListDir(layout_.DenseDir(), false)) {
-    if (f.extension() == ".json") add(f.stem().string());
-  }
+  for (const std::string& session : layout_.DenseSummarySessions()) add(session);
   std::sort(extra.begin(), extra.end());
   sessions_.insert(sessions_.end(), extra.begin(), extra.end());
 }
@@ -229,29 +243,33 @@ Section Builder::RunSection() {
   h += Empty(
       "WS/run.json not found (the workspace was not made by <code>crop4d run</code>): status and "
       "timings below come from the stages' own summary files (time: the sum over their items).");
-  std::vector<fs::path> slam_files, association_files, dense_files;
-  for (const fs::path& sd : ListDir(layout_.SessionsDir(), true)) {
-    const std::string session = sd.filename().string();
-    for (const fs::path& pd : ListDir(layout_.RowsDir(session), true)) {
-      slam_files.push_back(layout_.PassSummary(session, pd.filename().string()));
+  std::vector<fs::path> slam_files, dense_files;
+  for (const std::string& session : layout_.SessionFolders()) {
+    for (const std::string& pass : layout_.PassFolders(session)) {
+      slam_files.push_back(layout_.PassSummary(session, pass));
     }
   }
-  for (const fs::path& md : ListDir(layout_.AssociationsRoot(), true)) {
-    for (const fs::path& f : ListDir(md, false)) {
-      if (f.extension() != ".json" || f.filename() == "summary.json") continue;
-      association_files.push_back(f);
-    }
-  }
-  for (const fs::path& f : ListDir(layout_.DenseDir(), false)) {
-    if (f.extension() == ".json") dense_files.push_back(f);
+  for (const std::string& session : layout_.DenseSummarySessions()) {
+    dense_files.push_back(layout_.DenseSummary(session));
   }
   const DerivedStage stages[] = {
-      {"slam", slam_files, TotalSeconds, "row pass", "es"},
-      {"associate", association_files, Seconds, "pass pair", "s"},
-      {"fuse", {layout_.FusedSummary()}, TotalSeconds, "joint problem", nullptr},
-      {"densify", dense_files, TotalElseSeconds, "session", "s"},
-      {"analyze", {layout_.AnalysisSummary()}, SecondsElseTotal, "canopy heights, growth", nullptr},
-      {"eval", {layout_.EvalMetrics()}, Seconds, "metrics against ground truth", nullptr},
+      {"slam", slam_files, PassSummaryJson, TotalSeconds, "row pass", "es"},
+      {"associate", workspace::AssociationSummaries(layout_), AssociationSummaryJson, Seconds,
+       "pass pair", "s"},
+      {"fuse", {layout_.FusedSummary()}, FusedSummaryJson, TotalSeconds, "joint problem", nullptr},
+      {"densify", dense_files, DenseSummaryJson, TotalElseSeconds, "session", "s"},
+      {"analyze",
+       {layout_.AnalysisSummary()},
+       AnalysisSummaryJson,
+       SecondsElseTotal,
+       "canopy heights, growth",
+       nullptr},
+      {"eval",
+       {layout_.EvalMetrics()},
+       EvalMetricsJson,
+       Seconds,
+       "metrics against ground truth",
+       nullptr},
   };
   std::vector<std::vector<std::string>> rows;
   double total = 0;
@@ -260,7 +278,7 @@ Section Builder::RunSection() {
     double seconds = 0;
     bool any_seconds = false;
     for (const fs::path& f : d.files) {
-      if (auto j = ReadJson(f)) {
+      if (auto j = ReadArtefact(f, d.read)) {
         ++items;
         if (auto t = d.seconds(*j)) {
           seconds += *t;
@@ -306,21 +324,18 @@ std::vector<std::vector<std::string>> Builder::UntrustedPasses() {
   }
   std::sort(summaries.begin(), summaries.end());
   for (const fs::path& path : summaries) {
-    const auto summary = ReadJson(path);
-    if (!summary) continue;
-    const json* trust = At(*summary, {"trust"});
-    if (trust == nullptr || !trust->is_array() || trust->empty()) continue;
+    const auto summary = ReadArtefact(
+        path, [](const fs::path& p) { return workspace::ReadPassSummary(p.string()); });
+    if (!summary || summary->trust.empty()) continue;
     std::string flags, meaning;
-    for (const json& flag : *trust) {
-      if (!flag.is_string()) continue;
-      const std::string name = flag.get<std::string>();
+    for (const std::string& name : summary->trust) {
       flags += (flags.empty() ? "" : ", ") + name;
       for (const auto& [key, text] : kMeaning) {
         if (name == key) meaning += (meaning.empty() ? "" : "; ") + std::string(text);
       }
     }
-    rows.push_back(
-        {E(Str(*summary, {"session"})), E(Str(*summary, {"pass"})), E(flags), E(meaning)});
+    rows.push_back({E(Str(summary->json, {"session"})), E(Str(summary->json, {"pass"})), E(flags),
+                    E(meaning)});
   }
   return rows;
 }
@@ -350,18 +365,14 @@ Section Builder::SkippedSection() {
   // The sessions' grades (fuse writes them whether or not `crop4d run` ran).
   std::vector<std::vector<std::string>> degraded;
   bool any_trusted = true;
-  if (const auto quality = ReadJson(layout_.FusedQuality())) {
-    any_trusted = quality->value("any_trusted", true);
-    if (const json* ss = At(*quality, {"sessions"}); ss != nullptr && ss->is_array()) {
-      for (const json& g : *ss) {
-        if (g.value("trusted", true) || !g.contains("reasons") || !g["reasons"].is_array())
-          continue;
-        std::string reasons;
-        for (const json& r : g["reasons"]) {
-          if (r.is_string()) reasons += (reasons.empty() ? "" : "; ") + r.get<std::string>();
-        }
-        degraded.push_back({E(Str(g, {"session"})), E(reasons)});
-      }
+  if (const auto quality = ReadArtefact(layout_.FusedQuality(), [](const fs::path& p) {
+        return workspace::ReadSeasonQuality(p.string());
+      })) {
+    any_trusted = quality->any_trusted;
+    for (const workspace::SessionGrade* g : quality->Degraded()) {
+      std::string reasons;
+      for (const std::string& r : g->reasons) reasons += (reasons.empty() ? "" : "; ") + r;
+      degraded.push_back({E(g->session), E(reasons)});
     }
   }
   if (!degraded.empty()) {

@@ -18,6 +18,7 @@
 #include "crop4d/report/html_report_builder.h"
 #include "crop4d/workspace/analysis_summary.h"
 #include "crop4d/workspace/analysis_tables.h"
+#include "crop4d/workspace/eval_metrics.h"
 #include "crop4d/workspace/layout.h"
 
 namespace crop4d::report::html::detail {
@@ -433,15 +434,17 @@ std::string CanopyEvalHtml(const json& m) {
 
 Section Builder::EvalSection() {
   Section s{{"evaluation", "Evaluation against ground truth", false}, ""};
-  auto j = ReadJson(layout_.EvalMetrics());
-  if (!j) {
+  const auto metrics = ReadArtefact(layout_.EvalMetrics(), [](const fs::path& p) {
+    return workspace::ReadEvalMetrics(p.string());
+  });
+  if (!metrics) {
     s.html = Empty(
         "No evaluation: no WS/eval/metrics.json (crop4d eval needs a field with ground truth, "
         "e.g. a simulated one).");
     return s;
   }
   s.info.has_data = true;
-  const json& m = *j;
+  const json& m = metrics->json;
   s.html += TrajectoriesHtml(m);
   s.html += PassesHtml(m);
   s.html += CrossMatchesHtml(m);

@@ -195,8 +195,8 @@ std::vector<MapTrack> Builder::MapTracks() {
       t.source = "fused";
       load_tum(fused, &t);
     } else {
-      for (const fs::path& pd : ListDir(layout_.RowsDir(session), true)) {
-        const fs::path poses = layout_.PassPoses(session, pd.filename().string());
+      for (const std::string& pass : layout_.PassFolders(session)) {
+        const fs::path poses = layout_.PassPoses(session, pass);
         if (IsFile(poses)) {
           t.source = "row SLAM";
           load_tum(poses, &t);

@@ -19,6 +19,10 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/report/cross_section.h"
 #include "crop4d/report/html_report_builder.h"
+#include "crop4d/workspace/association_summary.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_summary.h"
+#include "crop4d/workspace/stage_summary.h"
 
 namespace crop4d::report::html::detail {
 
@@ -31,22 +35,23 @@ Section Builder::SlamSection() {
     if (!IsDir(layout_.SessionDir(session))) continue;
     int listed = -1;
     std::vector<std::string> listed_passes;
-    if (auto csv = ReadCsv(layout_.PassList(session), RelToWs(layout_.PassList(session)))) {
-      listed = static_cast<int>(csv->rows.size());
-      const int c = csv->Col("pass");
-      for (const auto& row : csv->rows) {
-        if (c >= 0) listed_passes.push_back(row[c]);
-      }
+    if (const auto passes = ReadArtefact(layout_.PassList(session), [](const fs::path& p) {
+          return workspace::ReadPassListFile(p.string());
+        })) {
+      listed = static_cast<int>(passes->size());
+      for (const slam::RowPass& p : *passes) listed_passes.push_back(p.id);
     }
     int solved = 0, converged = 0;
     double images = 0, landmarks = 0, seconds = 0, rms_sum = 0;
     int rms_n = 0;
     std::set<std::string> have;
-    for (const fs::path& pd : ListDir(layout_.RowsDir(session), true)) {
-      auto j = ReadJson(layout_.PassSummary(session, pd.filename().string()));
-      if (!j) continue;
+    for (const std::string& pass : layout_.PassFolders(session)) {
+      const auto summary = ReadArtefact(layout_.PassSummary(session, pass), [](const fs::path& p) {
+        return workspace::ReadPassSummary(p.string());
+      });
+      if (!summary) continue;
+      const json* j = &summary->json;
       ++solved;
-      const std::string pass = pd.filename().string();
       have.insert(pass);
       const std::optional<bool> conv = Bool(*j, {"back_end", "converged"});
       if (conv.value_or(false)) ++converged;
@@ -113,24 +118,20 @@ Section Builder::AssociationSection() {
     bool prealigned = false;
   };
   std::map<std::string, std::vector<Pair>> by_method;
-  std::vector<fs::path> files = ListDir(layout_.AssociationsRoot(), false);
-  for (const fs::path& md : ListDir(layout_.AssociationsRoot(), true)) {
-    for (const fs::path& f : ListDir(md, false)) files.push_back(f);
-  }
-  for (const fs::path& f : files) {
-    if (f.extension() != ".json") continue;
-    auto j = ReadJson(f);
-    if (!j || At(*j, {"a"}) == nullptr || At(*j, {"b"}) == nullptr) continue;
+  for (const fs::path& f : workspace::AssociationSummaries(layout_)) {
+    const auto summary = ReadArtefact(
+        f, [](const fs::path& p) { return workspace::ReadAssociationSummary(p.string()); });
+    if (!summary) continue;
     Pair p;
-    p.a = Str(*j, {"a", "session"}) + " " + Str(*j, {"a", "pass"});
-    p.b = Str(*j, {"b", "session"}) + " " + Str(*j, {"b", "pass"});
-    p.type = Str(*j, {"type"});
-    p.matches = Num(*j, {"matches"});
-    p.image_pairs = Num(*j, {"image_pairs"});
-    p.putative = Num(*j, {"putative"});
-    p.seconds = Num(*j, {"seconds"});
-    p.prealigned = Bool(*j, {"prealigned"}).value_or(false);
-    std::string method = Str(*j, {"method"});
+    p.a = summary->a.session + " " + summary->a.pass;
+    p.b = summary->b.session + " " + summary->b.pass;
+    p.type = summary->type;
+    p.matches = static_cast<double>(summary->matches);
+    p.image_pairs = summary->image_pairs;
+    p.putative = static_cast<double>(summary->putative);
+    p.seconds = summary->seconds;
+    p.prealigned = summary->prealigned;
+    std::string method = summary->method;
     if (method.empty()) method = f.parent_path().filename().string();
     by_method[method].push_back(p);
   }
@@ -194,13 +195,15 @@ Section Builder::FusionSection() {
   const auto Cm = [](std::optional<double> m) {
     return m ? std::optional<double>(100.0 * *m) : std::nullopt;
   };
-  auto j = ReadJson(layout_.FusedSummary());
-  if (!j) {
+  const auto summary = ReadArtefact(layout_.FusedSummary(), [](const fs::path& p) {
+    return workspace::ReadFusedSummary(p.string());
+  });
+  if (!summary) {
     s.html = Empty("4D fusion has not run: no WS/fused/summary.json.");
     return s;
   }
   s.info.has_data = true;
-  const json& f = *j;
+  const json& f = summary->json;
   std::string sessions;
   if (const json* ss = At(f, {"sessions"}); ss != nullptr && ss->is_array()) {
     for (const json& x : *ss) {
@@ -269,18 +272,19 @@ Section Builder::DenseSection() {
   Section s{{"dense", "Dense clouds", false}, ""};
   std::vector<std::vector<std::string>> rows;
   double total = 0;
-  for (const fs::path& f : ListDir(layout_.DenseDir(), false)) {
-    if (f.extension() != ".json") continue;
-    auto j = ReadJson(f);
-    if (!j) continue;
-    std::string session = Str(*j, {"session"});
-    if (session.empty()) session = f.stem().string();
+  for (const std::string& file_session : layout_.DenseSummarySessions()) {
+    const auto summary = ReadArtefact(layout_.DenseSummary(file_session), [](const fs::path& p) {
+      return workspace::ReadDenseSummary(p.string());
+    });
+    if (!summary) continue;
+    const json* j = &summary->json;
+    std::string session = summary->session.empty() ? file_session : summary->session;
     std::optional<double> secs = Num(*j, {"seconds", "total"});
     if (!secs) secs = Num(*j, {"seconds"});
     total += secs.value_or(0);
     std::optional<double> mb;
     std::error_code ec;
-    const fs::path ply = layout_.DenseCloud(f.stem().string());
+    const fs::path ply = layout_.DenseCloud(file_session);
     const auto bytes = fs::file_size(ply, ec);
     if (!ec) mb = bytes / 1e6;
     rows.push_back({"<span class=\"swatch\" style=\"background:" + SessionColor(session) +

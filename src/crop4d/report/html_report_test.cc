@@ -16,11 +16,16 @@
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/workspace/analysis_summary.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_summary.h"
+#include "crop4d/workspace/season_quality.h"
+#include "crop4d/workspace/stage_summary.h"
 
 namespace crop4d::report {
 namespace {
 
 namespace fs = std::filesystem;
+using json = nlohmann::json;
 using io::testing::ReadText;
 using io::testing::TempDir;
 using io::testing::WriteText;
@@ -73,21 +78,33 @@ void MakeWorkspace(const TempDir& dir) {
   int s = 0;
   for (const char* session : kSessions) {
     const std::string sd = ws + "/sessions/" + session;
-    WriteText(sd + "/passes.csv",
-              "pass,row,direction,t_begin [ns],t_end [ns]\nrow00,0,1,0,1\nrow01,1,-1,2,3\n");
+    slam::RowPass pass0, pass1;
+    pass0.id = "row00";
+    pass0.row = 0;
+    pass0.direction = 1;
+    pass1.id = "row01";
+    pass1.row = 1;
+    pass1.direction = -1;
+    fs::create_directories(sd);
+    workspace::WritePassList(sd + "/passes.csv", {pass0, pass1});
     for (int row = 0; row < 2; ++row) {
       const std::string pd = sd + "/rows/row0" + std::to_string(row);
       fs::create_directories(pd);
       WritePoses(pd + "/poses.tum", row, t0 + row * 10'000'000'000LL);
-      WriteText(
-          pd + "/summary.json", R"({"session": ")" + std::string(session) + R"(", "pass": "row0)" +
-                                    std::to_string(row) + R"(", "row": )" + std::to_string(row) +
-                                    R"(, "direction": 1, "sensors": "cam+imu+rtk", "images": 41,
-                    "back_end": {"converged": true, "landmarks": 500,
-                    "reprojection_rms_px": 0.45, "rejected_observations": 3,
-                    "gps_factors": 40}, "cloud": {"points": 900},
-                    "trust": )" + (s == 1 && row == 1 ? R"(["gps_gap", "noise_misfit"])" : "[]") +
-                                    R"(, "seconds": {"total": 12.5}})");
+      json summary = json::parse(
+          R"({"session": ")" + std::string(session) + R"(", "pass": "row0)" + std::to_string(row) +
+          R"(", "row": )" + std::to_string(row) +
+          R"(, "direction": 1, "sensors": "cam+imu+rtk", "images": 41, "fingerprint": "1",
+              "back_end": {"converged": true, "landmarks": 500,
+              "reprojection_rms_px": 0.45, "rejected_observations": 3,
+              "gps_factors": 40}, "cloud": {"points": 900},
+              "trust": )" +
+          (s == 1 && row == 1 ? R"(["gps_gap", "noise_misfit"])" : "[]") +
+          R"(, "seconds": {"total": 12.5}})");
+      workspace::PassPriors problem;
+      problem.camera = "cam0";
+      summary["problem"] = workspace::ToJson(problem);
+      workspace::WritePassSummary(pd + "/summary.json", summary);
     }
     WriteCloud(ws + "/fused/" + session + "/sparse.ply", 0.1 + 0.2 * s);
     WritePoses(ws + "/fused/" + session + "/poses.tum", 0, t0);
@@ -98,26 +115,35 @@ void MakeWorkspace(const TempDir& dir) {
             R"({"a": {"session": "2016-06-01", "pass": "row00"},
                 "b": {"session": "2016-06-15", "pass": "row00"}, "method": "robust",
                 "type": "cross-session same direction", "matches": 321, "image_pairs": 40,
-                "putative": 400, "prealigned": false, "seconds": 3.25})");
-  WriteText(ws + "/fused/quality.json",
-            R"({"standard": "rtk", "any_trusted": true, "sessions": [
-                {"session": "2016-06-01", "trusted": true, "reasons": []},
-                {"session": "2016-06-15", "trusted": false,
-                 "reasons": ["positioned with a metre-level GPS (cam+imu+gps) while 1 of 2 sessions have RTK"]}]})");
-  WriteText(ws + "/fused/summary.json",
-            R"({"sessions": ["2016-06-01", "2016-06-15"], "joint": {"passes": 4,
+                "landmarks": 900, "surface_points": 800, "projected": 700, "candidates": 600,
+                "warped": 500, "upright_b": 0, "alignment_inliers": 0, "alignment_shift_m": 0.0,
+                "putative": 400, "prealigned": false, "seconds": 3.25, "fingerprint": "2"})");
+  {
+    workspace::SeasonQuality quality;
+    quality.standard = workspace::Positioning::kRtk;
+    quality.sessions = {{"2016-06-01", true, {}},
+                        {"2016-06-15",
+                         false,
+                         {"positioned with a metre-level GPS (cam+imu+gps) while 1 of 2 sessions "
+                          "have RTK"}}};
+    workspace::WriteSeasonQuality(ws + "/fused/quality.json", quality);
+  }
+  workspace::WriteFusedSummary(
+      ws + "/fused/summary.json",
+      json::parse(R"({"sessions": ["2016-06-01", "2016-06-15"], "joint": {"passes": 4,
                 "converged": true, "landmarks": 2000, "shared_landmarks": 300,
                 "observations": 9000, "cross_observations": 800, "iterations": 12,
                 "reprojection_rms_px": 0.41, "initial_cost": 100.0, "final_cost": 50.0,
                 "ground_ties": 73, "ground_tie_rms_across_m": 0.1045,
-                "ground_tie_rms_vertical_m": 0.0261},
+                "ground_tie_rms_vertical_m": 0.0261}, "fingerprint": "3",
                 "seconds": {"solve": 4.0, "final_solve": 1.0, "total": 6.5},
                 "passes": [{"session": "2016-06-01", "pass": "row00", "images": 41,
-                "mean_shift_m": [0.001, 0.002, 0.0], "rotation_change_deg": 0.05}]})");
-  WriteText(ws + "/dense/2016-06-01.json",
-            R"({"session": "2016-06-01", "points": 123456, "tiles": 80,
+                "mean_shift_m": [0.001, 0.002, 0.0], "rotation_change_deg": 0.05}]})"));
+  workspace::WriteDenseSummary(ws + "/dense/2016-06-01.json",
+                               json::parse(R"({"session": "2016-06-01", "points": 123456,
+                "tiles": 80, "poses": 41, "views": 82, "fingerprint": "4",
                 "images": {"used": 82, "mean_views_per_tile": 6.5},
-                "seconds": {"total": 20.0}})");
+                "seconds": {"total": 20.0}})"));
   WriteText(ws + "/dense/2016-06-15.json", "{ this is not json");
   {
     workspace::AnalysisSummary summary;
@@ -145,8 +171,9 @@ void MakeWorkspace(const TempDir& dir) {
   cv::line(plot, {10, 110}, {190, 10}, cv::Scalar(180, 119, 31), 2);
   fs::create_directories(ws + "/analysis/plots");
   ASSERT_TRUE(cv::imwrite(ws + "/analysis/plots/heights.png", plot));
-  WriteText(ws + "/eval/metrics.json",
-            R"({"overall": {"num_passes": 4, "num_evaluated": 4, "num_poses": 164,
+  WriteText(
+      ws + "/eval/metrics.json",
+      R"({"crop4d_version": "0.1.0", "overall": {"num_passes": 4, "num_evaluated": 4, "num_poses": 164,
                 "ate_raw_m": {"rmse": 0.0087}, "ate_aligned_m": {"rmse": 0.0048},
                 "rotation_deg": {"rmse": 0.068}},
                 "passes": [{"session": "2016-06-01", "pass": "row00", "sensors": "cam+imu+rtk",

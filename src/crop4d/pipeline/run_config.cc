@@ -2,459 +2,16 @@
 
 #include <fmt/format.h>
 
-#include <cmath>
-#include <functional>
-#include <map>
-#include <optional>
 #include <set>
 #include <sstream>
-#include <vector>
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/yaml_util.h"
-#include "crop4d/pipeline/stage_option_fields.h"
+#include "crop4d/pipeline/run_config_keys.h"
 
 namespace crop4d::pipeline {
 
 namespace {
-
-// One key of the file. Parsing and formatting both go through this table, so the file written
-// to WS/crop4d.yaml always reads back to the same configuration. A key is bound to its option by
-// the option's dotted path in RunConfig's field lists (stage_option_fields.h).
-struct Key {
-  const char* section;  // "" for the top level
-  const char* name;
-  const char* comment;
-  const char* field;  // "slam.front_end.num_neighbors"
-  // The value as YAML text.
-  std::function<std::string(RunConfig&)> get;
-  // Sets the value from a YAML scalar; returns an error message, "" when valid.
-  std::function<std::string(RunConfig&, const std::string&)> set;
-};
-
-// The option at `path`; a path that names no field of type T is a programmer error.
-template <typename T>
-T& FieldOf(RunConfig& c, const char* path) {
-  T* field = fields::FindField<T>(c, path);
-  CROP4D_CHECK_MSG(field != nullptr, std::string("a configuration key is bound to '") + path +
-                                         "', which is no field of that type in RunConfig's "
-                                         "field lists (stage_option_fields.h)");
-  return *field;
-}
-
-std::string FormatDouble(double v) {
-  std::string s = fmt::format("{:.10g}", v);
-  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
-  return s;
-}
-
-Key Double(const char* section, const char* name, const char* comment, const char* field,
-           double min, double max) {
-  return {section,
-          name,
-          comment,
-          field,
-          [field](RunConfig& c) { return FormatDouble(FieldOf<double>(c, field)); },
-          [field, min, max](RunConfig& c, const std::string& text) -> std::string {
-            double v = 0;
-            if (!io::ParseYamlDouble(text, &v) || !std::isfinite(v)) return "expected a number";
-            if (v < min || v > max) return fmt::format("expected a value in [{}, {}]", min, max);
-            FieldOf<double>(c, field) = v;
-            return "";
-          }};
-}
-
-Key Int(const char* section, const char* name, const char* comment, const char* field, int min,
-        int max) {
-  return {section,
-          name,
-          comment,
-          field,
-          [field](RunConfig& c) { return std::to_string(FieldOf<int>(c, field)); },
-          [field, min, max](RunConfig& c, const std::string& text) -> std::string {
-            std::size_t used = 0;
-            long v = 0;
-            try {
-              v = std::stol(text, &used);
-            } catch (const std::exception&) {
-              used = 0;
-            }
-            if (used == 0 || used != text.size()) return "expected an integer";
-            if (v < min || v > max) return fmt::format("expected an integer in [{}, {}]", min, max);
-            FieldOf<int>(c, field) = static_cast<int>(v);
-            return "";
-          }};
-}
-
-Key Bool(const char* section, const char* name, const char* comment, const char* field) {
-  return {section,
-          name,
-          comment,
-          field,
-          [field](RunConfig& c) { return FieldOf<bool>(c, field) ? "true" : "false"; },
-          [field](RunConfig& c, const std::string& text) -> std::string {
-            if (text == "true") {
-              FieldOf<bool>(c, field) = true;
-            } else if (text == "false") {
-              FieldOf<bool>(c, field) = false;
-            } else {
-              return "expected true or false";
-            }
-            return "";
-          }};
-}
-
-std::string Quote(const std::string& s) {
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') out += '\\';
-    out += ch;
-  }
-  return out + "\"";
-}
-
-// A free string (a path).
-Key String(const char* section, const char* name, const char* comment, const char* field) {
-  return {section,
-          name,
-          comment,
-          field,
-          [field](RunConfig& c) { return Quote(FieldOf<std::string>(c, field)); },
-          [field](RunConfig& c, const std::string& text) -> std::string {
-            FieldOf<std::string>(c, field) = text;
-            return "";
-          }};
-}
-
-// One of a few words; `get`/`set` convert between the word and the option.
-Key Choice(const char* section, const char* name, const char* comment, const char* field,
-           std::vector<std::string> words, std::function<std::string(RunConfig&)> get,
-           std::function<void(RunConfig&, const std::string&)> set) {
-  return {section,
-          name,
-          comment,
-          field,
-          get,
-          [words, set](RunConfig& c, const std::string& text) -> std::string {
-            for (const std::string& w : words) {
-              if (w == text) {
-                set(c, text);
-                return "";
-              }
-            }
-            std::string list;
-            for (const std::string& w : words) list += (list.empty() ? "" : ", ") + w;
-            return "expected one of " + list;
-          }};
-}
-
-// A string option that takes one of `words` as is.
-Key Word(const char* section, const char* name, const char* comment, std::vector<std::string> words,
-         const char* field) {
-  return Choice(
-      section, name, comment, field, std::move(words),
-      [field](RunConfig& c) { return FieldOf<std::string>(c, field); },
-      [field](RunConfig& c, const std::string& w) { FieldOf<std::string>(c, field) = w; });
-}
-
-// An enum option, by the names of its values (FieldEnumNames); with `unset_word`, an optional
-// one that this word leaves unset.
-template <typename E>
-Key Enum(const char* section, const char* name, const char* comment, const char* field,
-         const char* unset_word = nullptr) {
-  std::vector<std::string> words;
-  if (unset_word != nullptr) words.emplace_back(unset_word);
-  for (const fields::EnumName<E>& n : FieldEnumNames(E{})) words.emplace_back(n.name);
-  auto value = [](const std::string& word) {
-    for (const fields::EnumName<E>& n : FieldEnumNames(E{})) {
-      if (word == n.name) return n.value;
-    }
-    return E{};  // not reached: Choice passes only the words
-  };
-  if (unset_word == nullptr) {
-    return Choice(
-        section, name, comment, field, std::move(words),
-        [field](RunConfig& c) -> std::string {
-          return fields::EnumValueName(FieldOf<E>(c, field));
-        },
-        [field, value](RunConfig& c, const std::string& w) { FieldOf<E>(c, field) = value(w); });
-  }
-  const std::string unset = unset_word;
-  return Choice(
-      section, name, comment, field, std::move(words),
-      [field, unset](RunConfig& c) -> std::string {
-        const std::optional<E>& v = FieldOf<std::optional<E>>(c, field);
-        return v ? fields::EnumValueName(*v) : unset;
-      },
-      [field, value, unset](RunConfig& c, const std::string& w) {
-        FieldOf<std::optional<E>>(c, field) =
-            w == unset ? std::nullopt : std::optional<E>(value(w));
-      });
-}
-
-const std::vector<Key>& Keys() {
-  static const std::vector<Key> keys = [] {
-    std::vector<Key> k;
-    constexpr double kHuge = 1e9;
-    k.push_back(Int("", "threads", "worker threads for every stage (0: all cores)", "threads", 0,
-                    RunConfig::kMaxThreads));
-
-    k.push_back(Bool("stages", "densify",
-                     "dense clouds before the analysis (else the analysis uses the sparse clouds)",
-                     "densify"));
-    k.push_back(Word("stages", "eval",
-                     "evaluation against ground truth: auto (when FIELD/ground_truth/ exists), "
-                     "always, never",
-                     {"auto", "always", "never"}, "eval"));
-    k.push_back(Bool("stages", "report", "write WS/report.html at the end", "report"));
-
-    k.push_back(Enum<slam::SensorSet>(
-        "slam", "sensors",
-        "sensor set: auto (cam+imu+rtk with an RTK receiver, else cam+imu+gps, else cam+imu), "
-        "cam+imu+rtk, cam+imu+gps, cam+imu, imu+rtk",
-        "slam.sensors", "auto"));
-    k.push_back(Int("slam", "neighbors", "each image is matched with this many following images",
-                    "slam.front_end.num_neighbors", 1, 50));
-    k.push_back(Int("slam", "min_track_length", "a landmark is seen in at least this many images",
-                    "slam.front_end.tracks.min_track_length", 2, 1000));
-    k.push_back(Double("slam", "max_reprojection_error_px",
-                       "observations above this error are removed before the final solve",
-                       "slam.optimiser.max_reprojection_error_px", 0.1, 1000));
-    k.push_back(Double("slam", "state_rate_hz", "states per second of a camera-less pass",
-                       "slam.state_rate_hz", 0.1, 1000));
-    k.push_back(Bool("slam", "motion_constraint",
-                     "the non-holonomic constraint of a vehicle on row passes",
-                     "slam.motion_constraint"));
-    k.push_back(Bool("slam", "imu_noise_auto",
-                     "inflate the stated IMU noise when the session's IMU + GPS fit misses the "
-                     "fixes by more than 1.5 sigmas (false: warn only)",
-                     "slam.imu_noise_auto"));
-    k.push_back(Enum<PassMode>(
-        "slam", "passes",
-        "auto (row passes where the drive has rows, declared or clearly found; else one "
-        "trajectory), rows (every straight pass along the rows' axis) or whole (one trajectory)",
-        "slam.pass_mode"));
-    k.push_back(Double(
-        "slam", "max_window_s",
-        "a session processed as one trajectory is cut into windows of at most this many seconds",
-        "slam.max_window_s", 30, 1e6));
-    k.push_back(Bool("slam", "estimate_time_offset",
-                     "estimate the camera-IMU time offset of each pass (capture instant - image "
-                     "stamp; for rigs whose camera and IMU clocks are not synchronised)",
-                     "slam.optimiser.estimate_time_offset"));
-    k.push_back(Double("slam", "gps_gate_chi2",
-                       "drop GPS fixes whose residual against the trajectory, in their own "
-                       "sigmas, has a squared norm above this (chi-square, 3 dof; 21.1: 1e-4 "
-                       "false rejections; 0: off, the Huber loss only)",
-                       "slam.optimiser.gps_gate_chi2", 0, 1e6));
-    k.push_back(Bool("slam", "standstills",
-                     "detect standstills (zero velocity, one pose while the rig stands still)",
-                     "slam.standstills"));
-    k.push_back(Double(
-        "slam", "camera_height_m",
-        "camera above the ground, measured on the rig: the scale of passes without RTK (0: the "
-        "camera's sensor.yaml height_above_ground_m, if any)",
-        "slam.camera_height_m", 0, 100));
-    k.push_back(Bool("slam", "use_camera_height",
-                     "set the scale of passes without RTK from the camera height, when known",
-                     "slam.use_camera_height"));
-
-    k.push_back(Word("associate", "method",
-                     "robust (the paper's), naive (whole-image baseline) or both",
-                     {"robust", "naive", "both"}, "associate.method"));
-    k.push_back(Int("associate", "session_gap",
-                    "a row is matched with the same row in this many later sessions",
-                    "associate.session_gap", 1, 1000));
-    k.push_back(Double("associate", "min_overlap",
-                       "image pairs need this ground-footprint overlap (0..1)",
-                       "associate.image_pairs.min_overlap", 0.0, 1.0));
-    k.push_back(Int("associate", "pairs_per_image", "image pairs per image of the first pass",
-                    "associate.image_pairs.max_pairs_per_image", 1, 1000));
-    k.push_back(Double("associate", "sigma_position_m",
-                       "position uncertainty of the row-SLAM poses for the bounded search",
-                       "associate.robust.sigma_position_m", 0.0, kHuge));
-    k.push_back(Double("associate", "max_ratio", "distinctiveness ratio of a match",
-                       "associate.robust.max_ratio", 0.01, 1.0));
-    k.push_back(Double("associate", "warp_baseline_m", "plane-induced warp beyond this baseline",
-                       "associate.robust.warp_min_baseline_m", 0.0, kHuge));
-    k.push_back(Word("associate", "prealign",
-                     "pre-alignment of passes placed by a metre-level GPS: auto, always, never",
-                     {"auto", "always", "never"}, "associate.prealign"));
-    k.push_back(Int("associate", "min_track_length",
-                    "landmarks projected from row-SLAM tracks of at least this many images",
-                    "associate.min_track_length", 2, 1000));
-    k.push_back(Double("associate", "max_landmark_distance_m",
-                       "landmarks projected up to this distance from the camera",
-                       "associate.max_landmark_distance_m", 0.1, kHuge));
-    k.push_back(Bool("associate", "surface_points",
-                     "also project the features that are no landmark, placed on the local "
-                     "surface of the landmarks around them",
-                     "associate.surface_points"));
-    k.push_back(Bool("associate", "upright",
-                     "describe warped keypoints and their candidates upright in the second "
-                     "image's pixel grid rather than at SIFT's orientations",
-                     "associate.robust.upright_after_warp"));
-
-    k.push_back(Word("fuse", "method", "the associations used: robust or naive",
-                     {"robust", "naive"}, "fuse.method"));
-    k.push_back(Int("fuse", "matches_per_image_pair",
-                    "cross matches of one image pair used at most (0: all)",
-                    "fuse.max_matches_per_image_pair", 0, 1000000));
-    k.push_back(Double("fuse", "max_reprojection_error_px",
-                       "observations above this error are removed before the final solve",
-                       "fuse.optimiser.row.max_reprojection_error_px", 0.1, 1000));
-    k.push_back(Double("fuse", "gps_gate_chi2",
-                       "the GPS outlier gate of the joint problem (as slam.gps_gate_chi2; 0: off)",
-                       "fuse.optimiser.row.gps_gate_chi2", 0, 1e6));
-    k.push_back(Int("fuse", "max_iterations", "Levenberg-Marquardt iterations per solve",
-                    "fuse.optimiser.row.max_iterations", 1, 100000));
-    k.push_back(
-        Double("fuse", "function_tolerance",
-               "a solve stops when an iteration lowers the cost by less than this fraction of it",
-               "fuse.optimiser.row.function_tolerance", 1e-12, 0.1));
-    k.push_back(Double(
-        "fuse", "max_imu_gap_s",
-        "a pass with no IMU sample for longer than this degrades its session (season_quality.h)",
-        "fuse.quality.max_imu_gap_s", 0.001, 1e6));
-    k.push_back(Choice(
-        "fuse", "linear_solver",
-        "exact (sparse Cholesky of the Schur complement) or iterative (conjugate gradients)",
-        "fuse.optimiser.row.iterative_schur", {"exact", "iterative"},
-        [](RunConfig& c) -> std::string {
-          return FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") ? "iterative" : "exact";
-        },
-        [](RunConfig& c, const std::string& w) {
-          FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") = w == "iterative";
-        }));
-    k.push_back(Choice(
-        "fuse", "estimate_time_offset",
-        "refine each pass's camera-IMU time offset in the joint problem: auto (the passes whose "
-        "row SLAM estimated one, slam.estimate_time_offset), true (every pass) or false (row "
-        "SLAM's held)",
-        "fuse.optimiser.estimate_time_offset", {"auto", "true", "false"},
-        [](RunConfig& c) -> std::string {
-          const std::optional<bool>& v =
-              FieldOf<std::optional<bool>>(c, "fuse.optimiser.estimate_time_offset");
-          return !v ? "auto" : (*v ? "true" : "false");
-        },
-        [](RunConfig& c, const std::string& w) {
-          FieldOf<std::optional<bool>>(c, "fuse.optimiser.estimate_time_offset") =
-              w == "auto" ? std::nullopt : std::optional<bool>(w == "true");
-        }));
-    k.push_back(Bool("fuse", "colmap", "write the COLMAP text model of the fused reconstruction",
-                     "fuse.write_colmap"));
-    k.push_back(Bool("fuse", "ground_ties",
-                     "tie the two dates of a row through their soil where association found "
-                     "no cross matches",
-                     "fuse.ground_ties"));
-    k.push_back(
-        Int("fuse", "ground_tie_max_matches",
-            "pairs of passes of two sessions with fewer cross matches than this get ground ties",
-            "fuse.ground_tie_max_matches", 0, 1000000));
-
-    k.push_back(Double("densify", "cell_m", "cell of the height-field grid",
-                       "densify_options.stereo.cell_m", 0.001, 1.0));
-    k.push_back(Double("densify", "max_canopy_height_m", "heights swept above the ground",
-                       "densify_options.stereo.max_canopy_height_m", 0.01, 100));
-    k.push_back(Double("densify", "margin_m", "the crop rows widened by this much",
-                       "densify_options.margin_m", 0.0, 1000));
-    k.push_back(Int("densify", "max_views", "views compared with the reference view per cell",
-                    "densify_options.stereo.max_views", 1, 100));
-    k.push_back(Double("densify", "min_score", "aggregated ZNCC a cell needs",
-                       "densify_options.stereo.min_score", -1.0, 1.0));
-    k.push_back(
-        Double("densify", "top_surface_margin",
-               "a green peak above a cell's best height (a top leaf) scoring at most this much "
-               "less wins (0: off)",
-               "densify_options.stereo.top_surface_margin", 0.0, 2.0));
-    k.push_back(Bool("densify", "around_sites", "only discs of radius_m around the sites",
-                     "densify_options.around_sites"));
-    k.push_back(Double("densify", "radius_m", "radius of the discs of around_sites",
-                       "densify_options.radius_m", 0.01, 1000));
-
-    k.push_back(String("analyze", "sites",
-                       "sites file (CSV: site_id,x,y,radius_m or site_id,lat,lon,radius_m); \"\": "
-                       "the sites of field.yaml",
-                       "analyze.sites_file"));
-    k.push_back(Word("analyze", "cloud",
-                     "clouds analysed: auto (dense when present), dense, sparse",
-                     {"auto", "dense", "sparse"}, "analyze.cloud"));
-    k.push_back(Choice(
-        "analyze", "greenness", "vegetation index: exg or exgr", "analyze.vegetation.index",
-        {"exg", "exgr"},
-        [](RunConfig& c) -> std::string {
-          return FieldOf<analysis::GreennessIndex>(c, "analyze.vegetation.index") ==
-                         analysis::GreennessIndex::kExGR
-                     ? "exgr"
-                     : "exg";
-        },
-        [](RunConfig& c, const std::string& w) {
-          FieldOf<analysis::GreennessIndex>(c, "analyze.vegetation.index") =
-              w == "exgr" ? analysis::GreennessIndex::kExGR : analysis::GreennessIndex::kExG;
-        }));
-    k.push_back(Enum<analysis::CanopyTop>(
-        "analyze", "canopy_top", "canopy height per site: plant-tops, crown-peaks or quantile",
-        "analyze.canopy.top"));
-    k.push_back(Double("analyze", "plant_top_quantile", "quantile of a plant's canopy cells",
-                       "analyze.canopy.plant_top_quantile", 0.0, 1.0));
-    k.push_back(Double("analyze", "max_shrink_m",
-                       "a plant's top is at most its top in the next session plus this (-1: off)",
-                       "analyze.canopy.max_shrink_m", -1.0, 10));
-    k.push_back(
-        Double("analyze", "plant_min_prominence_m",
-               "touching plants are split where the lower top rises this much above the saddle",
-               "analyze.plants.min_prominence_m", 0.0, 10));
-    k.push_back(Double("analyze", "min_canopy_height_m",
-                       "vegetation this far above the terrain is canopy",
-                       "analyze.canopy.min_height_m", 0.0, 10));
-    k.push_back(Double("analyze", "min_canopy_height_any_colour_m",
-                       "any point this far above the terrain is canopy",
-                       "analyze.canopy.min_height_any_colour_m", 0.0, 10));
-    k.push_back(Double("analyze", "terrain_cell_m", "cell of the terrain model",
-                       "analyze.terrain.cell_m", 0.005, 10));
-    k.push_back(Double("analyze", "terrain_radius_m", "radius of the terrain's local fits",
-                       "analyze.terrain.fit_radius_m", 0.01, 100));
-    k.push_back(Double(
-        "analyze", "ground_filter_window_m",
-        "soil-coloured points above the ground's opening with this window are not ground (0: off)",
-        "analyze.terrain.ground_filter.window_m", 0.0, 100));
-    k.push_back(Double("analyze", "ground_filter_height_m", "... when more than this above it",
-                       "analyze.terrain.ground_filter.max_height_m", 0.001, 10));
-    k.push_back(Bool("analyze", "later_session_terrain",
-                     "refine the terrain with later sessions' bare ground",
-                     "analyze.terrain.use_later_sessions"));
-    k.push_back(
-        Double("analyze", "lone_point_radius_m",
-               "dense clouds: points without another within this radius are left out (0: none)",
-               "analyze.lone_point_radius_m", 0.0, 1.0));
-    k.push_back(Double("analyze", "raster_cell_m", "cell of the GeoTIFF rasters",
-                       "analyze.raster_cell_m", 0.001, 100));
-
-    k.push_back(Double("eval", "rpe_distance_m", "relative pose error over this path length",
-                       "eval_options.metrics.rpe_distance_m", 0.01, kHuge));
-    k.push_back(Double("eval", "match_distance_m", "a cross match is correct within this distance",
-                       "eval_options.association.max_distance_m", 0.0001, 100));
-    k.push_back(Double("eval", "canopy_max_error_m",
-                       "a canopy height further from the truth is a failure",
-                       "eval_options.canopy_options.max_error_m", 0.0001, 100));
-    k.push_back(Bool("eval", "associations",
-                     "precision of the cross matches (renders a true depth map per matched image: "
-                     "the slow part of the evaluation)",
-                     "eval_options.associations"));
-    k.push_back(String("eval", "depth_cache",
-                       "where rendered true depth maps are kept (\"\": "
-                       "WS/eval/depth)",
-                       "eval_options.depth_cache_dir"));
-    // Every key's field is there, of its type (aborts otherwise: a programmer error).
-    RunConfig defaults;
-    for (const Key& key : k) key.get(defaults);
-    return k;
-  }();
-  return keys;
-}
-
-const char* const kSections[] = {"",     "stages",  "slam",    "associate",
-                                 "fuse", "densify", "analyze", "eval"};
 
 RunConfig Parse(io::YamlFile& file) {
   RunConfig config;
@@ -463,7 +20,7 @@ RunConfig Parse(io::YamlFile& file) {
     file.Error(io::YamlLine(file.root()), "expected a map of sections");
     file.Finish();
   }
-  std::set<std::string> sections(std::begin(kSections), std::end(kSections));
+  std::set<std::string> sections(std::begin(kConfigSections), std::end(kConfigSections));
   for (const auto& item : file.root()) {
     const std::string name = item.first.as<std::string>();
     const std::int64_t line = io::YamlLine(item.first);
@@ -476,8 +33,8 @@ RunConfig Parse(io::YamlFile& file) {
       for (const auto& entry : value) {
         const std::string key = entry.first.as<std::string>();
         const std::int64_t key_line = io::YamlLine(entry.first);
-        const Key* found = nullptr;
-        for (const Key& k : Keys()) {
+        const ConfigKey* found = nullptr;
+        for (const ConfigKey& k : ConfigKeys()) {
           if (k.section == name && k.name == key) found = &k;
         }
         if (found == nullptr) {
@@ -493,8 +50,8 @@ RunConfig Parse(io::YamlFile& file) {
       }
       continue;
     }
-    const Key* found = nullptr;
-    for (const Key& k : Keys()) {
+    const ConfigKey* found = nullptr;
+    for (const ConfigKey& k : ConfigKeys()) {
       if (std::string(k.section).empty() && k.name == name) found = &k;
     }
     if (found == nullptr) {
@@ -515,12 +72,6 @@ RunConfig Parse(io::YamlFile& file) {
 }
 
 }  // namespace
-
-std::vector<RunConfigKey> RunConfigKeys() {
-  std::vector<RunConfigKey> out;
-  for (const Key& k : Keys()) out.push_back({k.section, k.name, k.field});
-  return out;
-}
 
 bool RunConfig::Check(std::string* message) const {
   auto fail = [message](const std::string& m) {
@@ -560,10 +111,10 @@ std::string FormatRunConfig(const RunConfig& config) {
   std::ostringstream out;
   out << "# crop4d run configuration (docs/run.md). Every key is optional; edit and pass back\n"
          "# with `crop4d run FIELD --workspace WS --config FILE`.\n";
-  for (const char* section : kSections) {
+  for (const char* section : kConfigSections) {
     const bool top = std::string(section).empty();
     if (!top) out << "\n" << section << ":\n";
-    for (const Key& k : Keys()) {
+    for (const ConfigKey& k : ConfigKeys()) {
       if (std::string(k.section) != section) continue;
       const std::string indent = top ? "" : "  ";
       out << indent << "# " << k.comment << "\n" << indent << k.name << ": " << k.get(c) << "\n";

@@ -6,16 +6,13 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
 #include "crop4d/core/error.h"
-#include "crop4d/core/hash.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
@@ -24,6 +21,7 @@
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/validator.h"
 #include "crop4d/io/workspace_lock.h"
+#include "crop4d/pipeline/season_run_eval.h"
 #include "crop4d/report/html_report.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/stage_files.h"
@@ -31,7 +29,6 @@
 namespace crop4d::pipeline {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
 
 bool RunResult::any_stage_failed() const { return record.AnyStageFailed(); }
 
@@ -96,7 +93,6 @@ class SeasonRun {
 
   // Sessions with at least one row pass in the workspace.
   std::vector<std::string> SessionsWithPasses() const;
-  std::string EvalFingerprint() const;
 
   std::string field_, ws_;
   workspace::Layout layout_;  // the paths of ws_
@@ -334,44 +330,6 @@ void SeasonRun::Analyze(StageRecord& stage) {
   }
 }
 
-std::string SeasonRun::EvalFingerprint() const {
-  // The evaluation's inputs are the outputs of the other stages, and each of those records the
-  // fingerprint of its own inputs: their fingerprints (not the large files) stand for them.
-  Fnv1aHasher hasher;
-  auto add = [&hasher](const std::string& s) {
-    hasher.AddBytes(s.data(), s.size());
-    hasher.AddBytes("\n", 1);
-  };
-  add(kVersion);
-  const std::string config = FormatRunConfig(config_);
-  add(config.substr(config.find("\neval:")));
-  std::vector<std::string> summaries;
-  for (const fs::path& folder : {layout_.SessionsDir(), layout_.AssociationsRoot(),
-                                 layout_.FusedDir(), layout_.DenseDir(), layout_.AnalysisDir()}) {
-    std::error_code ec;
-    for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
-      if (it->path().extension() == ".json") summaries.push_back(it->path().string());
-    }
-  }
-  std::sort(summaries.begin(), summaries.end());
-  for (const std::string& path : summaries) {
-    add(fs::relative(path, ws_).string());
-    add(workspace::SummaryFingerprint(path));
-  }
-  std::error_code ec;
-  std::vector<std::string> truth;
-  for (fs::recursive_directory_iterator it(fs::path(field_) / "ground_truth", ec), end;
-       !ec && it != end; it.increment(ec)) {
-    if (it->is_regular_file()) truth.push_back(it->path().string());
-  }
-  std::sort(truth.begin(), truth.end());
-  for (const std::string& path : truth) {
-    add(fs::relative(path, field_).string());
-    add(workspace::FileHash(path));
-  }
-  return std::to_string(hasher.hash());
-}
-
 void SeasonRun::Eval(StageRecord& stage) {
   const bool has_truth = fs::is_directory(fs::path(field_) / "ground_truth");
   if (config_.eval == "never" || (config_.eval == "auto" && !has_truth)) {
@@ -381,7 +339,7 @@ void SeasonRun::Eval(StageRecord& stage) {
   }
   const fs::path stamp_path = layout_.EvalInputsFingerprint();
   const fs::path metrics = layout_.EvalMetrics();
-  const std::string stamp = EvalFingerprint();
+  const std::string stamp = EvalInputsFingerprint(field_, layout_, config_);
   // inputs.fingerprint: the inputs' fingerprint, then the hash of the metrics.json it gave.
   std::string previous, metrics_hash;
   if (std::ifstream in(stamp_path); in) {
@@ -470,10 +428,6 @@ RunResult SeasonRun::Run() {
   return {record_, record_path_};
 }
 
-std::string Cm(const json& j) {
-  return j.is_number() ? fmt::format("{:.2f} cm", 100.0 * j.get<double>()) : "n/a";
-}
-
 }  // namespace
 
 RunResult RunSeason(const std::string& field_folder, const std::string& workspace,
@@ -492,48 +446,6 @@ RunResult RunSeason(const std::string& field_folder, const std::string& workspac
   ScopedLogFile log_file(workspace::Layout(workspace).Log().string());
   SeasonRun run(field_folder, workspace, options);
   return run.Run();
-}
-
-std::string FormatRunSummary(const RunResult& result) {
-  const RunRecord& r = result.record;
-  std::string out = fmt::format("{:<10} {:<11} {:>9} {:>6} {:>11} {:>7}\n", "stage", "status",
-                                "time [s]", "done", "up to date", "failed");
-  double total = 0;
-  for (const StageRecord& s : r.stages) {
-    total += s.seconds;
-    out += fmt::format("{:<10} {:<11} {:>9.1f} {:>6} {:>11} {:>7}\n", s.name, s.status, s.seconds,
-                       s.done, s.skipped, s.failed);
-  }
-  out += fmt::format("{:<10} {:<11} {:>9.1f}\n", "total", r.complete ? "complete" : "incomplete",
-                     total);
-  if (!r.skipped.empty()) {
-    out += fmt::format("\nskipped or degraded ({}):\n", r.skipped.size());
-    for (const SkippedItem& s : r.skipped) {
-      std::string what = s.session;
-      if (!s.item.empty()) what += (what.empty() ? "" : "/") + s.item;
-      out += fmt::format("  {:<9} {:<28} {}\n", s.stage, what.empty() ? "-" : what, s.reason);
-    }
-  }
-  const workspace::Layout layout(r.workspace);
-  const fs::path metrics = layout.EvalMetrics();
-  if (std::ifstream in(metrics); in) {
-    const json m = json::parse(in, nullptr, false);
-    if (m.is_object()) {
-      out += "\n";
-      const json fused = m.value("/fused/overall/ate_raw_m/rmse"_json_pointer, json());
-      const json passes = m.value("/overall/ate_raw_m/rmse"_json_pointer, json());
-      const json misalign =
-          m.value("/ground_misalignment/fused/pooled/median_m"_json_pointer, json());
-      const json canopy = m.value("/canopy/ours/rmse_m"_json_pointer, json());
-      out += fmt::format("trajectory error (ATE RMSE, no alignment): row SLAM {}, fused {}\n",
-                         Cm(passes), Cm(fused));
-      out += fmt::format("cross-session ground misalignment (fused, median): {}\n", Cm(misalign));
-      out += fmt::format("canopy height RMSE: {}\n", Cm(canopy));
-    }
-  }
-  const fs::path report = layout.Report();
-  if (fs::exists(report)) out += fmt::format("\nreport: {}\n", report.string());
-  return out;
 }
 
 }  // namespace crop4d::pipeline

@@ -6,18 +6,18 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <string>
 
 #include "crop4d/eval/eval_test_util.h"
+#include "crop4d/io/test_helpers.h"
 
 namespace crop4d::cli {
 namespace {
 
 namespace fs = std::filesystem;
 using eval::testing::PidTempDir;
+using io::testing::ReadText;
 
 struct EvalRunResult {
   int exit_code = -1;
@@ -30,13 +30,6 @@ std::string EvalBinary() {
 }
 
 std::string Q(const std::string& s) { return "'" + s + "'"; }
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 class EvalCommandTest : public ::testing::Test {
  public:
@@ -52,8 +45,8 @@ class EvalCommandTest : public ::testing::Test {
     const int status = std::system(command.c_str());
     EvalRunResult r;
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.out = Slurp(out);
-    r.err = Slurp(err);
+    r.out = ReadText(out);
+    r.err = ReadText(err);
     return r;
   }
   std::string Args() const {
@@ -74,7 +67,7 @@ TEST_F(EvalCommandTest, PrintsTheTableAndWritesMetricsJson) {
   EXPECT_NE(r.err.find("eval: 2 of 3 passes evaluated"), std::string::npos) << r.err;
   const std::string path = workspace() + "/eval/metrics.json";
   ASSERT_TRUE(fs::exists(path)) << r.err;
-  const nlohmann::json j = nlohmann::json::parse(Slurp(path));
+  const nlohmann::json j = nlohmann::json::parse(ReadText(path));
   EXPECT_EQ(j["passes"].size(), 3u);
   EXPECT_NEAR(j["passes"][0]["metrics"]["ate_raw_m"]["rmse"].get<double>(), 0.03, 1e-5);
   EXPECT_EQ(j["overall"]["num_evaluated"], 2);
@@ -85,7 +78,7 @@ TEST_F(EvalCommandTest, OutputOptionsAndStrict) {
   const EvalRunResult r =
       Run(Args() + " --output " + Q(out) + " --rpe-distance 0 --session 2016-05-25 --strict");
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  const nlohmann::json j = nlohmann::json::parse(Slurp(out));
+  const nlohmann::json j = nlohmann::json::parse(ReadText(out));
   EXPECT_EQ(j["passes"].size(), 2u);
   EXPECT_EQ(j["options"]["rpe_distance_m"], 0.0);
   EXPECT_EQ(j["passes"][0]["metrics"]["rpe"]["pairs"], 1);

@@ -98,10 +98,18 @@ inline void WriteTruth(const std::string& field, const std::string& session) {
                "world_from_body (imu0)");
 }
 
+// The "problem" of a pass without priors (workspace/pass_priors.h).
+inline constexpr const char* kSummaryProblem =
+    "{\"camera\": \"cam0\", \"gps_outages\": [], \"forward_axis_body\": null, "
+    "\"bias_prior_mean\": [0, 0, 0, 0, 0, 0], \"bias_prior_sigma\": null}";
+
+// A row pass's summary.json (schema 1) with the fields eval reads.
 inline std::string SummaryJson(const std::string& session, const std::string& pass, int row,
                                int direction, const std::string& sensors,
                                const std::string& pose_frame) {
-  return "{\"session\": \"" + session + "\", \"pass\": \"" + pass +
+  // What workspace::ReadPassSummary needs besides: the schema, a fingerprint and the problem.
+  return "{\"schema\": 1, \"fingerprint\": \"0\", \"problem\": " + std::string(kSummaryProblem) +
+         ", \"session\": \"" + session + "\", \"pass\": \"" + pass +
          "\", \"row\": " + std::to_string(row) + ", \"direction\": " + std::to_string(direction) +
          ", \"sensors\": \"" + sensors + "\", \"pose_frame\": \"" + pose_frame + "\"}\n";
 }

@@ -33,33 +33,20 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::ordered_json;  // keys in the order written (schema order)
 
-std::string ReadWholeFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), 0, "cannot open file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// Reads summary.json into `pass`; throws InputError naming the file.
+// Reads summary.json into `pass` through its typed reader (schema, JSON and the fields every
+// reader needs), then what eval needs on top: that it is this pass's, and its pose frame. Throws
+// InputError naming the file.
 void ReadPassSummary(const fs::path& path, PassEval* pass) {
   const std::string file = path.string();
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(file, 0, "file not found");
-  json j;
-  try {
-    j = json::parse(ReadWholeFile(path));
-  } catch (const json::parse_error& e) {
-    throw InputError(file, 0, fmt::format("not valid JSON ({})", e.what()));
-  }
-  if (!j.is_object()) throw InputError(file, 0, "expected a JSON object");
+  const workspace::PassSummary summary = workspace::ReadPassSummary(file);
+  const nlohmann::json& j = summary.json;
 
   const auto string_key = [&](const char* key, std::string* out) {
     if (!j.contains(key)) return false;
-    if (j[key].is_string()) {
-      *out = j[key].get<std::string>();
-    } else if (j[key].is_number_integer()) {
-      *out = std::to_string(j[key].get<std::int64_t>());
+    if (j.at(key).is_string()) {
+      *out = j.at(key).get<std::string>();
+    } else if (j.at(key).is_number_integer()) {
+      *out = std::to_string(j.at(key).get<std::int64_t>());
     } else {
       throw InputError(file, 0, fmt::format("'{}' must be a string", key));
     }
@@ -67,9 +54,9 @@ void ReadPassSummary(const fs::path& path, PassEval* pass) {
   };
   const auto int_key = [&](const char* key, int* out) {
     if (!j.contains(key)) return;
-    if (!j[key].is_number_integer())
+    if (!j.at(key).is_number_integer())
       throw InputError(file, 0, fmt::format("'{}' must be an integer", key));
-    *out = j[key].get<int>();
+    *out = j.at(key).get<int>();
   };
 
   std::string session, pass_id;
@@ -84,22 +71,18 @@ void ReadPassSummary(const fs::path& path, PassEval* pass) {
   }
   int_key("row", &pass->row);
   int_key("direction", &pass->direction);
-  string_key("sensors", &pass->sensors);
+  pass->sensors = summary.sensors;
   if (!j.contains("pose_frame"))
     throw InputError(file, 0, "missing required key 'pose_frame' (\"camera\" or \"body\")");
-  if (!j["pose_frame"].is_string())
+  if (!j.at("pose_frame").is_string())
     throw InputError(file, 0, "'pose_frame' must be \"camera\" or \"body\"");
-  pass->pose_frame = j["pose_frame"].get<std::string>();
-  if (j.contains("trust") && j["trust"].is_array()) {
-    for (const json& flag : j["trust"]) {
-      if (flag.is_string() && flag.get<std::string>() == "origin_by_convention") {
-        pass->frame_by_convention = true;
-      }
-    }
-  }
-  if (j.contains("back_end") && j["back_end"].is_object() &&
-      j["back_end"].contains("time_offset_s") && j["back_end"]["time_offset_s"].is_number()) {
-    pass->time_offset_s = j["back_end"]["time_offset_s"].get<double>();
+  pass->pose_frame = j.at("pose_frame").get<std::string>();
+  pass->frame_by_convention = std::find(summary.trust.begin(), summary.trust.end(),
+                                        "origin_by_convention") != summary.trust.end();
+  const nlohmann::json back_end = j.value("back_end", nlohmann::json::object());
+  if (back_end.is_object() && back_end.contains("time_offset_s") &&
+      back_end.at("time_offset_s").is_number()) {
+    pass->time_offset_s = back_end.at("time_offset_s").get<double>();
   }
   if (pass->pose_frame != "camera" && pass->pose_frame != "body") {
     throw InputError(

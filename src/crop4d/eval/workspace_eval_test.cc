@@ -233,23 +233,30 @@ TEST_F(WorkspaceEvalTest, MalformedPassFilesAreListedWithClearErrors) {
     std::string expected;
   };
   const std::string p = PassDir("2016-05-25", "0");
+  // Changes one field of the pass's (valid) summary.
+  const auto edit = [&](const std::function<void(nlohmann::json&)>& change) {
+    nlohmann::json summary = nlohmann::json::parse(ReadAll(p + "summary.json"));
+    change(summary);
+    WriteFile(p + "summary.json", summary.dump());
+  };
   const std::vector<Case> cases = {
       {"missing summary", [&] { fs::remove(p + "summary.json"); },
-       p + "summary.json: file not found"},
+       p + "summary.json: missing (run `crop4d slam` first)"},
       {"bad json", [&] { WriteFile(p + "summary.json", "{\"pose_frame\": "); },
        p + "summary.json: not valid JSON"},
       {"not an object", [&] { WriteFile(p + "summary.json", "[1, 2]"); },
-       "summary.json: expected a JSON object"},
-      {"no pose_frame",
-       [&] { WriteFile(p + "summary.json", "{\"session\": \"2016-05-25\", \"pass\": \"0\"}"); },
+       "summary.json: written by another crop4d version (schema none"},
+      {"another schema", [&] { edit([](nlohmann::json& j) { j["schema"] = 99; }); },
+       "summary.json: written by another crop4d version (schema 99"},
+      {"no fingerprint", [&] { edit([](nlohmann::json& j) { j.erase("fingerprint"); }); },
+       "summary.json: a missing or mistyped field"},
+      {"no pose_frame", [&] { edit([](nlohmann::json& j) { j.erase("pose_frame"); }); },
        "missing required key 'pose_frame'"},
-      {"bad pose_frame", [&] { WriteFile(p + "summary.json", "{\"pose_frame\": \"imu\"}"); },
+      {"bad pose_frame", [&] { edit([](nlohmann::json& j) { j["pose_frame"] = "imu"; }); },
        "'pose_frame' is 'imu', expected \"camera\" or \"body\""},
-      {"row not an integer",
-       [&] { WriteFile(p + "summary.json", "{\"pose_frame\": \"camera\", \"row\": \"x\"}"); },
+      {"row not an integer", [&] { edit([](nlohmann::json& j) { j["row"] = "x"; }); },
        "'row' must be an integer"},
-      {"wrong pass",
-       [&] { WriteFile(p + "summary.json", "{\"pose_frame\": \"camera\", \"pass\": \"7\"}"); },
+      {"wrong pass", [&] { edit([](nlohmann::json& j) { j["pass"] = "7"; }); },
        "'pass' is '7' but the pass is in rows/0/"},
       {"missing poses", [&] { fs::remove(p + "poses.tum"); }, p + "poses.tum: file not found"},
       {"malformed poses",

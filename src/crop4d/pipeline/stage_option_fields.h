@@ -162,8 +162,8 @@ void VisitFields(AnalyzeStageOptions& o, V&& visit) {
   visit("force", o.force, fields::Role::kControl);
 }
 
-// The whole configuration of `crop4d run`; its keys (run_config_keys.cc) are bound to these fields by
-// their dotted paths ("slam.front_end.num_neighbors").
+// The whole configuration of `crop4d run`; its keys (run_config_keys.cc) are bound to these
+// fields by their dotted paths ("slam.front_end.num_neighbors").
 template <class V>
 void VisitFields(RunConfig& o, V&& visit) {
   visit("threads", o.threads, fields::Role::kControl);

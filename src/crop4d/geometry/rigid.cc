@@ -3,6 +3,7 @@
 #include <Eigen/SVD>
 #include <cmath>
 
+#include "crop4d/core/error.h"
 #include "crop4d/geometry/rotation.h"
 
 namespace crop4d::geometry {
@@ -71,6 +72,16 @@ Rigid3::Rigid3(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& transl
 
 Rigid3::Rigid3(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation)
     : rotation_(Eigen::Quaterniond(rotation).normalized()), translation_(translation) {}
+
+Rigid3 Rigid3::FromUnitQuaternion(const Eigen::Quaterniond& rotation,
+                                  const Eigen::Vector3d& translation) {
+  CROP4D_CHECK_MSG(std::abs(rotation.norm() - 1.0) <= kUnitQuaternionTolerance,
+                   "|q| = " + std::to_string(rotation.norm()));
+  Rigid3 pose;
+  pose.rotation_ = rotation;
+  pose.translation_ = translation;
+  return pose;
+}
 
 Rigid3 Rigid3::FromMatrix(const Eigen::Matrix4d& m) {
   // Nearest rotation in the Frobenius norm: R = U diag(1, 1, det(U Vᵀ)) Vᵀ from the SVD of the

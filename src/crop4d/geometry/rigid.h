@@ -16,12 +16,20 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 class Rigid3 {
  public:
+  // How far from 1 the norm of a quaternion given as a unit one may be.
+  static constexpr double kUnitQuaternionTolerance = 1e-9;
+
   Rigid3() : rotation_(Eigen::Quaterniond::Identity()), translation_(Eigen::Vector3d::Zero()) {}
   // The quaternion is normalised.
   Rigid3(const Eigen::Quaterniond& rotation, const Eigen::Vector3d& translation);
   Rigid3(const Eigen::Matrix3d& rotation, const Eigen::Vector3d& translation);
 
   static Rigid3 Identity() { return Rigid3(); }
+  // From a unit quaternion kept as it is (one read back from crop4d's own binary files), so that
+  // writing and reading a pose round-trips bit for bit; normalising again could move the last
+  // bit. Aborts when |q| is not 1 within 1e-9 (the reader checks that first).
+  static Rigid3 FromUnitQuaternion(const Eigen::Quaterniond& rotation,
+                                   const Eigen::Vector3d& translation);
   // From a 4x4 homogeneous matrix (the EuRoC/Kalibr T_BS layout). The rotation block is
   // re-orthonormalised.
   static Rigid3 FromMatrix(const Eigen::Matrix4d& m);

@@ -21,6 +21,13 @@ ImageSequence::ImageSequence(const Session& session, const std::string& camera, 
   entries_ = session.ReadImageList(camera, diag);
 }
 
+ImageSequence::ImageSequence(CameraSensor camera, const std::string& image_folder,
+                             std::vector<ImageEntry> entries)
+    : folder_(image_folder), camera_(std::move(camera)), entries_(std::move(entries)) {
+  const std::filesystem::path camera_folder = std::filesystem::path(folder_).parent_path();
+  data_csv_ = (camera_folder / kDataCsv).string();
+}
+
 std::string ImageSequence::Path(std::size_t i) const {
   return (std::filesystem::path(folder_) / entries_.at(i).filename).string();
 }

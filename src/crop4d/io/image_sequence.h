@@ -25,6 +25,11 @@ class ImageSequence {
   // or its data.csv cannot be opened; bad lines are skipped and reported, see sensor_csv.h).
   ImageSequence(const Session& session, const std::string& camera = "cam0",
                 Diagnostics* diag = nullptr);
+  // A list read before (a row pass's copy of data.csv's lines in the workspace): `image_folder`
+  // is the camera's <session>/<camera>/data folder; messages name its data.csv and the entries'
+  // lines.
+  ImageSequence(CameraSensor camera, const std::string& image_folder,
+                std::vector<ImageEntry> entries);
 
   std::size_t size() const { return entries_.size(); }
   bool empty() const { return entries_.empty(); }
@@ -33,6 +38,7 @@ class ImageSequence {
   const ImageEntry& entry(std::size_t i) const { return entries_.at(i); }
   Timestamp time(std::size_t i) const { return entries_.at(i).t; }
   std::string Path(std::size_t i) const;
+  const std::string& folder() const { return folder_; }
 
   // Decodes image i (`imread_flags` as cv::imread; colour BGR by default). Returns an empty
   // Mat when the file is missing, unreadable or not of the camera's resolution; the problem

@@ -24,14 +24,20 @@
 #include "crop4d/core/version.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
+#include "crop4d/pipeline/associate_pass.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_data.h"
+#include "crop4d/workspace/pass_summary.h"
 #include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
 namespace {
+
+using associate::LoadPass;
+using associate::PassContext;
+using associate::PreAlign;
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
@@ -39,96 +45,6 @@ using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
 constexpr int kAssociateStageRevision = 5;
-
-// A pass loaded for association: features, camera, image files, the landmarks seen in each
-// image, and (for a pass that projects its landmarks) the local planes of its cloud.
-struct PassContext {
-  workspace::PassData data;
-  geometry::PinholeRadTan camera;
-  std::vector<std::string> image_paths;
-  std::vector<std::vector<association::LandmarkObservation>> landmarks_per_image;
-  std::unique_ptr<association::LocalPlanes> planes;
-  // A low quantile of the cloud's heights: the ground under the plants, for the footprints.
-  double ground_z = 0;
-  // The cloud point of each (image, feature) of the pass.
-  std::unordered_map<std::uint64_t, int> cloud_of;
-  // Solved with RTK: poses good to centimetres.
-  bool precise = false;
-};
-
-std::uint64_t ImageFeatureKey(int image, int feature) {
-  return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
-}
-
-std::unique_ptr<PassContext> LoadPass(const io::Field& field, const std::string& workspace,
-                                      const std::string& session, const slam::RowPass& pass,
-                                      const AssociateStageOptions& options) {
-  auto ctx = std::make_unique<PassContext>();
-  ctx->data = workspace::LoadPassData(workspace, session, pass, {.features = true, .tracks = true});
-  const io::Session s = field.OpenSession(session);
-  const io::CameraSensor* camera = s.FindCamera(ctx->data.camera);
-  if (camera == nullptr) {
-    throw InputError(s.folder(), 0, "no camera '" + ctx->data.camera + "' (used by row SLAM)");
-  }
-  ctx->camera = camera->camera;
-  ctx->precise = ctx->data.sensors.find("rtk") != std::string::npos;
-  std::map<Timestamp, std::string> files;
-  s.ForEachImageEntry(camera->name, [&](const io::ImageEntry& e) {
-    files[e.t] = s.ImagePath(camera->name, e.filename);
-  });
-  for (Timestamp t : ctx->data.times) {
-    const auto it = files.find(t);
-    ctx->image_paths.push_back(it != files.end() ? it->second : std::string());
-  }
-  ctx->landmarks_per_image.resize(ctx->data.times.size());
-  std::vector<Eigen::Vector3d> positions;
-  std::vector<double> heights;
-  const std::vector<workspace::PassTrack>& cloud = ctx->data.tracks.cloud;
-  for (std::size_t c = 0; c < cloud.size(); ++c) {
-    positions.push_back(cloud[c].position_world);
-    heights.push_back(cloud[c].position_world.z());
-    for (const features::Observation& o : cloud[c].observations) {
-      ctx->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);
-    }
-    if (static_cast<int>(cloud[c].observations.size()) < options.min_track_length) continue;
-    for (const features::Observation& o : cloud[c].observations) {
-      ctx->landmarks_per_image[o.image].push_back(
-          {o.feature, cloud[c].position_world, static_cast<std::int32_t>(c)});
-    }
-  }
-  ctx->ground_z = association::GroundHeight(
-      std::move(heights), ctx->data.poses.empty()
-                              ? std::nullopt
-                              : std::optional<double>(ctx->data.poses.front().translation().z()));
-  if (options.method != "naive") {
-    ctx->planes = std::make_unique<association::LocalPlanes>(std::move(positions));
-  }
-  return ctx;
-}
-
-// Pass b's frame relative to pass a's (association/prealignment.h).
-fusion::PassAlignment PreAlign(const PassContext& a, const PassContext& b,
-                               const AssociateStageOptions& options) {
-  association::PreAlignmentOptions prealignment;
-  prealignment.stride = options.prealign_stride;
-  prealignment.radius_m = options.prealign_radius_m;
-  prealignment.max_landmark_distance_m = options.max_landmark_distance_m;
-  prealignment.naive = options.naive;
-  prealignment.alignment = options.alignment;
-  const auto view = [](const PassContext& pass) {
-    return association::PreAlignmentPass{
-        &pass.camera, &pass.data.poses, &pass.data.features,
-        [&pass](int image, int feature) -> std::optional<Eigen::Vector3d> {
-          const auto it = pass.cloud_of.find(ImageFeatureKey(image, feature));
-          if (it == pass.cloud_of.end()) return std::nullopt;
-          return pass.data.tracks.cloud[it->second].position_world;
-        }};
-  };
-  fusion::PassAlignment alignment;
-  InArena(options.num_threads,
-          [&] { alignment = association::PreAlignPasses(view(a), view(b), prealignment); });
-  return alignment;
-}
 
 // The fingerprint of a pair's inputs: the stage revision, the options and the two passes'
 // row-SLAM fingerprints.
@@ -422,12 +338,8 @@ std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
       if (p.row < 0) continue;
       const fs::path summary = workspace::Layout(workspace).PassSummary(id, p.id);
       if (!fs::exists(summary)) continue;
-      std::ifstream in(summary);
-      try {
-        if (json::parse(in).value("pose_frame", "") != "camera") continue;
-      } catch (const std::exception&) {
-        continue;
-      }
+      // Poses of the camera (not the body): row SLAM had a camera for the pass.
+      if (workspace::ReadPassSummary(summary.string()).problem.camera.empty()) continue;
       passes.push_back(p);
     }
     if (!passes.empty()) sessions.emplace_back(id, std::move(passes));
@@ -518,7 +430,7 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
     auto& slot = loaded[ref];
     if (!slot) {
       for (const slam::RowPass& p : workspace::ReadPassList(workspace, ref.session)) {
-        if (p.id == ref.pass) slot = LoadPass(field, workspace, ref.session, p, options);
+        if (p.id == ref.pass) slot = LoadPass(field_folder, workspace, ref.session, p, options);
       }
       if (!slot)
         throw InputError(workspace, 0, "pass " + ref.session + "/" + ref.pass + " missing");

@@ -13,6 +13,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
 
 #include "crop4d/core/error.h"
@@ -25,6 +26,8 @@
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_measurements.h"
 #include "crop4d/workspace/stage_files.h"
 #include "crop4d/workspace/stage_summary.h"
 
@@ -62,6 +65,247 @@ Eigen::AlignedBox2d FieldRegion(const io::FieldInfo& field, const io::PlyPointCl
   return box;
 }
 
+// The sessions to densify: those asked for (each must be in the field), or every session with
+// fused poses; each must have its fused poses and sparse cloud.
+std::vector<std::string> SessionsToDensify(const io::Field& field, const workspace::Layout& layout,
+                                           const DensifyStageOptions& options) {
+  std::vector<std::string> sessions = options.sessions;
+  if (sessions.empty()) {
+    for (const std::string& id : field.session_ids()) {
+      if (fs::exists(layout.FusedPoses(id))) sessions.push_back(id);
+    }
+    if (sessions.empty()) {
+      throw InputError(layout.FusedDir().string(), 0,
+                       "no fused poses of any session (run `crop4d fuse` first)");
+    }
+  } else {
+    for (const std::string& id : sessions) {
+      const auto& ids = field.session_ids();
+      if (std::find(ids.begin(), ids.end(), id) == ids.end()) {
+        throw InputError(field.folder(), 0, "no session '" + id + "' in the field");
+      }
+    }
+  }
+  for (const std::string& id : sessions) {
+    for (const fs::path& file : {layout.FusedPoses(id), layout.FusedSparse(id)}) {
+      if (!fs::exists(file)) {
+        throw InputError(
+            file.string(), 0,
+            "missing: session " + id + " has not been fused (run `crop4d fuse` first)");
+      }
+    }
+  }
+  return sessions;
+}
+
+// The centres of the discs the region is restricted to: the options' and, with
+// `around_sites`, the field's sites.
+std::vector<Eigen::Vector2d> DiscCenters(const io::Field& field,
+                                         const DensifyStageOptions& options) {
+  std::vector<Eigen::Vector2d> centers = options.centers;
+  if (options.around_sites) {
+    if (field.info().sites.empty()) {
+      spdlog::warn("densify: field.yaml declares no sites; --around-sites has no effect");
+    }
+    for (const io::Site& site : field.info().sites) centers.push_back(site.center_enu);
+  }
+  return centers;
+}
+
+// The fingerprint of a session's inputs: the stage revision, the options, the fused poses and
+// sparse cloud, the measurements of the session's passes (the camera and its image list) and
+// field.yaml (rows and sites).
+std::string SessionFingerprint(const workspace::Layout& layout, const std::string& id,
+                               const json& options_json, const std::string& field_folder) {
+  Fnv1aHasher fingerprint;
+  fingerprint.Add(kDensifyStageRevision);
+  fingerprint.AddString(options_json.dump());
+  std::vector<fs::path> inputs = {layout.FusedPoses(id), layout.FusedSparse(id)};
+  for (const slam::RowPass& pass : workspace::ReadPassList(layout.root().string(), id)) {
+    inputs.push_back(layout.PassMeasurements(id, pass.id));
+  }
+  inputs.push_back(fs::path(field_folder) / io::kFieldYaml);
+  for (const fs::path& p : inputs) fingerprint.AddString(workspace::FileHash(p));
+  return std::to_string(fingerprint.hash());
+}
+
+// The report of a session whose cloud is up to date (read from its summary), or nullopt (with
+// why it is densified again logged).
+std::optional<DensifySessionReport> UpToDateReport(const workspace::Layout& layout,
+                                                   const std::string& id, const std::string& stamp,
+                                                   const DensifyStageOptions& options) {
+  const fs::path json_path = layout.DenseSummary(id);
+  std::string why;
+  if (!options.force && fs::exists(layout.DenseCloud(id)) &&
+      workspace::SummaryUpToDate(json_path, stamp, &why)) {
+    try {
+      const workspace::DenseSummary previous = workspace::ReadDenseSummary(json_path.string());
+      spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
+      DensifySessionReport report;
+      report.session = id;
+      report.ply_path = layout.DenseCloud(id).string();
+      report.skipped = true;
+      report.num_poses = previous.poses;
+      report.num_views = previous.views;
+      report.stereo.num_points = previous.points;
+      return report;
+    } catch (const InputError& e) {
+      why = e.what();
+    }
+  }
+  if (!options.force && fs::exists(json_path)) spdlog::info("densify {}: again: {}", id, why);
+  return std::nullopt;
+}
+
+// The fused poses that have an image, as views (`view_image`: each view's image index).
+std::vector<dense::DenseView> ViewsOfPoses(const std::vector<io::StampedPose>& poses,
+                                           const io::ImageSequence& images, const std::string& id,
+                                           const fs::path& poses_path,
+                                           std::vector<std::size_t>* view_image) {
+  std::map<Timestamp, std::size_t> image_of;
+  for (std::size_t i = 0; i < images.size(); ++i) image_of[images.time(i)] = i;
+  std::vector<dense::DenseView> views;
+  for (const io::StampedPose& p : poses) {
+    const auto it = image_of.find(p.t);
+    if (it == image_of.end()) continue;
+    views.push_back({p.pose, images.Path(it->second)});
+    view_image->push_back(it->second);
+  }
+  if (views.empty()) {
+    throw InputError(poses_path.string(), 0,
+                     "no pose matches an image row SLAM used (stale fused poses? run `crop4d "
+                     "fuse` again)");
+  }
+  if (views.size() < poses.size()) {
+    spdlog::warn("densify {}: {} of {} fused poses have no image; they are not used", id,
+                 poses.size() - views.size(), poses.size());
+  }
+  return views;
+}
+
+// The region to densify: the field's rows (or the sparse cloud) shrunk to the boxes and discs.
+dense::DenseRegion RegionToDensify(const io::Field& field, const io::PlyPointCloud& sparse,
+                                   const std::vector<Eigen::Vector2d>& centers,
+                                   const DensifyStageOptions& options) {
+  dense::DenseRegion region;
+  region.bounds = FieldRegion(field.info(), sparse, options.margin_m);
+  region.boxes = options.boxes;
+  region.centers = centers;
+  region.radius_m = options.radius_m;
+  if (!options.boxes.empty() || !centers.empty()) {
+    // Shrink the bounds to what the boxes and discs cover.
+    Eigen::AlignedBox2d cover;
+    for (const Eigen::AlignedBox2d& b : options.boxes) cover.extend(b);
+    for (const Eigen::Vector2d& c : centers) {
+      cover.extend(c - Eigen::Vector2d::Constant(options.radius_m));
+      cover.extend(c + Eigen::Vector2d::Constant(options.radius_m));
+    }
+    region.bounds = region.bounds.intersection(cover);
+  }
+  return region;
+}
+
+// The dense summary's content (before its output is recorded).
+json DenseSummaryJson(const DensifySessionReport& report, const std::string& stamp,
+                      const json& options_json, const dense::DenseRegion& region,
+                      const dense::GroundLevels& ground) {
+  const dense::HeightFieldStereo::Summary& s = report.stereo;
+  json summary;
+  summary["fingerprint"] = stamp;
+  summary["session"] = report.session;
+  summary["options"] = options_json;
+  summary["region"] = BoxJson(region.bounds);
+  summary["poses"] = report.num_poses;
+  summary["views"] = report.num_views;
+  summary["points"] = s.num_points;
+  summary["top_surface_points"] = s.num_top_surface;
+  summary["cells"] = {{"region", s.num_cells},
+                      {"with_views", s.num_cells_with_views},
+                      {"low_texture", s.num_low_texture},
+                      {"low_score", s.num_low_score},
+                      {"not_unique", s.num_not_unique},
+                      {"at_range_edge", s.num_at_range_edge},
+                      {"isolated", s.num_isolated}};
+  summary["tiles"] = s.num_tiles;
+  summary["images"] = {{"used", s.num_images_used},
+                       {"failed", s.num_images_failed},
+                       {"mean_views_per_tile", s.mean_views_per_tile}};
+  summary["ground_tiles_measured"] = ground.num_measured_tiles();
+  summary["seconds"] = {{"load", s.load_seconds},
+                        {"match", s.match_seconds},
+                        {"stereo", s.total_seconds},
+                        {"total", report.seconds}};
+  return summary;
+}
+
+// One session: its views, region and ground levels, the stereo, the cloud and its summary.
+DensifySessionReport DensifySession(const io::Field& field, const workspace::Layout& layout,
+                                    const std::string& id, const std::string& stamp,
+                                    const json& options_json,
+                                    const std::vector<Eigen::Vector2d>& centers,
+                                    const DensifyStageOptions& options, tbb::task_arena* arena) {
+  const Clock::time_point start = Clock::now();
+  DensifySessionReport report;
+  report.session = id;
+  report.ply_path = layout.DenseCloud(id).string();
+  const std::vector<io::StampedPose> poses = io::ReadTum(layout.FusedPoses(id).string());
+  report.num_poses = static_cast<int>(poses.size());
+  const io::ImageSequence images =
+      workspace::SessionImages(layout.root().string(), id, field.folder(), options.camera);
+  std::vector<std::size_t> view_image;
+  const std::vector<dense::DenseView> views =
+      ViewsOfPoses(poses, images, id, layout.FusedPoses(id), &view_image);
+  report.num_views = static_cast<int>(views.size());
+  const io::PlyPointCloud sparse = io::ReadPly(layout.FusedSparse(id).string());
+  const dense::DenseRegion region = RegionToDensify(field, sparse, centers, options);
+  report.region = region.bounds;
+  Eigen::AlignedBox2d ground_box = region.bounds;
+  ground_box.min() -= Eigen::Vector2d::Constant(options.ground.tile_m);
+  ground_box.max() += Eigen::Vector2d::Constant(options.ground.tile_m);
+  const dense::GroundLevels ground(sparse.points, ground_box, options.ground);
+  if (!ground.valid()) {
+    throw InputError(layout.FusedSparse(id).string(), 0,
+                     "no point of the sparse cloud lies in the region to densify");
+  }
+  spdlog::info("densify {}: {} views, region [{:.2f}, {:.2f}] x [{:.2f}, {:.2f}] m", id,
+               views.size(), region.bounds.min().x(), region.bounds.max().x(),
+               region.bounds.min().y(), region.bounds.max().y());
+
+  dense::HeightFieldStereo::Options stereo_options = options.stereo;
+  stereo_options.show_progress = options.show_progress;
+  const dense::HeightFieldStereo stereo(stereo_options);
+  dense::HeightFieldStereo::Result result;
+  arena->execute([&] {
+    result = stereo.Run(
+        images.camera().camera, views,
+        [&](int v) {
+          dense::RgbImage out;
+          const cv::Mat bgr = images.LoadImage(view_image[v]);
+          if (bgr.empty()) return out;
+          cv::Mat rgb;
+          cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+          out.width = rgb.cols;
+          out.height = rgb.rows;
+          out.rgb.assign(rgb.data, rgb.data + static_cast<std::size_t>(rgb.total()) * 3);
+          return out;
+        },
+        region, ground);
+  });
+  report.stereo = result.summary;
+
+  io::PlyWriteOptions ply;
+  ply.comment =
+      "crop4d dense cloud of session " + id + " (height-field stereo), field ENU frame (metres)";
+  io::WritePly(report.ply_path, result.cloud, ply);
+  report.seconds = SecondsSince(start);
+  json summary = DenseSummaryJson(report, stamp, options_json, region, ground);
+  workspace::RecordOutputs(&summary, layout.DenseDir(),
+                           {layout.DenseCloud(id).filename().string()});
+  workspace::WriteDenseSummary(layout.DenseSummary(id).string(), summary);
+  spdlog::info("densify {}: {} points in {:.1f} s", id, result.summary.num_points, report.seconds);
+  return report;
+}
+
 }  // namespace
 
 std::string DensifyStageOptions::Check() const {
@@ -89,200 +333,19 @@ std::vector<DensifySessionReport> RunDensifyStage(const std::string& field_folde
   if (const std::string why = options.Check(); !why.empty()) throw InputError("densify." + why);
   const io::Field field(field_folder);
   const workspace::Layout layout(workspace);
-  const fs::path out_dir = layout.DenseDir();
-
-  std::vector<std::string> sessions = options.sessions;
-  if (sessions.empty()) {
-    for (const std::string& id : field.session_ids()) {
-      if (fs::exists(layout.FusedPoses(id))) sessions.push_back(id);
-    }
-    if (sessions.empty()) {
-      throw InputError(layout.FusedDir().string(), 0,
-                       "no fused poses of any session (run `crop4d fuse` first)");
-    }
-  } else {
-    for (const std::string& id : sessions) {
-      const auto& ids = field.session_ids();
-      if (std::find(ids.begin(), ids.end(), id) == ids.end()) {
-        throw InputError(field_folder, 0, "no session '" + id + "' in the field");
-      }
-    }
-  }
-  for (const std::string& id : sessions) {
-    for (const fs::path& file : {layout.FusedPoses(id), layout.FusedSparse(id)}) {
-      if (!fs::exists(file)) {
-        throw InputError(
-            file.string(), 0,
-            "missing: session " + id + " has not been fused (run `crop4d fuse` first)");
-      }
-    }
-  }
-  std::vector<Eigen::Vector2d> centers = options.centers;
-  if (options.around_sites) {
-    if (field.info().sites.empty()) {
-      spdlog::warn("densify: field.yaml declares no sites; --around-sites has no effect");
-    }
-    for (const io::Site& site : field.info().sites) centers.push_back(site.center_enu);
-  }
-
+  const std::vector<std::string> sessions = SessionsToDensify(field, layout, options);
+  const std::vector<Eigen::Vector2d> centers = DiscCenters(field, options);
+  const json options_json = DensifyOptionsJson(options, centers);
   tbb::task_arena arena(options.num_threads > 0 ? options.num_threads : tbb::task_arena::automatic);
   std::vector<DensifySessionReport> reports;
   for (const std::string& id : sessions) {
-    const Clock::time_point start = Clock::now();
-    DensifySessionReport report;
-    report.session = id;
-    const fs::path poses_path = layout.FusedPoses(id);
-    const fs::path sparse_path = layout.FusedSparse(id);
-    const fs::path ply_path = layout.DenseCloud(id);
-    const fs::path json_path = layout.DenseSummary(id);
-    report.ply_path = ply_path.string();
-    const io::Session session = field.OpenSession(id);
-    if (session.FindCamera(options.camera) == nullptr) {
-      throw InputError(session.folder(), 0, "no camera '" + options.camera + "' in session " + id);
+    const std::string stamp = SessionFingerprint(layout, id, options_json, field_folder);
+    if (std::optional<DensifySessionReport> done = UpToDateReport(layout, id, stamp, options)) {
+      reports.push_back(std::move(*done));
+      continue;
     }
-
-    // Fingerprint of the inputs and options.
-    const json options_json = DensifyOptionsJson(options, centers);
-    Fnv1aHasher fingerprint;
-    fingerprint.Add(kDensifyStageRevision);
-    fingerprint.AddString(options_json.dump());
-    for (const fs::path& p :
-         {poses_path, sparse_path, fs::path(session.folder()) / options.camera / "sensor.yaml",
-          fs::path(session.DataCsvPath(options.camera)), fs::path(field_folder) / "field.yaml"}) {
-      fingerprint.AddString(workspace::FileHash(p));
-    }
-    const std::string stamp = std::to_string(fingerprint.hash());
-    // A damaged or stale summary, or a cloud changed since it was written: densify again.
-    std::string why;
-    if (!options.force && fs::exists(ply_path) &&
-        workspace::SummaryUpToDate(json_path, stamp, &why)) {
-      try {
-        const workspace::DenseSummary previous = workspace::ReadDenseSummary(json_path.string());
-        spdlog::info("densify {}: up to date, skipped (--force to densify again)", id);
-        report.skipped = true;
-        report.num_poses = previous.poses;
-        report.num_views = previous.views;
-        report.stereo.num_points = previous.points;
-        reports.push_back(report);
-        continue;
-      } catch (const InputError& e) {
-        why = e.what();
-      }
-    }
-    if (!options.force && fs::exists(json_path)) spdlog::info("densify {}: again: {}", id, why);
-
-    // Poses, images, sparse cloud.
-    const std::vector<io::StampedPose> poses = io::ReadTum(poses_path.string());
-    report.num_poses = static_cast<int>(poses.size());
-    const io::ImageSequence images(session, options.camera);
-    std::map<Timestamp, std::size_t> image_of;
-    for (std::size_t i = 0; i < images.size(); ++i) image_of[images.time(i)] = i;
-    std::vector<dense::DenseView> views;
-    std::vector<std::size_t> view_image;
-    for (const io::StampedPose& p : poses) {
-      const auto it = image_of.find(p.t);
-      if (it == image_of.end()) continue;
-      views.push_back({p.pose, images.Path(it->second)});
-      view_image.push_back(it->second);
-    }
-    report.num_views = static_cast<int>(views.size());
-    if (views.empty()) {
-      throw InputError(poses_path.string(), 0,
-                       "no pose matches an image of " + session.DataCsvPath(options.camera) +
-                           " (stale fused poses? run `crop4d fuse` again)");
-    }
-    if (views.size() < poses.size()) {
-      spdlog::warn("densify {}: {} of {} fused poses have no image; they are not used", id,
-                   poses.size() - views.size(), poses.size());
-    }
-    const io::PlyPointCloud sparse = io::ReadPly(sparse_path.string());
-    dense::DenseRegion region;
-    region.bounds = FieldRegion(field.info(), sparse, options.margin_m);
-    region.boxes = options.boxes;
-    region.centers = centers;
-    region.radius_m = options.radius_m;
-    if (!options.boxes.empty() || !centers.empty()) {
-      // Shrink the bounds to what the boxes and discs cover.
-      Eigen::AlignedBox2d cover;
-      for (const Eigen::AlignedBox2d& b : options.boxes) cover.extend(b);
-      for (const Eigen::Vector2d& c : centers) {
-        cover.extend(c - Eigen::Vector2d::Constant(options.radius_m));
-        cover.extend(c + Eigen::Vector2d::Constant(options.radius_m));
-      }
-      region.bounds = region.bounds.intersection(cover);
-    }
-    report.region = region.bounds;
-    Eigen::AlignedBox2d ground_box = region.bounds;
-    ground_box.min() -= Eigen::Vector2d::Constant(options.ground.tile_m);
-    ground_box.max() += Eigen::Vector2d::Constant(options.ground.tile_m);
-    const dense::GroundLevels ground(sparse.points, ground_box, options.ground);
-    if (!ground.valid()) {
-      throw InputError(sparse_path.string(), 0,
-                       "no point of the sparse cloud lies in the region to densify");
-    }
-    const geometry::PinholeRadTan& camera = images.camera().camera;
-    spdlog::info("densify {}: {} views, region [{:.2f}, {:.2f}] x [{:.2f}, {:.2f}] m", id,
-                 views.size(), region.bounds.min().x(), region.bounds.max().x(),
-                 region.bounds.min().y(), region.bounds.max().y());
-
-    dense::HeightFieldStereo::Options stereo_options = options.stereo;
-    stereo_options.show_progress = options.show_progress;
-    const dense::HeightFieldStereo stereo(stereo_options);
-    dense::HeightFieldStereo::Result result;
-    arena.execute([&] {
-      result = stereo.Run(
-          camera, views,
-          [&](int v) {
-            dense::RgbImage out;
-            const cv::Mat bgr = images.LoadImage(view_image[v]);
-            if (bgr.empty()) return out;
-            cv::Mat rgb;
-            cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-            out.width = rgb.cols;
-            out.height = rgb.rows;
-            out.rgb.assign(rgb.data, rgb.data + static_cast<std::size_t>(rgb.total()) * 3);
-            return out;
-          },
-          region, ground);
-    });
-    report.stereo = result.summary;
-
-    io::PlyWriteOptions ply;
-    ply.comment =
-        "crop4d dense cloud of session " + id + " (height-field stereo), field ENU frame (metres)";
-    io::WritePly(ply_path.string(), result.cloud, ply);
-    report.seconds = SecondsSince(start);
-
-    const dense::HeightFieldStereo::Summary& s = result.summary;
-    json summary;
-    summary["fingerprint"] = stamp;
-    summary["session"] = id;
-    summary["options"] = options_json;
-    summary["region"] = BoxJson(region.bounds);
-    summary["poses"] = report.num_poses;
-    summary["views"] = report.num_views;
-    summary["points"] = s.num_points;
-    summary["top_surface_points"] = s.num_top_surface;
-    summary["cells"] = {{"region", s.num_cells},
-                        {"with_views", s.num_cells_with_views},
-                        {"low_texture", s.num_low_texture},
-                        {"low_score", s.num_low_score},
-                        {"not_unique", s.num_not_unique},
-                        {"at_range_edge", s.num_at_range_edge},
-                        {"isolated", s.num_isolated}};
-    summary["tiles"] = s.num_tiles;
-    summary["images"] = {{"used", s.num_images_used},
-                         {"failed", s.num_images_failed},
-                         {"mean_views_per_tile", s.mean_views_per_tile}};
-    summary["ground_tiles_measured"] = ground.num_measured_tiles();
-    summary["seconds"] = {{"load", s.load_seconds},
-                          {"match", s.match_seconds},
-                          {"stereo", s.total_seconds},
-                          {"total", report.seconds}};
-    workspace::RecordOutputs(&summary, out_dir, {ply_path.filename().string()});
-    workspace::WriteDenseSummary(json_path.string(), summary);
-    spdlog::info("densify {}: {} points in {:.1f} s", id, s.num_points, report.seconds);
-    reports.push_back(report);
+    reports.push_back(
+        DensifySession(field, layout, id, stamp, options_json, centers, options, &arena));
   }
   return reports;
 }

@@ -4,9 +4,11 @@
 // fused cameras, by height-field multi-view stereo (dense/height_field_stereo.h) — the surface
 // seen from above: soil and the tops of the plants, one point per grid cell (default 1 cm).
 //
-// Inputs: the session's images (field folder), WS/fused/<session>/poses.tum (world_from_camera
-// per image timestamp, from `crop4d fuse`) and WS/fused/<session>/sparse.ply (its sparse cloud,
-// mostly soil: it bounds the heights swept, dense/ground_levels.h).
+// Inputs: the images row SLAM used (the camera's calibration and image list from the session's
+// passes' measurements.bin in the workspace, the pixels from the field folder),
+// WS/fused/<session>/poses.tum (world_from_camera per image timestamp, from `crop4d fuse`) and
+// WS/fused/<session>/sparse.ply (its sparse cloud, mostly soil: it bounds the heights swept,
+// dense/ground_levels.h). Of the field it reads field.yaml (rows, sites) and the image files.
 //
 // Region: the crop rows of field.yaml widened by `margin_m` (without rows: the sparse cloud's xy
 // extent), optionally restricted to boxes and/or discs around points (e.g. the field's sites).
@@ -15,8 +17,8 @@
 //   <session>.ply   x y z (double, ENU metres), red green blue (from the reference view), and
 //                   the scalars score (aggregated ZNCC), num_views, uniqueness;
 //   <session>.json  counts, times, options, region, and a fingerprint of the inputs (poses.tum,
-//                   sparse.ply, the camera's sensor.yaml and data.csv, field.yaml, options): a
-//                   session whose inputs are unchanged is skipped (unless `force`).
+//                   sparse.ply, the passes' measurements.bin, field.yaml, options): a session
+//                   whose inputs are unchanged is skipped (unless `force`).
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -31,7 +33,7 @@ namespace crop4d::pipeline {
 struct DensifyStageOptions {
   // Sessions to densify (empty: every session of the field that has fused poses).
   std::vector<std::string> sessions;
-  // The camera whose images are matched.
+  // The camera whose images are matched: the one row SLAM used (checked).
   std::string camera = "cam0";
   // The crop rows of field.yaml are widened by this much on every side, m.
   double margin_m = 0.6;

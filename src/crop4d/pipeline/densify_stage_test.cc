@@ -16,10 +16,15 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/dense/dense_test_util.h"
+#include "crop4d/io/dataset_reader.h"
+#include "crop4d/io/image_sequence.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/renderer.h"
 #include "crop4d/sim/simulator.h"
+#include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_measurements.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -58,7 +63,30 @@ class DensifyStageTest : public ::testing::Test {
     wide.min() -= Eigen::Vector2d::Constant(1.5);
     wide.max() += Eigen::Vector2d::Constant(1.5);
     dense::testing::WriteFieldAndWorkspace(*simulator_, rs, wide, field_, workspace_);
+    WriteRowSlamRecord();
     return true;
+  }
+
+  // What row SLAM records of the session for densify: one pass over the whole session with its
+  // measurements (the camera and the image list of the field).
+  void WriteRowSlamRecord() const {
+    const io::ImageSequence images(io::Field(field_).OpenSession(session_), "cam0");
+    std::vector<Timestamp> times;
+    for (std::size_t i = 0; i < images.size(); ++i) times.push_back(images.time(i));
+    slam::RowPass pass;
+    pass.id = "whole";
+    pass.row = -1;
+    pass.t_begin = times.front();
+    pass.t_end = times.back();
+    const workspace::Layout layout(workspace_);
+    fs::create_directories(layout.PassDir(session_, pass.id));
+    workspace::WritePassList(layout.PassList(session_).string(), {pass});
+    const slam::CameraStream camera{images.camera(), images.entries()};
+    workspace::WritePassMeasurements(
+        layout.PassMeasurements(session_, pass.id).string(),
+        workspace::SelectPassMeasurements(&camera, nullptr, nullptr, times, times.front(),
+                                          times.back(),
+                                          fs::path(images.folder()).lexically_relative(field_)));
   }
 
   DensifyStageOptions Options() const {

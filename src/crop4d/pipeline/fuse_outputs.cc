@@ -2,12 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <iomanip>
 #include <map>
 #include <set>
+#include <sstream>
 
 #include "crop4d/io/colmap_text.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
+#include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/slam/reprojection_factor.h"
 
 namespace crop4d::pipeline::fuse {
@@ -111,7 +115,7 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
       camera_of_session[session] = id;
       model.cameras.push_back({id, *passes[p]->input.camera});
     }
-    const std::map<Timestamp, std::string> names = ImageNames(*passes[p]->streams);
+    const std::map<Timestamp, std::string> names = ImageNames(*passes[p]);
     for (std::size_t k = 0; k < cameras[p].size(); ++k) {
       io::ColmapImage image;
       image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
@@ -149,4 +153,125 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
   io::WriteColmapText(layout.FusedColmapDir().string(), model);
 }
 
+using json = nlohmann::json;
+
+// The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
+// the joint solve, the ground ties and the per-pass corrections.
+json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Result& result,
+                     const std::string& stamp, const FuseStageOptions& options,
+                     const std::vector<std::string>& sessions) {
+  const fusion::JointOptimiser::Summary& s = result.summary;
+  json summary;
+  summary["fingerprint"] = stamp;
+  summary["options"] = FuseOptionsJson(options);
+  summary["sessions"] = sessions;
+  summary["associations"] = {{"files", report.num_association_files},
+                             {"cross_matches", report.num_cross_matches},
+                             {"thinned_matches", report.num_thinned_matches},
+                             {"conflicting_matches", report.num_conflicting_matches},
+                             {"invalid_matches", report.num_invalid_matches}};
+  summary["joint"] = {{"passes", s.num_passes},
+                      {"states", s.num_states},
+                      {"landmarks_given", s.num_landmarks_given},
+                      {"landmarks", s.num_landmarks},
+                      {"shared_landmarks", s.num_shared_landmarks},
+                      {"observations", s.num_observations},
+                      {"cross_observations", s.num_cross_observations},
+                      {"rejected_observations", s.num_rejected_observations},
+                      {"rejected_cross_observations", s.num_rejected_cross_observations},
+                      {"initial_cost", s.initial_cost},
+                      {"final_cost", s.final_cost},
+                      {"iterations", s.iterations},
+                      {"reprojection_rms_px", s.reprojection_rms_px},
+                      {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
+                      {"ground_ties", s.num_ground_ties},
+                      {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
+                      {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
+                      {"converged", s.converged}};
+  json tie_list = json::array();
+  for (const FuseTiePairReport& t : report.tie_pairs) {
+    tie_list.push_back({{"a", t.a},
+                        {"b", t.b},
+                        {"cross_matches", t.cross_matches},
+                        {"soil_points_a", t.ties.soil_points_a},
+                        {"soil_points_b", t.ties.soil_points_b},
+                        {"segments", t.ties.segments},
+                        {"ties", t.ties.ties},
+                        {"median_across_m", t.ties.median_across_m},
+                        {"median_vertical_m", t.ties.median_vertical_m},
+                        {"median_spread_m", t.ties.median_spread_m}});
+  }
+  summary["ground_ties"] = tie_list;
+  json pass_list = json::array();
+  for (std::size_t p = 0; p < report.passes.size(); ++p) {
+    const FusePassReport& pr = report.passes[p];
+    pass_list.push_back(
+        {{"session", pr.session},
+         {"pass", pr.pass},
+         {"images", pr.images},
+         {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
+         {"rotation_change_deg", pr.rotation_change_deg}});
+    // The camera-IMU time offset the joint problem used (docs/fusion.md), when there is one.
+    if (result.time_offsets_s[p]) pass_list.back()["time_offset_s"] = *result.time_offsets_s[p];
+  }
+  summary["passes"] = pass_list;
+  summary["seconds"] = {{"triangulation", s.triangulation_seconds},
+                        {"solve", s.solve_seconds},
+                        {"final_solve", s.final_solve_seconds},
+                        {"total", report.seconds}};
+  return summary;
+}
+
 }  // namespace crop4d::pipeline::fuse
+
+namespace crop4d::pipeline {
+
+std::string FormatFuseReport(const FuseReport& report) {
+  std::ostringstream out;
+  if (report.skipped) {
+    out << "fuse: up to date (" << report.num_passes << " passes of " << report.num_sessions
+        << " sessions)\n";
+    return out.str();
+  }
+  const fusion::JointOptimiser::Summary& s = report.joint;
+  out << "fused " << report.num_passes << " passes of " << report.num_sessions << " sessions in "
+      << std::fixed << std::setprecision(1) << report.seconds << " s\n";
+  out << "  cross matches " << report.num_cross_matches << " from " << report.num_association_files
+      << " files (" << report.num_thinned_matches << " left out by the per-image-pair cap, "
+      << report.num_conflicting_matches << " inconsistent, " << report.num_invalid_matches
+      << " stale)\n";
+  out << "  landmarks " << s.num_landmarks << " (" << s.num_shared_landmarks
+      << " shared by passes), observations " << s.num_observations << " (cross "
+      << s.num_cross_observations << ", rejected cross " << s.num_rejected_cross_observations
+      << ")\n";
+  out << std::setprecision(2) << "  reprojection RMS " << s.reprojection_rms_px << " px (cross "
+      << s.cross_reprojection_rms_px << " px), cost " << std::setprecision(1) << s.initial_cost
+      << " -> " << s.final_cost << ", " << s.iterations << " iterations\n";
+  if (s.num_ground_ties > 0) {
+    out << std::setprecision(2) << "  ground ties " << s.num_ground_ties << " on "
+        << report.tie_pairs.size() << " pairs of passes without cross matches, RMS after fusion "
+        << 100 * s.ground_tie_rms_across_m << " cm across, " << 100 * s.ground_tie_rms_vertical_m
+        << " cm vertical\n";
+  }
+  out << "  session      pass     shift east/north/up [cm]   rotation [deg]\n";
+  for (const FusePassReport& pr : report.passes) {
+    char line[160];
+    std::snprintf(line, sizeof(line), "  %-12s %-8s %7.2f %7.2f %7.2f          %6.3f\n",
+                  pr.session.c_str(), pr.pass.c_str(), 100 * pr.mean_shift.x(),
+                  100 * pr.mean_shift.y(), 100 * pr.mean_shift.z(), pr.rotation_change_deg);
+    out << line;
+  }
+  for (const SessionGrade* g : report.quality.Degraded()) {
+    for (const std::string& reason : g->reasons) {
+      out << "  degraded " << g->session << ": " << reason << "\n";
+    }
+  }
+  if (!report.quality.Degraded().empty()) {
+    out << (report.quality.any_trusted
+                ? "  (degraded sessions were registered onto the trusted ones, held fixed)\n"
+                : "  (no session is trusted: all were fused together)\n");
+  }
+  return out.str();
+}
+
+}  // namespace crop4d::pipeline

@@ -1,9 +1,11 @@
 #pragma once
 
 // The fuse stage's outputs under WS/fused/ (workspace::Layout): each session's fused poses and
-// sparse cloud, the joint landmarks, and the whole reconstruction as a COLMAP text model.
+// sparse cloud, the joint landmarks, the whole reconstruction as a COLMAP text model, the
+// summary; and the stage's printed report (FormatFuseReport, fuse_stage.h).
 
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -35,5 +37,12 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                  const std::vector<std::vector<geometry::Rigid3>>& cameras,
                  const std::vector<fusion::JointLandmark>& landmarks,
                  const fusion::JointOptimiser::Result& result, const workspace::Layout& layout);
+
+// WS/fused/summary.json's content: the fingerprint, the options, the sessions, the association
+// and joint-problem counts, the ground ties, each pass's move and time offset, the timings.
+nlohmann::json FuseSummaryJson(const FuseReport& report,
+                               const fusion::JointOptimiser::Result& result,
+                               const std::string& stamp, const FuseStageOptions& options,
+                               const std::vector<std::string>& sessions);
 
 }  // namespace crop4d::pipeline::fuse

@@ -1,7 +1,8 @@
 #pragma once
 
 // The fuse stage's view of one row pass (internal to pipeline/fuse_*.cc): its workspace data, its
-// row-SLAM problem for the joint optimiser, and its cloud tracks triangulated from given cameras.
+// row-SLAM problem for the joint optimiser (rebuilt from the pass's priors and measurements in
+// the workspace, never from the field), and its cloud tracks triangulated from given cameras.
 
 #include <cstdint>
 #include <map>
@@ -12,7 +13,6 @@
 #include "crop4d/core/timestamp.h"
 #include "crop4d/fusion/joint_optimiser.h"
 #include "crop4d/geometry/rigid.h"
-#include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/track_cloud.h"
 #include "crop4d/slam/triangulation.h"
 #include "crop4d/workspace/pass_data.h"
@@ -20,11 +20,11 @@
 namespace crop4d::pipeline::fuse {
 
 // A pass as the fuse stage holds it: its workspace data, its row-SLAM problem rebuilt for the
-// joint optimiser and the cloud track of each of its keypoints.
+// joint optimiser (`input` points into `data.measurements`) and the cloud track of each of its
+// keypoints.
 struct LoadedPass {
   workspace::PassData data;
   fusion::JointOptimiser::Pass input;
-  const slam::SessionStreams* streams = nullptr;
   // Cloud track of each (image, feature) of the pass.
   std::unordered_map<std::uint64_t, int> cloud_of;
 };
@@ -34,8 +34,12 @@ inline std::uint64_t ImageFeatureKey(int image, int feature) {
   return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
 }
 
-// The image file names of a camera stream by timestamp.
-std::map<Timestamp, std::string> ImageNames(const slam::SessionStreams& streams);
+// Loads the pass's features, tracks, states and measurements from the workspace and rebuilds
+// its row-SLAM problem (`input`) and `cloud_of`. `pass->data` names the session and pass.
+void LoadPassProblem(const std::string& workspace, LoadedPass* pass);
+
+// The image file names of the pass by timestamp.
+std::map<Timestamp, std::string> ImageNames(const LoadedPass& pass);
 
 // The cloud tracks of a pass (their keypoints and colours) triangulated from the given cameras
 // (one per image).

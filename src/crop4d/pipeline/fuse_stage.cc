@@ -38,7 +38,6 @@
 #include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/slam/reprojection_factor.h"
 #include "crop4d/slam/session_solve.h"
-#include "crop4d/slam/session_streams.h"
 #include "crop4d/slam/track_cloud.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_data.h"
@@ -49,8 +48,8 @@ namespace crop4d::pipeline {
 namespace {
 
 using fuse::CloudOfTracks;
+using fuse::FuseSummaryJson;
 using fuse::ImageFeatureKey;
-using fuse::ImageNames;
 using fuse::LoadedPass;
 using fuse::WriteColmap;
 using fuse::WriteJointLandmarks;
@@ -86,60 +85,6 @@ std::vector<fusion::JointLandmark> JoinLandmarks(
     }
   }
   return landmarks;
-}
-
-// The pass's row-SLAM problem rebuilt from the session's data and summary.json's "problem".
-void BuildInput(const slam::SessionStreams& streams, LoadedPass* pass) {
-  const workspace::PassPriors& problem = pass->data.problem;
-  const std::string where = pass->data.folder + "/summary.json";
-  fusion::JointOptimiser::Pass& input = pass->input;
-  input.initial_states = pass->data.states;
-  if (pass->data.has_camera()) {
-    if (!streams.camera || streams.camera->sensor.name != pass->data.camera) {
-      throw InputError(where + ": camera '" + pass->data.camera + "' not in the session");
-    }
-    input.camera = &streams.camera->sensor.camera;
-    input.body_from_camera = streams.camera->sensor.body_from_sensor;
-  }
-  // Row SLAM without an IMU (cam+rtk, cam+gps): the GP prior carries the motion here too.
-  if (problem.use_imu) {
-    if (!streams.imu || streams.imu->samples.empty()) {
-      throw InputError(where + ": the session has no IMU samples");
-    }
-    const slam::ImuStream& imu = *streams.imu;
-    input.imu_samples = &imu.samples;
-    // The noise row SLAM used: sensor.yaml's times the factor the data asked for.
-    input.imu_noise = slam::ImuNoise(imu.sensor, problem.imu_noise_factor);
-    input.imu_rate_hz = imu.sensor.rate_hz;
-  }
-  if (!problem.gps.empty()) {
-    const slam::GpsStream* gps = nullptr;
-    for (const slam::GpsStream& g : streams.gps) {
-      if (g.sensor.name == problem.gps) gps = &g;
-    }
-    if (gps == nullptr) throw InputError(where + ": GPS '" + problem.gps + "' not in the session");
-    std::vector<GpsOutage> outages;
-    for (const auto& [start, duration] : problem.gps_outages) outages.push_back({start, duration});
-    input.gps_fixes = ApplyGpsOutages(gps->fixes, outages);
-    input.p_body_antenna = gps->sensor.antenna_in_body;
-  }
-  input.level_up_body = problem.level_up_body;
-  input.forward_axis_body = problem.forward_axis_body;
-  input.anchor_state = problem.anchor_state;
-  input.anchor_sigma_velocity = problem.anchor_sigma_velocity;
-  input.still_intervals =
-      workspace::StillFlags(problem.still_intervals, input.initial_states.size(), where);
-  if (problem.length_prior) {
-    input.length_prior_m = problem.length_prior->first;
-    input.length_prior_sigma_m = problem.length_prior->second;
-  }
-  input.bias_prior_mean = problem.bias_prior_mean;
-  input.bias_prior_sigma = problem.bias_prior_sigma;
-  // Row SLAM's camera-IMU time offset (null: not estimated): the joint problem starts from it.
-  const json back_end = json::parse(pass->data.summary_json).value("back_end", json::object());
-  if (back_end.contains("time_offset_s") && back_end.at("time_offset_s").is_number()) {
-    input.time_offset_s = back_end.at("time_offset_s").get<double>();
-  }
 }
 
 // A pass as the ground ties see it: its row-SLAM cameras and cloud.
@@ -292,98 +237,6 @@ std::vector<bool> GradeSessions(const std::vector<std::unique_ptr<LoadedPass>>& 
                      : "; no session is trusted: all are fused together");
   }
   return protects;
-}
-
-// The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
-// the joint solve, the ground ties and the per-pass corrections.
-json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Result& result,
-                     const std::string& stamp, const FuseStageOptions& options,
-                     const std::vector<std::string>& sessions) {
-  const fusion::JointOptimiser::Summary& s = result.summary;
-  json summary;
-  summary["fingerprint"] = stamp;
-  summary["options"] = FuseOptionsJson(options);
-  summary["sessions"] = sessions;
-  summary["associations"] = {{"files", report.num_association_files},
-                             {"cross_matches", report.num_cross_matches},
-                             {"thinned_matches", report.num_thinned_matches},
-                             {"conflicting_matches", report.num_conflicting_matches},
-                             {"invalid_matches", report.num_invalid_matches}};
-  summary["joint"] = {{"passes", s.num_passes},
-                      {"states", s.num_states},
-                      {"landmarks_given", s.num_landmarks_given},
-                      {"landmarks", s.num_landmarks},
-                      {"shared_landmarks", s.num_shared_landmarks},
-                      {"observations", s.num_observations},
-                      {"cross_observations", s.num_cross_observations},
-                      {"rejected_observations", s.num_rejected_observations},
-                      {"rejected_cross_observations", s.num_rejected_cross_observations},
-                      {"initial_cost", s.initial_cost},
-                      {"final_cost", s.final_cost},
-                      {"iterations", s.iterations},
-                      {"reprojection_rms_px", s.reprojection_rms_px},
-                      {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
-                      {"ground_ties", s.num_ground_ties},
-                      {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
-                      {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
-                      {"converged", s.converged}};
-  json tie_list = json::array();
-  for (const FuseTiePairReport& t : report.tie_pairs) {
-    tie_list.push_back({{"a", t.a},
-                        {"b", t.b},
-                        {"cross_matches", t.cross_matches},
-                        {"soil_points_a", t.ties.soil_points_a},
-                        {"soil_points_b", t.ties.soil_points_b},
-                        {"segments", t.ties.segments},
-                        {"ties", t.ties.ties},
-                        {"median_across_m", t.ties.median_across_m},
-                        {"median_vertical_m", t.ties.median_vertical_m},
-                        {"median_spread_m", t.ties.median_spread_m}});
-  }
-  summary["ground_ties"] = tie_list;
-  json pass_list = json::array();
-  for (std::size_t p = 0; p < report.passes.size(); ++p) {
-    const FusePassReport& pr = report.passes[p];
-    pass_list.push_back(
-        {{"session", pr.session},
-         {"pass", pr.pass},
-         {"images", pr.images},
-         {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
-         {"rotation_change_deg", pr.rotation_change_deg}});
-    // The camera-IMU time offset the joint problem used (docs/fusion.md), when there is one.
-    if (result.time_offsets_s[p]) pass_list.back()["time_offset_s"] = *result.time_offsets_s[p];
-  }
-  summary["passes"] = pass_list;
-  summary["seconds"] = {{"triangulation", s.triangulation_seconds},
-                        {"solve", s.solve_seconds},
-                        {"final_solve", s.final_solve_seconds},
-                        {"total", report.seconds}};
-  return summary;
-}
-
-// Loads each pass's features, tracks and states and rebuilds its row-SLAM problem from the
-// session's streams (opened once per session into `streams`, which the passes point into).
-void LoadPassProblems(const io::Field& field, const std::string& workspace,
-                      const std::vector<std::unique_ptr<LoadedPass>>& passes,
-                      std::map<std::string, std::unique_ptr<slam::SessionStreams>>* streams,
-                      std::map<std::string, std::unique_ptr<io::Session>>* session_objects) {
-  for (auto& pass : passes) {
-    const std::string& session = pass->data.session;
-    pass->data = workspace::LoadPassData(workspace, session, pass->data.pass,
-                                         {.features = true, .tracks = true, .states = true});
-    if (!streams->count(session)) {
-      (*session_objects)[session] = std::make_unique<io::Session>(field.OpenSession(session));
-      (*streams)[session] = std::make_unique<slam::SessionStreams>(slam::LoadSessionStreams(
-          field, *(*session_objects)[session], pass->data.camera, pass->data.problem.imu));
-    }
-    pass->streams = (*streams)[session].get();
-    BuildInput(*pass->streams, pass.get());
-    for (std::size_t c = 0; c < pass->data.tracks.cloud.size(); ++c) {
-      for (const features::Observation& o : pass->data.tracks.cloud[c].observations) {
-        pass->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);
-      }
-    }
-  }
 }
 
 // The joint problem: with degraded sessions (some pass not protected), first the trusted
@@ -540,9 +393,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   }
 
   // Load the passes and rebuild their problems.
-  std::map<std::string, std::unique_ptr<slam::SessionStreams>> streams;
-  std::map<std::string, std::unique_ptr<io::Session>> session_objects;
-  LoadPassProblems(field, workspace, passes, &streams, &session_objects);
+  for (auto& pass : passes) fuse::LoadPassProblem(workspace, pass.get());
   report.num_sessions = static_cast<int>(sessions.size());
   report.num_passes = static_cast<int>(passes.size());
 
@@ -583,54 +434,6 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   workspace::RecordOutputs(&summary, out_dir, workspace::FilesBelow(out_dir));
   workspace::WriteFusedSummary(layout.FusedSummary().string(), summary);
   return report;
-}
-
-std::string FormatFuseReport(const FuseReport& report) {
-  std::ostringstream out;
-  if (report.skipped) {
-    out << "fuse: up to date (" << report.num_passes << " passes of " << report.num_sessions
-        << " sessions)\n";
-    return out.str();
-  }
-  const fusion::JointOptimiser::Summary& s = report.joint;
-  out << "fused " << report.num_passes << " passes of " << report.num_sessions << " sessions in "
-      << std::fixed << std::setprecision(1) << report.seconds << " s\n";
-  out << "  cross matches " << report.num_cross_matches << " from " << report.num_association_files
-      << " files (" << report.num_thinned_matches << " left out by the per-image-pair cap, "
-      << report.num_conflicting_matches << " inconsistent, " << report.num_invalid_matches
-      << " stale)\n";
-  out << "  landmarks " << s.num_landmarks << " (" << s.num_shared_landmarks
-      << " shared by passes), observations " << s.num_observations << " (cross "
-      << s.num_cross_observations << ", rejected cross " << s.num_rejected_cross_observations
-      << ")\n";
-  out << std::setprecision(2) << "  reprojection RMS " << s.reprojection_rms_px << " px (cross "
-      << s.cross_reprojection_rms_px << " px), cost " << std::setprecision(1) << s.initial_cost
-      << " -> " << s.final_cost << ", " << s.iterations << " iterations\n";
-  if (s.num_ground_ties > 0) {
-    out << std::setprecision(2) << "  ground ties " << s.num_ground_ties << " on "
-        << report.tie_pairs.size() << " pairs of passes without cross matches, RMS after fusion "
-        << 100 * s.ground_tie_rms_across_m << " cm across, " << 100 * s.ground_tie_rms_vertical_m
-        << " cm vertical\n";
-  }
-  out << "  session      pass     shift east/north/up [cm]   rotation [deg]\n";
-  for (const FusePassReport& pr : report.passes) {
-    char line[160];
-    std::snprintf(line, sizeof(line), "  %-12s %-8s %7.2f %7.2f %7.2f          %6.3f\n",
-                  pr.session.c_str(), pr.pass.c_str(), 100 * pr.mean_shift.x(),
-                  100 * pr.mean_shift.y(), 100 * pr.mean_shift.z(), pr.rotation_change_deg);
-    out << line;
-  }
-  for (const SessionGrade* g : report.quality.Degraded()) {
-    for (const std::string& reason : g->reasons) {
-      out << "  degraded " << g->session << ": " << reason << "\n";
-    }
-  }
-  if (!report.quality.Degraded().empty()) {
-    out << (report.quality.any_trusted
-                ? "  (degraded sessions were registered onto the trusted ones, held fixed)\n"
-                : "  (no session is trusted: all were fused together)\n");
-  }
-  return out.str();
 }
 
 }  // namespace crop4d::pipeline

@@ -18,7 +18,9 @@
 #include "crop4d/eval/workspace_eval.h"
 #include "crop4d/io/colmap_text.h"
 #include "crop4d/io/ply.h"
+#include "crop4d/io/tum.h"
 #include "crop4d/pipeline/associate_stage.h"
+#include "crop4d/pipeline/densify_stage.h"
 #include "crop4d/pipeline/slam_stage.h"
 #include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
@@ -211,6 +213,44 @@ TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) 
   const FuseReport apart = RunFuseStage(RainField(), workspace_, fo);
   EXPECT_EQ(apart.joint.num_ground_ties, 0);
   EXPECT_GT(MedianMisalignment(RainField(), "fused"), 0.1);
+}
+
+// After row SLAM the workspace holds each pass's problem (priors in summary.json, measurements in
+// measurements.bin): associate, fuse and densify run with every sensor file of the field gone
+// (data.csv, sensor.yaml, session.yaml of every sensor); only field.yaml and the image files,
+// whose pixels the workspace does not copy, stay.
+TEST_F(FusionStagesTest, AssociateFuseAndDensifyReadOnlyTheWorkspace) {
+  const fs::path field = fs::path(workspace_ + "_field");
+  fs::remove_all(field);
+  fs::copy(Field(), field, fs::copy_options::recursive);
+  Slam("cam+imu+rtk", field.string());
+  int removed = 0;
+  for (const fs::directory_entry& e : fs::recursive_directory_iterator(field / "sessions")) {
+    const std::string ext = e.path().extension().string();
+    if (e.is_regular_file() && ext != ".png" && ext != ".jpg") {
+      fs::remove(e.path());
+      ++removed;
+    }
+  }
+  EXPECT_GE(removed, 6);  // two sessions, each with at least a camera, an IMU and a receiver
+
+  Associate(field.string());
+  const FuseReport fused = RunFuseStage(field.string(), workspace_, FuseStageOptions{});
+  EXPECT_GT(fused.joint.num_shared_landmarks, 100);
+  const std::vector<io::StampedPose> poses =
+      io::ReadTum(workspace_ + "/fused/" + fused.passes.front().session + "/poses.tum");
+  ASSERT_FALSE(poses.empty());
+  DensifyStageOptions dense;
+  dense.show_progress = false;
+  dense.sessions = {fused.passes.front().session};
+  // A disc under the middle camera: enough views to match, seconds to densify.
+  dense.centers = {poses[poses.size() / 2].pose.translation().head<2>()};
+  dense.radius_m = 0.3;
+  const std::vector<DensifySessionReport> clouds =
+      RunDensifyStage(field.string(), workspace_, dense);
+  ASSERT_EQ(clouds.size(), 1u);
+  EXPECT_GT(clouds[0].stereo.num_points, 100);
+  fs::remove_all(field);
 }
 
 }  // namespace

@@ -296,6 +296,7 @@ PassOutcome RunPass(const PassJob& job, const std::string& fingerprint, const js
   const std::vector<geometry::Rigid3> cameras = WritePassPoses(job, result);
   workspace::WritePassStates(job.layout.PassStates(job.session(), job.pass.id).string(),
                              result.states);
+  WritePassMeasurementsFile(job);
   PassOutcome outcome;
   outcome.num_states = static_cast<int>(result.states.size());
   outcome.num_images = has_camera ? front_end.front.summary.num_images : 0;

@@ -235,6 +235,12 @@ void OpenSlamSession(const io::Field& field, const io::Session& session,
                      const SlamStageOptions& options, SessionContext* ctx) {
   ctx->session = &session;
   ctx->streams = slam::LoadSessionStreams(field, session, options.camera, options.imu);
+  if (ctx->streams.camera) {
+    ctx->image_folder = fs::path(session.ImagePath(ctx->streams.camera->sensor.name, "x"))
+                            .parent_path()
+                            .lexically_relative(field.folder())
+                            .string();
+  }
   ctx->sensors = ChooseSensorSet(options, ctx->streams);
   ctx->data_stamp = DataStamp(session);
   if (!slam::Describe(ctx->sensors).imu) {

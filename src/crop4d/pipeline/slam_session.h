@@ -28,6 +28,9 @@ struct SessionContext {
   SessionContext& operator=(const SessionContext&) = delete;
 
   const io::Session* session = nullptr;
+  // The camera's image folder relative to the field folder (measurements.bin; empty without a
+  // camera).
+  std::string image_folder;
   // The session's streams; `imu` is always set (empty for a sensor set without an IMU).
   slam::SessionStreams streams;
   slam::SensorSet sensors = slam::SensorSet::kCamImuRtk;

@@ -13,6 +13,7 @@
 #include "crop4d/core/version.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/stream_coverage.h"
+#include "crop4d/workspace/pass_measurements.h"
 #include "crop4d/workspace/pass_priors.h"
 #include "crop4d/workspace/pass_summary.h"
 #include "crop4d/workspace/stage_files.h"
@@ -43,8 +44,8 @@ std::vector<std::string> PassOutputs(const workspace::Layout& layout, const std:
   std::vector<std::string> out;
   for (const fs::path& file :
        {layout.PassPoses(session, pass), layout.PassStates(session, pass),
-        layout.PassInitialPoses(session, pass), layout.PassTracks(session, pass),
-        layout.PassLandmarks(session, pass)}) {
+        layout.PassMeasurements(session, pass), layout.PassInitialPoses(session, pass),
+        layout.PassTracks(session, pass), layout.PassLandmarks(session, pass)}) {
     if (fs::exists(file)) out.push_back(file.filename().string());
   }
   return out;
@@ -165,7 +166,8 @@ bool PassUpToDate(const workspace::Layout& layout, const std::string& session,
                   const std::string& pass, const std::string& fingerprint, bool needs_cloud) {
   const std::string folder = layout.PassDir(session, pass).string();
   const fs::path summary_path = layout.PassSummary(session, pass);
-  for (const fs::path& file : {layout.PassPoses(session, pass), layout.PassStates(session, pass)}) {
+  for (const fs::path& file : {layout.PassPoses(session, pass), layout.PassStates(session, pass),
+                               layout.PassMeasurements(session, pass)}) {
     if (!fs::exists(file)) return false;
   }
   if (!fs::exists(summary_path)) return false;
@@ -267,6 +269,14 @@ void RecordPassProblem(const PassJob& job, const slam::RowOptimiser::Input& inpu
     p.length_prior = std::make_pair(s.length_prior_m, s.length_prior_sigma_m);
   }
   (*summary)["problem"] = workspace::ToJson(p);
+}
+
+void WritePassMeasurementsFile(const PassJob& job) {
+  const PassStreams& streams = job.streams;
+  workspace::WritePassMeasurements(
+      job.layout.PassMeasurements(job.session(), job.pass.id).string(),
+      workspace::SelectPassMeasurements(streams.camera, streams.imu, streams.gps, job.times,
+                                        job.times.front(), job.times.back(), job.ctx.image_folder));
 }
 
 void RecordSolve(const PassJob& job, const PassInitialisation& init, int num_images,

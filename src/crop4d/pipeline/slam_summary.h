@@ -40,6 +40,10 @@ void RecordPassProblem(const PassJob& job, const slam::RowOptimiser::Input& inpu
                        const std::vector<bool>& still, const slam::RowOptimiser::Summary& s,
                        nlohmann::json* summary);
 
+// measurements.bin (workspace/pass_measurements.h): the camera and the pass's images, the IMU
+// samples and the factors' GPS fixes (outages applied) the pass was solved with, over its states.
+void WritePassMeasurementsFile(const PassJob& job);
+
 // The solve's part of summary.json: state and image counts, the initialisation, the back end's
 // counts, fit and cost, and the camera height's scale.
 void RecordSolve(const PassJob& job, const PassInitialisation& init, int num_images,

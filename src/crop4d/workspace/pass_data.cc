@@ -26,6 +26,7 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
     data.fingerprint = summary.fingerprint;
     data.camera = summary.problem.camera;
     data.problem = std::move(summary.problem);
+    data.time_offset_s = summary.time_offset_s;
     data.summary_json = summary.json.dump();
   }
   for (const io::StampedPose& p : io::ReadTum(layout.PassPoses(session, pass.id).string())) {
@@ -85,6 +86,15 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
       throw InputError(states_path.string() + ": " + std::to_string(data.states.size()) +
                        " states but poses.tum has " + std::to_string(data.times.size()) +
                        " (rerun `crop4d slam --force`)");
+    }
+  }
+  if (parts.measurements) {
+    data.measurements = ReadPassMeasurements(layout.PassMeasurements(session, pass.id).string());
+    if (data.has_camera() &&
+        (!data.measurements.camera || data.measurements.camera->sensor.name != data.camera)) {
+      throw InputError(layout.PassMeasurements(session, pass.id).string() +
+                       ": does not hold the pass's camera '" + data.camera +
+                       "' (rerun `crop4d slam --force`)");
     }
   }
   return data;

@@ -4,6 +4,7 @@
 // files): the pass list of a session, and per pass its poses, features, tracks and summary.
 // Missing or damaged files throw InputError naming the file and saying to rerun `crop4d slam`.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 #include "crop4d/slam/row_passes.h"
 #include "crop4d/workspace/pass_files.h"
 #include "crop4d/workspace/pass_list.h"
+#include "crop4d/workspace/pass_measurements.h"
 #include "crop4d/workspace/pass_priors.h"
 
 namespace crop4d::workspace {
@@ -26,15 +28,19 @@ struct PassData {
   std::string camera;
   std::string fingerprint;
   PassPriors problem;
+  // Row SLAM's camera-IMU time offset, s (unset: not estimated).
+  std::optional<double> time_offset_s;
   std::string summary_json;
   // Row SLAM's world_from_camera at every image (poses.tum; world_from_body without camera).
   std::vector<Timestamp> times;
   std::vector<geometry::Rigid3> poses;
   // Loaded on request: the features of every image (features.bin, in the order of `times`), the
-  // tracks (tracks.bin), the full states (states.csv).
+  // tracks (tracks.bin), the full states (states.csv), the measurements row SLAM solved with
+  // (measurements.bin).
   std::vector<features::FeatureSet> features;
   PassTracks tracks;
   std::vector<slam::RowState> states;
+  PassMeasurements measurements;
 
   bool has_camera() const { return !camera.empty(); }
   std::string label() const { return session + "/" + pass.id; }
@@ -44,6 +50,7 @@ struct PassDataParts {
   bool features = false;
   bool tracks = false;
   bool states = false;
+  bool measurements = false;
 };
 
 PassData LoadPassData(const std::string& workspace, const std::string& session,

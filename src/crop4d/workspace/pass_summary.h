@@ -7,6 +7,7 @@
 // throws InputError naming the file and saying to rerun `crop4d slam --force`.
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,7 +23,9 @@ struct PassSummary {
   std::string fingerprint;         // of the inputs and options that gave the pass's outputs
   PassPriors problem;              // summary.json's "problem"
   std::vector<std::string> trust;  // what the estimate cannot be trusted for (docs/slam.md)
-  nlohmann::json json;             // the whole summary
+  // The back end's camera-IMU time offset, s ("back_end.time_offset_s"; unset: not estimated).
+  std::optional<double> time_offset_s;
+  nlohmann::json json;  // the whole summary
 };
 
 // Stamps the summary with kPassSummarySchema and writes it atomically (2-space indented).

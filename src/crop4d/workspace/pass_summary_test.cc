@@ -180,6 +180,18 @@ TEST_F(PassSummaryTest, SummaryRoundTripsWithItsSchema) {
   EXPECT_EQ(s.trust, std::vector<std::string>{"gps_gap"});
   EXPECT_EQ(s.json.at("schema").get<int>(), kPassSummarySchema);
   EXPECT_EQ(s.json.at("back_end").at("landmarks").get<int>(), 12);
+  EXPECT_FALSE(s.time_offset_s.has_value());
+
+  // The back end's time offset: a number is read, null is "not estimated", text is an error.
+  summary["back_end"]["time_offset_s"] = -0.0125;
+  WritePassSummary(path, summary);
+  EXPECT_EQ(ReadPassSummary(path).time_offset_s, -0.0125);
+  summary["back_end"]["time_offset_s"] = nullptr;
+  WritePassSummary(path, summary);
+  EXPECT_FALSE(ReadPassSummary(path).time_offset_s.has_value());
+  summary["back_end"]["time_offset_s"] = "soon";
+  WritePassSummary(path, summary);
+  EXPECT_NE(ErrorOf([&] { ReadPassSummary(path); }).find(path), std::string::npos);
 }
 
 TEST_F(PassSummaryTest, SummaryOfAnotherVersionOrDamagedIsAnInputError) {

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -22,7 +21,6 @@
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/task_arena.h"
 #include "crop4d/core/version.h"
-#include "crop4d/io/atomic_file.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/pipeline/associate_pass.h"
 #include "crop4d/pipeline/slam_stage.h"
@@ -64,38 +62,27 @@ std::optional<PassPairReport> UpToDateReport(const PassPair& pair, const std::st
                                              const std::string& fingerprint,
                                              const fs::path& out_dir) {
   const fs::path bin = out_dir / association::AssociationFileName(pair.a, pair.b);
-  const fs::path summary_path = fs::path(bin).replace_extension(".json");
+  const fs::path summary_path = workspace::AssociationSummaryPath(bin);
   if (!fs::exists(bin) || !fs::exists(summary_path)) return std::nullopt;
+  workspace::AssociationSummary summary;
   try {
-    std::ifstream in(summary_path);
-    const json s = json::parse(in);
-    if (s.value("fingerprint", "") != fingerprint) return std::nullopt;
-    std::string why;
-    if (!workspace::OutputsIntact(out_dir, s, &why)) {
-      spdlog::debug("{}: associated again: {}", bin.string(), why);
-      return std::nullopt;
-    }
-    PassPairReport report;
-    report.pair = pair;
-    report.method = method;
-    report.skipped = true;
-    report.image_pairs = s.value("image_pairs", 0);
-    report.landmarks = s.value("landmarks", 0);
-    report.surface_points = s.value("surface_points", 0);
-    report.projected = s.value("projected", 0);
-    report.candidates = s.value("candidates", 0);
-    report.warped = s.value("warped", 0);
-    report.upright_b = s.value("upright_b", 0);
-    report.putative = s.value("putative", 0);
-    report.matches = s.value("matches", 0);
-    report.prealigned = s.value("prealigned", false);
-    report.alignment_inliers = s.value("alignment_inliers", 0);
-    report.alignment_shift_m = s.value("alignment_shift_m", 0.0);
-    report.seconds = s.value("seconds", 0.0);
-    return report;
-  } catch (const std::exception&) {
-    return std::nullopt;  // a damaged summary: associate again
+    summary = workspace::ReadAssociationSummary(summary_path.string());
+  } catch (const InputError& e) {
+    spdlog::debug("{}: associated again: {}", bin.string(), e.what());
+    return std::nullopt;
   }
+  if (summary.fingerprint != fingerprint) return std::nullopt;
+  std::string why;
+  if (!workspace::OutputsIntact(out_dir, summary.json, &why)) {
+    spdlog::debug("{}: associated again: {}", bin.string(), why);
+    return std::nullopt;
+  }
+  PassPairReport report;
+  static_cast<workspace::AssociationCounts&>(report) = summary;
+  report.pair = pair;
+  report.method = method;
+  report.skipped = true;
+  return report;
 }
 
 // The matches of every image pair as cross matches of the pass pair (association_file.h), and
@@ -167,6 +154,45 @@ json PairSummaryJson(const PassPair& pair, const std::string& method, const Pass
           {"fingerprint", fingerprint}};
 }
 
+// Pass b's poses in pass a's frame, changed only by the pre-alignment where it runs (its
+// outcome in `report`), and the matcher's position sigma for the pair (`robust`): widened for
+// imprecise passes of one session, narrowed after a pre-alignment.
+std::vector<geometry::Rigid3> PosesOfBInA(const PassPair& pair, const std::string& method,
+                                          const PassContext& a, const PassContext& b,
+                                          const AssociateStageOptions& options,
+                                          association::RobustMatcher::Options* robust,
+                                          PassPairReport* report) {
+  std::vector<geometry::Rigid3> poses_b = b.data.poses;
+  const bool imprecise = !(a.precise && b.precise);
+  if (method == "robust" && imprecise && pair.a.session == pair.b.session &&
+      options.prealign != "always") {
+    robust->sigma_position_m =
+        std::max(robust->sigma_position_m, options.imprecise_sigma_position_m);
+  }
+  if (method == "robust" &&
+      (options.prealign == "always" ||
+       (options.prealign == "auto" && imprecise && pair.a.session != pair.b.session))) {
+    const fusion::PassAlignment alignment = PreAlign(a, b, options);
+    if (alignment.ok) {
+      const geometry::Rigid3 a_from_b = alignment.b_from_a.Inverse();
+      for (geometry::Rigid3& pose : poses_b) {
+        report->alignment_shift_m = std::max(
+            report->alignment_shift_m, (a_from_b * pose.translation() - pose.translation()).norm());
+        pose = a_from_b * pose;
+      }
+      report->prealigned = true;
+      report->alignment_inliers = alignment.num_inliers;
+      robust->sigma_position_m = options.prealigned_sigma_position_m;
+    } else {
+      spdlog::warn(
+          "{} <-> {}: no pre-alignment (too few consistent naive matches); searching around the "
+          "row-SLAM poses",
+          a.data.label(), b.data.label());
+    }
+  }
+  return poses_b;
+}
+
 PassPairReport AssociatePair(const PassPair& pair, const std::string& method, PassContext& a,
                              PassContext& b, const AssociateStageOptions& options,
                              const std::string& fingerprint, const fs::path& out_dir) {
@@ -176,37 +202,11 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
   const auto start = Clock::now();
   const json options_json = AssociateOptionsJson(options, method);
   const fs::path bin = out_dir / association::AssociationFileName(pair.a, pair.b);
-  const fs::path summary_path = fs::path(bin).replace_extension(".json");
+  const fs::path summary_path = workspace::AssociationSummaryPath(bin);
 
-  // Pass b's poses in pass a's frame (changed only by the pre-alignment).
-  std::vector<geometry::Rigid3> poses_b = b.data.poses;
   association::RobustMatcher::Options robust = options.robust;
-  const bool imprecise = !(a.precise && b.precise);
-  if (method == "robust" && imprecise && pair.a.session == pair.b.session &&
-      options.prealign != "always") {
-    robust.sigma_position_m = std::max(robust.sigma_position_m, options.imprecise_sigma_position_m);
-  }
-  if (method == "robust" &&
-      (options.prealign == "always" ||
-       (options.prealign == "auto" && imprecise && pair.a.session != pair.b.session))) {
-    const fusion::PassAlignment alignment = PreAlign(a, b, options);
-    if (alignment.ok) {
-      const geometry::Rigid3 a_from_b = alignment.b_from_a.Inverse();
-      for (geometry::Rigid3& pose : poses_b) {
-        report.alignment_shift_m = std::max(
-            report.alignment_shift_m, (a_from_b * pose.translation() - pose.translation()).norm());
-        pose = a_from_b * pose;
-      }
-      report.prealigned = true;
-      report.alignment_inliers = alignment.num_inliers;
-      robust.sigma_position_m = options.prealigned_sigma_position_m;
-    } else {
-      spdlog::warn(
-          "{} <-> {}: no pre-alignment (too few consistent naive matches); searching around the "
-          "row-SLAM poses",
-          a.data.label(), b.data.label());
-    }
-  }
+  const std::vector<geometry::Rigid3> poses_b =
+      PosesOfBInA(pair, method, a, b, options, &robust, &report);
   const std::vector<association::ImagePair> image_pairs = association::SelectImagePairs(
       a.data.poses, poses_b, a.camera, b.camera, a.ground_z, options.image_pairs);
   std::vector<association::AssociationResult> results(image_pairs.size());
@@ -282,7 +282,7 @@ PassPairReport AssociatePair(const PassPair& pair, const std::string& method, Pa
   association::WriteAssociationFile(bin.string(), assoc);
   json summary = PairSummaryJson(pair, method, report, options_json, fingerprint);
   workspace::RecordOutputs(&summary, out_dir, {bin.filename().string()});
-  io::WriteFileAtomic(summary_path.string(), summary.dump(2) + "\n");
+  workspace::WriteAssociationSummary(summary_path.string(), summary);
   return report;
 }
 

@@ -28,6 +28,7 @@
 #include "crop4d/association/surface_points.h"
 #include "crop4d/features/matcher.h"
 #include "crop4d/fusion/pass_alignment.h"
+#include "crop4d/workspace/association_summary.h"
 
 namespace crop4d::pipeline {
 
@@ -108,27 +109,11 @@ struct AssociateStageOptions {
   std::string Check() const;
 };
 
-struct PassPairReport {
+// A pass pair's association: the pair, the method, whether it was up to date, and its counts.
+struct PassPairReport : workspace::AssociationCounts {
   PassPair pair;
   std::string method;
   bool skipped = false;  // up to date
-  int image_pairs = 0;
-  // Sums over the image pairs (association::AssociationStats).
-  std::int64_t landmarks = 0;
-  std::int64_t projected = 0;
-  // Surface points among the landmarks (association/surface_points.h).
-  std::int64_t surface_points = 0;
-  std::int64_t candidates = 0;
-  std::int64_t warped = 0;
-  // Keypoints of pass b described upright for the comparison with warped ones.
-  std::int64_t upright_b = 0;
-  std::int64_t putative = 0;
-  std::int64_t matches = 0;
-  // The pre-alignment: whether it ran and succeeded, its inliers and how far it moved pass b.
-  bool prealigned = false;
-  int alignment_inliers = 0;
-  double alignment_shift_m = 0;
-  double seconds = 0;
 };
 
 // The pass pairs of a workspace's sessions (in field order) under `options`.

@@ -9,7 +9,8 @@ namespace {
 
 // The pass's row-SLAM problem from its priors (summary.json) and measurements
 // (measurements.bin): what row SLAM solved, so that the joint problem starts from it.
-void BuildInput(const std::string& where, LoadedPass* pass) {
+// `where` and `summary` name the pass's measurements.bin and summary.json in errors.
+void BuildInput(const std::string& where, const std::string& summary, LoadedPass* pass) {
   const workspace::PassPriors& priors = pass->data.problem;
   const workspace::PassMeasurements& measured = pass->data.measurements;
   fusion::JointOptimiser::Pass& input = pass->input;
@@ -40,7 +41,6 @@ void BuildInput(const std::string& where, LoadedPass* pass) {
     input.gps_fixes = measured.gps->fixes;
     input.p_body_antenna = measured.gps->sensor.antenna_in_body;
   }
-  const std::string summary = pass->data.folder + "/summary.json";
   input.level_up_body = priors.level_up_body;
   input.forward_axis_body = priors.forward_axis_body;
   input.anchor_state = priors.anchor_state;
@@ -63,10 +63,11 @@ void LoadPassProblem(const std::string& workspace, LoadedPass* pass) {
   pass->data = workspace::LoadPassData(
       workspace, pass->data.session, pass->data.pass,
       {.features = true, .tracks = true, .states = true, .measurements = true});
-  const std::string where = workspace::Layout(workspace)
-                                .PassMeasurements(pass->data.session, pass->data.pass.id)
-                                .string();
-  BuildInput(where, pass);
+  const workspace::Layout layout(workspace);
+  const std::string& session = pass->data.session;
+  const std::string& id = pass->data.pass.id;
+  BuildInput(layout.PassMeasurements(session, id).string(),
+             layout.PassSummary(session, id).string(), pass);
   for (std::size_t c = 0; c < pass->data.tracks.cloud.size(); ++c) {
     for (const features::Observation& o : pass->data.tracks.cloud[c].observations) {
       pass->cloud_of[ImageFeatureKey(o.image, o.feature)] = static_cast<int>(c);

@@ -26,7 +26,6 @@
 #include "crop4d/fusion/cross_pass_tracks.h"
 #include "crop4d/fusion/pass_subset.h"
 #include "crop4d/geometry/rotation.h"
-#include "crop4d/io/atomic_file.h"
 #include "crop4d/io/colmap_text.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
@@ -219,9 +218,10 @@ std::vector<bool> GradeSessions(const std::vector<std::unique_ptr<LoadedPass>>& 
                                 const FuseStageOptions& options, FuseReport* report) {
   std::vector<PassFacts> facts;
   for (const auto& pass : passes) {
-    facts.push_back(PassFactsFromSummary(json::parse(pass->data.summary_json)));
-    facts.back().session = pass->data.session;
-    facts.back().pass = pass->data.pass.id;
+    workspace::PassSummary summary;
+    summary.sensors = pass->data.sensors;
+    summary.longest_imu_gap_s = pass->data.longest_imu_gap_s;
+    facts.push_back(PassFactsOf(pass->data.session, pass->data.pass.id, summary));
   }
   report->quality = GradeSeason(facts, options.quality);
   std::vector<bool> protects(passes.size());
@@ -237,6 +237,26 @@ std::vector<bool> GradeSessions(const std::vector<std::unique_ptr<LoadedPass>>& 
                      : "; no session is trusted: all are fused together");
   }
   return protects;
+}
+
+// Whether fused/ holds every session's outputs, a readable summary with `stamp` and intact
+// outputs (why not is logged).
+bool FusedUpToDate(const workspace::Layout& layout, const std::vector<std::string>& sessions,
+                   const std::string& stamp) {
+  if (!fs::exists(layout.FusedSummary())) return false;
+  for (const std::string& s : sessions) {
+    if (!fs::exists(layout.FusedPoses(s)) || !fs::exists(layout.FusedSparse(s))) return false;
+  }
+  try {
+    workspace::ReadFusedSummary(layout.FusedSummary().string());
+  } catch (const InputError& e) {
+    spdlog::info("fuse: fused again: {}", e.what());
+    return false;
+  }
+  std::string why;
+  if (workspace::SummaryUpToDate(layout.FusedSummary(), stamp, &why)) return true;
+  spdlog::info("fuse: fused again: {}", why);
+  return false;
 }
 
 // The joint problem: with degraded sessions (some pass not protected), first the trusted
@@ -363,27 +383,13 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   }
   const std::string stamp = std::to_string(fingerprint.hash());
   const fs::path out_dir = layout.FusedDir();
-  if (!options.force && fs::exists(layout.FusedSummary())) {
-    bool complete = true;
-    for (const std::string& s : sessions) {
-      complete &= fs::exists(layout.FusedPoses(s)) && fs::exists(layout.FusedSparse(s));
-    }
-    std::string why;
-    try {
-      workspace::ReadFusedSummary(layout.FusedSummary().string());
-    } catch (const InputError& e) {
-      complete = false;
-      spdlog::info("fuse: fused again: {}", e.what());
-    }
-    if (complete && workspace::SummaryUpToDate(layout.FusedSummary(), stamp, &why)) {
-      spdlog::info("fuse: up to date, skipped (--force to fuse again)");
-      report.skipped = true;
-      report.num_sessions = static_cast<int>(sessions.size());
-      report.num_passes = static_cast<int>(passes.size());
-      report.quality = ReadSeasonQuality(workspace);
-      return report;
-    }
-    if (complete) spdlog::info("fuse: fused again: {}", why);
+  if (!options.force && FusedUpToDate(layout, sessions, stamp)) {
+    spdlog::info("fuse: up to date, skipped (--force to fuse again)");
+    report.skipped = true;
+    report.num_sessions = static_cast<int>(sessions.size());
+    report.num_passes = static_cast<int>(passes.size());
+    report.quality = ReadSeasonQuality(workspace);
+    return report;
   }
   if (association_files.empty()) {
     spdlog::warn(
@@ -428,8 +434,7 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   report.seconds = SecondsSince(start);
 
   json summary = FuseSummaryJson(report, result, stamp, options, sessions);
-  io::WriteFileAtomic(SeasonQualityPath(workspace),
-                      SeasonQualityToJson(report.quality).dump(2) + "\n");
+  workspace::WriteSeasonQuality(layout.FusedQuality().string(), report.quality);
   // Every file in fused/ is this stage's: all are recorded, and checked before a rerun skips.
   workspace::RecordOutputs(&summary, out_dir, workspace::FilesBelow(out_dir));
   workspace::WriteFusedSummary(layout.FusedSummary().string(), summary);

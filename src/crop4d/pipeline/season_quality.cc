@@ -39,13 +39,14 @@ Positioning Standard(const std::vector<Positioning>& sessions) {
 
 }  // namespace
 
-PassFacts PassFactsFromSummary(const json& summary) {
+PassFacts PassFactsOf(const std::string& session, const std::string& pass,
+                      const workspace::PassSummary& summary) {
   PassFacts f;
-  f.session = summary.value("session", "");
-  f.pass = summary.value("pass", "");
-  f.sensors = summary.value("sensors", "");
+  f.session = session;
+  f.pass = pass;
+  f.sensors = summary.sensors;
   f.positioning = PositioningOf(f.sensors);
-  f.longest_imu_gap_s = summary.value("longest_imu_gap_s", 0.0);
+  f.longest_imu_gap_s = summary.longest_imu_gap_s;
   return f;
 }
 

@@ -20,11 +20,11 @@
 // read them from there. The grades' types and the file's typed reader and writer are in
 // workspace/season_quality.h; this header holds the grading.
 
-#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 
 #include "crop4d/core/option_check.h"
+#include "crop4d/workspace/pass_summary.h"
 #include "crop4d/workspace/season_quality.h"
 
 namespace crop4d::pipeline {
@@ -46,9 +46,9 @@ struct PassFacts {
   double longest_imu_gap_s = 0.0;
 };
 
-// The facts of a pass from its row-SLAM summary.json. A summary without `longest_imu_gap_s`
-// (an older workspace) counts as no gap.
-PassFacts PassFactsFromSummary(const nlohmann::json& summary);
+// The facts of a pass from its row-SLAM summary (workspace/pass_summary.h).
+PassFacts PassFactsOf(const std::string& session, const std::string& pass,
+                      const workspace::PassSummary& summary);
 
 struct QualityOptions {
   // A pass without IMU samples for longer than this degrades its session, s.

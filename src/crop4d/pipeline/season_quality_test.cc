@@ -82,17 +82,14 @@ TEST(SeasonQualityTest, WhenNoSessionIsTrustedEverySessionIsUsed) {
 }
 
 TEST(SeasonQualityTest, FactsFromARowSlamSummary) {
-  const nlohmann::json summary = {{"session", "2016-06-10"},
-                                  {"pass", "row01"},
-                                  {"sensors", "cam+imu+gps"},
-                                  {"longest_imu_gap_s", 4.5}};
-  const PassFacts f = PassFactsFromSummary(summary);
+  workspace::PassSummary summary;
+  summary.sensors = "cam+imu+gps";
+  summary.longest_imu_gap_s = 4.5;
+  const PassFacts f = PassFactsOf("2016-06-10", "row01", summary);
   EXPECT_EQ(f.session, "2016-06-10");
   EXPECT_EQ(f.pass, "row01");
   EXPECT_EQ(f.positioning, Positioning::kGps);
   EXPECT_DOUBLE_EQ(f.longest_imu_gap_s, 4.5);
-  // An older summary without the IMU gap counts as none.
-  EXPECT_DOUBLE_EQ(PassFactsFromSummary({{"sensors", "cam+imu+rtk"}}).longest_imu_gap_s, 0.0);
 }
 
 TEST(SeasonQualityTest, TheGradesSurviveTheirFileAndADamagedFileIsNamed) {

@@ -22,18 +22,18 @@ namespace crop4d::workspace {
 // is stamped into the file).
 inline constexpr int kAssociationSummarySchema = 1;
 
-struct AssociationSummary {
-  association::PassRef a, b;  // a: the pass whose landmarks were projected; b: the one searched
-  std::string type;           // the pair's type (pipeline::ToString(PassPairType))
-  std::string method;         // "robust" or "naive"
-  std::string fingerprint;    // of the inputs and options that gave the association file
+// What the association of one pass pair found and cost: association::AssociationStats summed
+// over its image pairs, and the pre-alignment. The associate stage's report of a pair carries
+// the same counts (pipeline/associate_stage.h).
+struct AssociationCounts {
   int image_pairs = 0;
-  // Sums over the image pairs (association::AssociationStats).
   std::int64_t landmarks = 0;
-  std::int64_t surface_points = 0;
   std::int64_t projected = 0;
+  // Surface points among the landmarks (association/surface_points.h).
+  std::int64_t surface_points = 0;
   std::int64_t candidates = 0;
   std::int64_t warped = 0;
+  // Keypoints of pass b described upright for the comparison with warped ones.
   std::int64_t upright_b = 0;
   std::int64_t putative = 0;
   std::int64_t matches = 0;
@@ -42,7 +42,14 @@ struct AssociationSummary {
   int alignment_inliers = 0;
   double alignment_shift_m = 0;
   double seconds = 0;
-  nlohmann::json json;  // the whole summary (options, outputs)
+};
+
+struct AssociationSummary : AssociationCounts {
+  association::PassRef a, b;  // a: the pass whose landmarks were projected; b: the one searched
+  std::string type;           // the pair's type (pipeline::ToString(PassPairType))
+  std::string method;         // "robust" or "naive"
+  std::string fingerprint;    // of the inputs and options that gave the association file
+  nlohmann::json json;        // the whole summary (options, outputs)
 };
 
 // The summary beside the association file `association_file` (the same name, ".json").

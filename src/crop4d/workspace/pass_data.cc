@@ -27,6 +27,7 @@ PassData LoadPassData(const std::string& workspace, const std::string& session,
     data.camera = summary.problem.camera;
     data.problem = std::move(summary.problem);
     data.time_offset_s = summary.time_offset_s;
+    data.longest_imu_gap_s = summary.longest_imu_gap_s;
     data.summary_json = summary.json.dump();
   }
   for (const io::StampedPose& p : io::ReadTum(layout.PassPoses(session, pass.id).string())) {

@@ -30,6 +30,7 @@ struct PassData {
   PassPriors problem;
   // Row SLAM's camera-IMU time offset, s (unset: not estimated).
   std::optional<double> time_offset_s;
+  double longest_imu_gap_s = 0.0;
   std::string summary_json;
   // Row SLAM's world_from_camera at every image (poses.tum; world_from_body without camera).
   std::vector<Timestamp> times;

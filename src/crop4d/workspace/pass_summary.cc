@@ -39,6 +39,7 @@ PassSummary ReadPassSummary(const std::string& path) {
     s.sensors = s.json.at("sensors").get<std::string>();
     s.fingerprint = s.json.at("fingerprint").get<std::string>();
     s.trust = s.json.value("trust", std::vector<std::string>{});
+    s.longest_imu_gap_s = s.json.value("longest_imu_gap_s", 0.0);
     const json back_end = s.json.value("back_end", json::object());
     if (back_end.contains("time_offset_s") && !back_end.at("time_offset_s").is_null()) {
       s.time_offset_s = back_end.at("time_offset_s").get<double>();

@@ -25,6 +25,9 @@ struct PassSummary {
   std::vector<std::string> trust;  // what the estimate cannot be trusted for (docs/slam.md)
   // The back end's camera-IMU time offset, s ("back_end.time_offset_s"; unset: not estimated).
   std::optional<double> time_offset_s;
+  // The longest time inside the pass without an IMU sample, s ("longest_imu_gap_s"; 0 without an
+  // IMU, and in summaries written before it was recorded).
+  double longest_imu_gap_s = 0.0;
   nlohmann::json json;  // the whole summary
 };
 

@@ -181,6 +181,11 @@ TEST_F(PassSummaryTest, SummaryRoundTripsWithItsSchema) {
   EXPECT_EQ(s.json.at("schema").get<int>(), kPassSummarySchema);
   EXPECT_EQ(s.json.at("back_end").at("landmarks").get<int>(), 12);
   EXPECT_FALSE(s.time_offset_s.has_value());
+  // An older summary without the IMU gap counts as none.
+  EXPECT_EQ(s.longest_imu_gap_s, 0.0);
+  summary["longest_imu_gap_s"] = 4.5;
+  WritePassSummary(path, summary);
+  EXPECT_EQ(ReadPassSummary(path).longest_imu_gap_s, 4.5);
 
   // The back end's time offset: a number is read, null is "not estimated", text is an error.
   summary["back_end"]["time_offset_s"] = -0.0125;

@@ -21,7 +21,6 @@
 #include "crop4d/geometry/enu.h"
 #include "crop4d/io/atomic_file.h"
 #include "crop4d/io/colmap_text.h"
-#include "crop4d/io/csv.h"
 #include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/geotiff.h"
 #include "crop4d/io/las.h"
@@ -29,6 +28,7 @@
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/export_formats.h"
 #include "crop4d/workspace/analysis_summary.h"
+#include "crop4d/workspace/analysis_tables.h"
 #include "crop4d/workspace/layout.h"
 
 namespace crop4d::pipeline {
@@ -40,31 +40,6 @@ using Clock = std::chrono::steady_clock;
 
 bool Wants(const ExportOptions& options, const std::string& format) {
   return std::find(options.formats.begin(), options.formats.end(), format) != options.formats.end();
-}
-
-// Names of the entries of `dir` that satisfy `keep`, sorted; empty when `dir` is not a folder.
-std::vector<std::string> ListNames(const fs::path& dir,
-                                   const std::function<bool(const fs::directory_entry&)>& keep) {
-  std::vector<std::string> names;
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) return names;
-  for (const fs::directory_entry& entry : fs::directory_iterator(dir, ec)) {
-    if (keep(entry)) names.push_back(entry.path().filename().string());
-  }
-  std::sort(names.begin(), names.end());
-  return names;
-}
-
-bool IsDir(const fs::directory_entry& e) {
-  std::error_code ec;
-  return e.is_directory(ec);
-}
-
-std::function<bool(const fs::directory_entry&)> FilesEndingIn(const std::string& extension) {
-  return [extension](const fs::directory_entry& e) {
-    std::error_code ec;
-    return e.is_regular_file(ec) && e.path().extension() == extension;
-  };
 }
 
 // What one session offers.
@@ -154,13 +129,9 @@ void CheckWorkspace(const workspace::Layout& ws) {
 std::vector<SessionInputs> FindSessions(const io::Field& field, const workspace::Layout& ws) {
   std::vector<std::string> session_ids = field.session_ids();
   std::set<std::string> extra;
-  for (const std::string& s : ListNames(ws.SessionsDir(), IsDir)) extra.insert(s);
-  for (const std::string& s : ListNames(ws.FusedDir(), IsDir)) {
-    if (ws.FusedDir() / s != ws.FusedColmapDir()) extra.insert(s);
-  }
-  for (const std::string& s : ListNames(ws.DenseDir(), FilesEndingIn(".ply"))) {
-    extra.insert(fs::path(s).stem().string());
-  }
+  for (const std::string& s : ws.SessionFolders()) extra.insert(s);
+  for (const std::string& s : ws.FusedSessionFolders()) extra.insert(s);
+  for (const std::string& s : ws.DenseCloudSessions()) extra.insert(s);
   for (const std::string& s : extra) {
     if (std::find(session_ids.begin(), session_ids.end(), s) == session_ids.end()) {
       session_ids.push_back(s);
@@ -174,7 +145,7 @@ std::vector<SessionInputs> FindSessions(const io::Field& field, const workspace:
     if (fs::is_regular_file(ws.FusedSparse(id), ec)) s.fused_sparse = ws.FusedSparse(id);
     if (fs::is_regular_file(ws.FusedPoses(id), ec)) s.fused_poses = ws.FusedPoses(id);
     if (fs::is_regular_file(ws.DenseCloud(id), ec)) s.dense = ws.DenseCloud(id);
-    for (const std::string& pass : ListNames(ws.RowsDir(id), IsDir)) {
+    for (const std::string& pass : ws.PassFolders(id)) {
       if (fs::is_regular_file(ws.PassLandmarks(id, pass), ec)) {
         s.pass_clouds.push_back(ws.PassLandmarks(id, pass));
       }
@@ -325,40 +296,44 @@ void AddTumJobs(const ExportContext& ctx, const std::vector<SessionInputs>& sess
   }
 }
 
+// The rows of an analysis table (Layout::AnalysisTables), read with its typed reader.
+std::uint64_t TableRows(const workspace::Layout& ws, const fs::path& table) {
+  if (table == ws.SitePlants()) return workspace::ReadSitePlants(table).size();
+  if (table == ws.Growth()) return workspace::ReadGrowth(table).rows.size();
+  return workspace::ReadSiteHeights(table).size();  // site_heights.csv, its single-plane twin
+}
+
 // ---- geotiff and csv: the rasters and tables of the analysis folder, copied ----
 void AddAnalysisJobs(const ExportContext& ctx, const ExportOptions& options,
                      std::vector<Job>* jobs) {
-  const fs::path analysis = ctx.ws.AnalysisDir();
   if (Wants(options, "geotiff")) {
-    const std::vector<std::string> tifs = ListNames(analysis, FilesEndingIn(".tif"));
-    if (tifs.empty()) ctx.Skip("geotiff", "no raster in WS/analysis/*.tif (run `crop4d analyze`)");
-    for (const std::string& name : tifs) {
-      jobs->push_back(
-          {"geotiff " + name, [&ctx, analysis, name](std::vector<ExportedFile>* files) {
-             const io::GeoTiffRaster raster = io::ReadGeoTiff((analysis / name).string());
-             const fs::path to = ctx.out / "geotiff" / name;
-             CopyFileAtomic(analysis / name, to);
-             files->push_back({"geotiff", "geotiff/" + name, FileBytes(to),
-                               ctx.Rel(analysis / name), raster.grid.num_cells(), "cells"});
-           }});
+    const std::vector<fs::path> rasters = ctx.ws.AnalysisRasters();
+    if (rasters.empty()) {
+      ctx.Skip("geotiff", "no raster in WS/analysis/*.tif (run `crop4d analyze`)");
+    }
+    for (const fs::path& from : rasters) {
+      const std::string name = from.filename().string();
+      jobs->push_back({"geotiff " + name, [&ctx, from, name](std::vector<ExportedFile>* files) {
+                         const io::GeoTiffRaster raster = io::ReadGeoTiff(from.string());
+                         const fs::path to = ctx.out / "geotiff" / name;
+                         CopyFileAtomic(from, to);
+                         files->push_back({"geotiff", "geotiff/" + name, FileBytes(to),
+                                           ctx.Rel(from), raster.grid.num_cells(), "cells"});
+                       }});
     }
   }
   if (Wants(options, "csv")) {
-    const std::vector<std::string> csvs = ListNames(analysis, FilesEndingIn(".csv"));
-    if (csvs.empty()) ctx.Skip("csv", "no table in WS/analysis/*.csv (run `crop4d analyze`)");
-    for (const std::string& name : csvs) {
-      jobs->push_back({"csv " + name, [&ctx, analysis, name](std::vector<ExportedFile>* files) {
-                         io::CsvReader reader((analysis / name).string());
-                         io::CsvRecord record;
-                         std::uint64_t rows = 0;
-                         while (reader.Next(&record)) ++rows;
-                         // A header line without '#' counts as a record.
-                         if (!reader.header().has_value() && rows > 0) --rows;
-                         const fs::path to = ctx.out / "csv" / name;
-                         CopyFileAtomic(analysis / name, to);
-                         files->push_back({"csv", "csv/" + name, FileBytes(to),
-                                           ctx.Rel(analysis / name), rows, "rows"});
-                       }});
+    const std::vector<fs::path> tables = ctx.ws.AnalysisTables();
+    if (tables.empty()) ctx.Skip("csv", "no table in WS/analysis/*.csv (run `crop4d analyze`)");
+    for (const fs::path& from : tables) {
+      const std::string name = from.filename().string();
+      jobs->push_back(
+          {"csv " + name, [&ctx, from, name](std::vector<ExportedFile>* files) {
+             const std::uint64_t rows = TableRows(ctx.ws, from);
+             const fs::path to = ctx.out / "csv" / name;
+             CopyFileAtomic(from, to);
+             files->push_back({"csv", "csv/" + name, FileBytes(to), ctx.Rel(from), rows, "rows"});
+           }});
     }
   }
 }

@@ -19,6 +19,7 @@
 #include "crop4d/io/test_helpers.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/workspace/analysis_summary.h"
+#include "crop4d/workspace/analysis_tables.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -116,9 +117,9 @@ struct TestWorkspace {
     std::vector<float> values(grid.num_cells());
     for (std::size_t i = 0; i < values.size(); ++i) values[i] = 0.01f * float(i);
     io::WriteGeoTiff(ws + "/analysis/dtm.tif", grid, values);
-    WriteText(ws + "/analysis/site_heights.csv",
-              "site_id,session,date,height_m\nr00s1,2016-06-10,2016-06-10,0.0784\n"
-              "r00s1,2016-06-24,2016-06-24,0.1491\n");
+    workspace::SiteHeight early{"r00s1", "2016-06-10", "2016-06-10", 0.0784};
+    workspace::SiteHeight late{"r00s1", "2016-06-24", "2016-06-24", 0.1491};
+    workspace::WriteSiteHeights(ws + "/analysis/site_heights.csv", {early, late});
   }
 };
 

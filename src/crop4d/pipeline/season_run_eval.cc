@@ -26,16 +26,7 @@ std::string EvalInputsFingerprint(const std::string& field_folder, const workspa
   add(kVersion);
   const std::string text = FormatRunConfig(config);
   add(text.substr(text.find("\neval:")));
-  std::vector<std::string> summaries;
-  for (const fs::path& folder : {layout.SessionsDir(), layout.AssociationsRoot(), layout.FusedDir(),
-                                 layout.DenseDir(), layout.AnalysisDir()}) {
-    std::error_code ec;
-    for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
-      if (it->path().extension() == ".json") summaries.push_back(it->path().string());
-    }
-  }
-  std::sort(summaries.begin(), summaries.end());
-  for (const std::string& path : summaries) {
+  for (const fs::path& path : layout.StageRecordFiles()) {
     add(fs::relative(path, layout.root()).string());
     add(workspace::SummaryFingerprint(path));
   }

@@ -4,22 +4,43 @@
 #include <fmt/format.h>
 
 #include <filesystem>
-#include <fstream>
-#include <nlohmann/json.hpp>
+#include <optional>
 
+#include "crop4d/core/error.h"
 #include "crop4d/pipeline/season_run.h"
+#include "crop4d/workspace/eval_metrics.h"
 #include "crop4d/workspace/layout.h"
 
 namespace crop4d::pipeline {
 
 namespace fs = std::filesystem;
-using json = nlohmann::json;
 
 namespace {
 
 // A length in metres as centimetres, "n/a" when the metrics do not have it.
-std::string Cm(const json& j) {
-  return j.is_number() ? fmt::format("{:.2f} cm", 100.0 * j.get<double>()) : "n/a";
+std::string Cm(const std::optional<double>& metres) {
+  return metres ? fmt::format("{:.2f} cm", 100.0 * *metres) : "n/a";
+}
+
+// The headline figures of WS/eval/metrics.json; "" when there is no such file, a line saying why
+// when it cannot be read.
+std::string EvalHeadlines(const workspace::Layout& layout) {
+  const fs::path path = layout.EvalMetrics();
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return "";
+  workspace::EvalMetrics m;
+  try {
+    m = workspace::ReadEvalMetrics(path.string());
+  } catch (const InputError& e) {
+    return fmt::format("\nevaluation metrics not read: {}\n", e.what());
+  }
+  std::string out = "\n";
+  out += fmt::format("trajectory error (ATE RMSE, no alignment): row SLAM {}, fused {}\n",
+                     Cm(m.pass_ate_raw_rmse_m), Cm(m.fused_ate_raw_rmse_m));
+  out += fmt::format("cross-session ground misalignment (fused, median): {}\n",
+                     Cm(m.fused_ground_misalignment_median_m));
+  out += fmt::format("canopy height RMSE: {}\n", Cm(m.canopy_rmse_m));
+  return out;
 }
 
 }  // namespace
@@ -45,22 +66,7 @@ std::string FormatRunSummary(const RunResult& result) {
     }
   }
   const workspace::Layout layout(r.workspace);
-  const fs::path metrics = layout.EvalMetrics();
-  if (std::ifstream in(metrics); in) {
-    const json m = json::parse(in, nullptr, false);
-    if (m.is_object()) {
-      out += "\n";
-      const json fused = m.value("/fused/overall/ate_raw_m/rmse"_json_pointer, json());
-      const json passes = m.value("/overall/ate_raw_m/rmse"_json_pointer, json());
-      const json misalign =
-          m.value("/ground_misalignment/fused/pooled/median_m"_json_pointer, json());
-      const json canopy = m.value("/canopy/ours/rmse_m"_json_pointer, json());
-      out += fmt::format("trajectory error (ATE RMSE, no alignment): row SLAM {}, fused {}\n",
-                         Cm(passes), Cm(fused));
-      out += fmt::format("cross-session ground misalignment (fused, median): {}\n", Cm(misalign));
-      out += fmt::format("canopy height RMSE: {}\n", Cm(canopy));
-    }
-  }
+  out += EvalHeadlines(layout);
   const fs::path report = layout.Report();
   if (fs::exists(report)) out += fmt::format("\nreport: {}\n", report.string());
   return out;

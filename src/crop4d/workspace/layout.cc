@@ -163,4 +163,48 @@ std::vector<std::string> Layout::DenseSummarySessions(Order order) const {
       DenseDir(), [this](const std::string& s) { return DenseSummary(s); }, order);
 }
 
+std::vector<fs::path> Layout::AnalysisRasters() const {
+  // The analyze stage empties analysis/ before it writes, so its rasters are the .tif files
+  // there named as dtm.tif, ChmName or ChmChangeName name them.
+  const std::string dtm = Dtm().filename().string();
+  const std::string chm_prefix = "chm_";
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (fs::directory_iterator it(AnalysisDir(), ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    if (!it->is_regular_file(type_ec) || it->path().extension() != ".tif") continue;
+    const std::string name = it->path().filename().string();
+    if (name == dtm || name.rfind(chm_prefix, 0) == 0) names.push_back(name);
+  }
+  std::sort(names.begin(), names.end());
+  std::vector<fs::path> paths;
+  for (const std::string& name : names) paths.push_back(AnalysisDir() / name);
+  return paths;
+}
+
+std::vector<fs::path> Layout::AnalysisTables() const {
+  std::vector<fs::path> paths;
+  std::error_code ec;
+  for (const fs::path& p : {SiteHeights(), SiteHeightsSinglePlane(), SitePlants(), Growth()}) {
+    if (fs::is_regular_file(p, ec)) paths.push_back(p);
+  }
+  std::sort(paths.begin(), paths.end(), [](const fs::path& a, const fs::path& b) {
+    return a.filename().string() < b.filename().string();
+  });
+  return paths;
+}
+
+std::vector<fs::path> Layout::StageRecordFiles() const {
+  std::vector<std::string> files;
+  for (const fs::path& folder :
+       {SessionsDir(), AssociationsRoot(), FusedDir(), DenseDir(), AnalysisDir()}) {
+    std::error_code ec;
+    for (fs::recursive_directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+      if (it->path().extension() == ".json") files.push_back(it->path().string());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return std::vector<fs::path>(files.begin(), files.end());
+}
+
 }  // namespace crop4d::workspace

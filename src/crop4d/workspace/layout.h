@@ -111,6 +111,16 @@ class Layout {
   std::vector<std::string> DenseCloudSessions(Order order = Order::kName) const;
   // The sessions with a densify summary: the names of the dense/<session>.json files.
   std::vector<std::string> DenseSummarySessions(Order order = Order::kName) const;
+  // The analyze stage's rasters in analysis/ (dtm.tif, chm_<session>.tif,
+  // chm_change_<earlier>_<later>.tif), in name order.
+  std::vector<std::filesystem::path> AnalysisRasters() const;
+  // The analyze stage's tables in analysis/ that exist (SiteHeights, SiteHeightsSinglePlane,
+  // SitePlants, Growth), in name order.
+  std::vector<std::filesystem::path> AnalysisTables() const;
+  // The stages' JSON records: every *.json file below sessions/, associations/, fused/, dense/
+  // and analysis/ (the passes' summary.json, the association summaries, fused/summary.json and
+  // quality.json, the densify summaries, analysis/summary.json), sorted by their path as text.
+  std::vector<std::filesystem::path> StageRecordFiles() const;
 
  private:
   std::filesystem::path root_;

@@ -116,5 +116,52 @@ TEST(LayoutTest, ListsByNameOrInNaturalOrder) {
   fs::remove_all(root);
 }
 
+TEST(LayoutTest, ListsTheAnalysisRastersAndTablesInNameOrder) {
+  const fs::path root = fs::path(testing::TempDir()) / "crop4d_layout_analysis_test";
+  fs::remove_all(root);
+  const Layout ws(root);
+  EXPECT_TRUE(ws.AnalysisRasters().empty());
+  EXPECT_TRUE(ws.AnalysisTables().empty());
+  fs::create_directories(ws.PlotsDir());
+  for (const fs::path& p : {ws.Dtm(), ws.Chm("s2"), ws.Chm("s10"), ws.ChmChange("s2", "s10"),
+                            ws.SiteHeights(), ws.SitePlants(), ws.Growth()}) {
+    std::ofstream(p) << "x";
+  }
+  std::ofstream(ws.AnalysisDir() / "notes.tif") << "x";  // not a raster of the analyze stage
+  std::ofstream(ws.AnalysisDir() / "notes.csv") << "x";
+  std::ofstream(ws.PlotsDir() / "chm_s1.tif") << "x";
+  using P = std::vector<fs::path>;
+  EXPECT_EQ(ws.AnalysisRasters(),
+            (P{ws.ChmChange("s2", "s10"), ws.Chm("s10"), ws.Chm("s2"), ws.Dtm()}));
+  EXPECT_EQ(ws.AnalysisTables(), (P{ws.Growth(), ws.SiteHeights(), ws.SitePlants()}));
+  std::ofstream(ws.SiteHeightsSinglePlane()) << "x";
+  EXPECT_EQ(ws.AnalysisTables(),
+            (P{ws.Growth(), ws.SiteHeights(), ws.SiteHeightsSinglePlane(), ws.SitePlants()}));
+  fs::remove_all(root);
+}
+
+TEST(LayoutTest, ListsTheStageRecordsSortedByPathAsText) {
+  const fs::path root = fs::path(testing::TempDir()) / "crop4d_layout_records_test";
+  fs::remove_all(root);
+  const Layout ws(root);
+  EXPECT_TRUE(ws.StageRecordFiles().empty());
+  // "a-b" sorts before "a/" as text (but after "a" as a path element).
+  for (const fs::path& p : {ws.PassSummary("a", "p"), ws.PassSummary("a-b", "p"),
+                            ws.AssociationsDir("robust") / "a_p__b_p.json", ws.FusedSummary(),
+                            ws.FusedQuality(), ws.DenseSummary("a"), ws.AnalysisSummary(),
+                            ws.EvalMetrics(), ws.ViewerDir() / "scene.json"}) {
+    fs::create_directories(p.parent_path());
+    std::ofstream(p) << "{}";
+  }
+  std::ofstream(ws.DenseCloud("a")) << "x";
+  std::ofstream(ws.PassPoses("a", "p")) << "x";
+  EXPECT_EQ(
+      ws.StageRecordFiles(),
+      (std::vector<fs::path>{ws.AnalysisSummary(), ws.AssociationsDir("robust") / "a_p__b_p.json",
+                             ws.DenseSummary("a"), ws.FusedQuality(), ws.FusedSummary(),
+                             ws.PassSummary("a-b", "p"), ws.PassSummary("a", "p")}));
+  fs::remove_all(root);
+}
+
 }  // namespace
 }  // namespace crop4d::workspace

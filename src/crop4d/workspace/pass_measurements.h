@@ -55,7 +55,8 @@ struct PassMeasurements {
   std::optional<slam::ImuStream> imu;
   std::optional<slam::GpsStream> gps;
 
-  // The path of image i of the camera (field folder joined with image_folder and the name).
+  // The path of image i of the camera (field folder joined with image_folder and the name;
+  // needs the camera).
   std::string ImagePath(const std::string& field_folder, std::size_t i) const;
   // The camera's images as a sequence to decode (needs the camera).
   io::ImageSequence Images(const std::string& field_folder) const;

@@ -9,6 +9,8 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/file_bytes_test_util.h"
+#include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_list.h"
 
 namespace crop4d::workspace {
 namespace {
@@ -207,6 +209,48 @@ TEST_F(PassMeasurementsTest, RejectsDamagedFiles) {
   version[8] = 2;
   EXPECT_NE(ErrorOf(version).find("version 2"), std::string::npos);
   EXPECT_TRUE(ErrorOf(good).empty());
+}
+
+TEST_F(PassMeasurementsTest, SessionImagesJoinTheSessionsPassesOnce) {
+  const std::string workspace = (dir_ / "ws").string();
+  const Layout layout(workspace);
+  PassMeasurements a = Example();
+  PassMeasurements b = Example();
+  b.camera->images.erase(b.camera->images.begin());  // b starts at a's second image
+  b.camera->images.push_back({2000 * kSecond, "late.png", 9});
+  PassMeasurements imu_only;
+  imu_only.imu = Example().imu;
+  std::vector<slam::RowPass> passes(3);
+  passes[0].id = "row00";
+  passes[1].id = "row01";
+  passes[2].id = "all";
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    fs::create_directories(layout.PassDir("s", passes[p].id));
+    WritePassMeasurements(layout.PassMeasurements("s", passes[p].id).string(), p == 0   ? a
+                                                                               : p == 1 ? b
+                                                                                        : imu_only);
+  }
+  WritePassList(layout.PassList("s").string(), passes);
+
+  const io::ImageSequence images = SessionImages(workspace, "s", "/f", "");
+  ASSERT_EQ(images.size(), 4u);  // three of a, b's two again and one more
+  EXPECT_EQ(images.entry(3).filename, "late.png");
+  EXPECT_EQ(images.Path(0), "/f/sessions/2017-05-01/cam0/data/img0.png");
+  EXPECT_EQ(images.camera().name, "cam0");
+  EXPECT_EQ(SessionImages(workspace, "s", "/f", "cam0").size(), 4u);
+  // Another camera than row SLAM's, or passes of two cameras, are errors that name them.
+  try {
+    SessionImages(workspace, "s", "/f", "cam1");
+    FAIL() << "another camera was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cam1"), std::string::npos) << e.what();
+  }
+  b.camera->sensor.name = "cam1";
+  WritePassMeasurements(layout.PassMeasurements("s", "row01").string(), b);
+  EXPECT_THROW(SessionImages(workspace, "s", "/f", ""), InputError);
+  // A session without any camera pass.
+  WritePassList(layout.PassList("s").string(), {passes[2]});
+  EXPECT_THROW(SessionImages(workspace, "s", "/f", ""), InputError);
 }
 
 TEST(SelectPassMeasurements, KeepsThePassImagesImuMarginAndGpsWindow) {

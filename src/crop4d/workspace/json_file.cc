@@ -10,7 +10,8 @@ namespace crop4d::workspace {
 
 using json = nlohmann::json;
 
-json ReadJsonOfSchema(const std::string& path, int schema, const std::string& rerun) {
+json ReadJsonOfSchema(const std::string& path, int schema, const std::string& rerun,
+                      SchemaField field) {
   if (!std::filesystem::exists(path)) {
     throw InputError(path, 0, "missing (run `" + rerun + "` first)");
   }
@@ -26,10 +27,11 @@ json ReadJsonOfSchema(const std::string& path, int schema, const std::string& re
   if (!j.is_object()) {
     throw InputError(path, 0, "not a JSON object; rerun `" + rerun + " --force`");
   }
-  const json found = j.value("schema", json(1));
+  const json found = j.value("schema", field == SchemaField::kOptional ? json(1) : json());
   if (!found.is_number_integer() || found.get<int>() != schema) {
     throw InputError(path, 0,
-                     "written by another crop4d version (schema " + found.dump() +
+                     "written by another crop4d version (schema " +
+                         (found.is_null() ? std::string("none") : found.dump()) +
                          ", this crop4d reads " + std::to_string(schema) + "); rerun `" + rerun +
                          " --force`");
   }

@@ -11,10 +11,15 @@
 
 namespace crop4d::workspace {
 
-// Reads the JSON object in `path`, of schema `schema` (a file without "schema" is of schema 1).
-// Throws InputError naming the file when it is missing, not JSON, not an object or of another
-// schema; `rerun` is the command that writes the file (for the messages).
-nlohmann::json ReadJsonOfSchema(const std::string& path, int schema, const std::string& rerun);
+// Whether a file must carry "schema" (the stage summaries) or may leave it out for schema 1.
+enum class SchemaField { kOptional, kRequired };
+
+// Reads the JSON object in `path`, of schema `schema` (with SchemaField::kOptional, a file
+// without "schema" is of schema 1). Throws InputError naming the file when it is missing, not
+// JSON, not an object or of another schema; `rerun` is the command that writes the file (for
+// the messages).
+nlohmann::json ReadJsonOfSchema(const std::string& path, int schema, const std::string& rerun,
+                                SchemaField field = SchemaField::kOptional);
 
 // Writes `j` atomically, 2-space indented with a final newline; stamps "schema" when `schema`
 // is above 1.

@@ -5,6 +5,7 @@
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/atomic_file.h"
+#include "crop4d/workspace/json_file.h"
 
 namespace crop4d::workspace {
 
@@ -16,26 +17,7 @@ void WriteVersionedJson(const std::string& path, json summary, int schema) {
 }
 
 json ReadVersionedJson(const std::string& path, int schema, const std::string& rerun) {
-  if (!std::filesystem::exists(path)) {
-    throw InputError(path, 0, "missing (run `" + rerun + "` first)");
-  }
-  std::ifstream in(path);
-  json j;
-  try {
-    j = json::parse(in);
-  } catch (const json::exception& e) {
-    throw InputError(
-        path, 0, std::string("not valid JSON (") + e.what() + "); rerun `" + rerun + " --force`");
-  }
-  const json found = j.is_object() ? j.value("schema", json()) : json();
-  if (!found.is_number_integer() || found.get<int>() != schema) {
-    throw InputError(path, 0,
-                     "written by another crop4d version (schema " +
-                         (found.is_null() ? std::string("none") : found.dump()) +
-                         ", this crop4d reads " + std::to_string(schema) + "); rerun `" + rerun +
-                         " --force`");
-  }
-  return j;
+  return ReadJsonOfSchema(path, schema, rerun, SchemaField::kRequired);
 }
 
 namespace {

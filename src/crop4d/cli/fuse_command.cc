@@ -20,11 +20,20 @@ namespace {
 
 struct FuseArgs {
   std::string linear_solver;
+  std::string estimate_time_offset = "auto";
+  std::string refine_calibration;
   std::string field;
   std::string workspace;
   int threads = 0;
   pipeline::FuseStageOptions options;
 };
+
+// auto (unset), true or false.
+std::optional<bool> AutoBool(const char* option, const std::string& text) {
+  if (text == "auto") return std::nullopt;
+  if (text == "true" || text == "false") return text == "true";
+  throw InputError(option, 0, "expected auto, true or false, got '" + text + "'");
+}
 
 int RunFuse(FuseArgs& args) {
   pipeline::FuseStageOptions& o = args.options;
@@ -34,6 +43,8 @@ int RunFuse(FuseArgs& args) {
                      "expected exact or iterative, got '" + args.linear_solver + "'");
   }
   o.optimiser.row.iterative_schur = args.linear_solver == "iterative";
+  o.optimiser.estimate_time_offset = AutoBool("--estimate-time-offset", args.estimate_time_offset);
+  o.optimiser.calibration.refine = AutoBool("--refine-calibration", args.refine_calibration);
   if (o.method != "robust" && o.method != "naive") {
     throw InputError("--method", 0, "expected robust or naive, got '" + o.method + "'");
   }
@@ -103,6 +114,17 @@ RunFunction SetupFuse(CLI::App& app) {
   app.add_option("--function-tolerance", o.optimiser.row.function_tolerance,
                  "A solve stops when an iteration lowers the cost by less than this fraction")
       ->check(CLI::Range(1e-12, 0.1))
+      ->capture_default_str();
+  app.add_option("--estimate-time-offset", args->estimate_time_offset,
+                 "Refine each pass's camera-IMU time offset: auto (the passes whose row SLAM "
+                 "estimated one), true (every pass) or false (row SLAM's held)")
+      ->capture_default_str();
+  const std::optional<bool>& refine = o.optimiser.calibration.refine;
+  args->refine_calibration = !refine ? "auto" : (*refine ? "true" : "false");
+  app.add_option("--refine-calibration", args->refine_calibration,
+                 "Refine each camera's intrinsics and T_BS rotation with the poses: "
+                 "auto (a camera whose images hold enough observations of landmarks shared "
+                 "between passes), true or false (as written; docs/fusion.md)")
       ->capture_default_str();
   app.add_flag(
       "--no-colmap", [&o](std::int64_t) { o.write_colmap = false; },

@@ -1,6 +1,7 @@
 #include "crop4d/eval/fused_eval.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <filesystem>
@@ -61,6 +62,12 @@ FusedEval EvaluateFusedTrajectories(const std::string& workspace, const std::str
 
   std::vector<ErrorStats> raw, aligned, rot;
   std::vector<Eigen::Vector3d> all_estimate, all_truth;
+  std::optional<CalibrationTruth> calibration_truth;
+  try {
+    calibration_truth = ReadCalibrationTruth(field);
+  } catch (const InputError& e) {
+    spdlog::warn("eval: the fused calibration is not evaluated: {}", e.what());
+  }
   for (const std::string& session : names) {
     FusedSessionEval s;
     s.session = session;
@@ -94,6 +101,14 @@ FusedEval EvaluateFusedTrajectories(const std::string& workspace, const std::str
         for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
       }
       s.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options);
+      if (calibration_truth) {
+        try {
+          s.calibration = EvaluateFusedCalibration(workspace, session, *calibration_truth);
+        } catch (const InputError& e) {
+          spdlog::warn("eval: session {}: the fused calibration is not evaluated: {}", session,
+                       e.what());
+        }
+      }
       for (int k = 0; k < associated.size(); ++k) {
         all_estimate.push_back(estimate_poses[k].translation());
         all_truth.push_back(associated.truth[k].translation());

@@ -9,6 +9,9 @@
 //   FIELD/ground_truth/<session>/cam0_poses.tum   true world_from_camera at every image
 //   FIELD/ground_truth/<session>/plants.csv       true plants of the session's date
 //   FIELD/ground_truth/terrain.csv                true terrain heights on a grid
+//   WS/fused/<session>/camera.json, FIELD/ground_truth/calibration_truth.yaml
+//                                                 the fused calibration and the rig's truth
+//                                                 (calibration_eval.h), when the field has it
 //
 // Fused trajectories: the metrics of trajectory_metrics.h per session, pooled over sessions,
 // plus one SE(3) alignment of all sessions together (the fused model is one frame: aligning each
@@ -16,9 +19,11 @@
 // misalignment of ground_misalignment.h between every two sessions.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "crop4d/eval/calibration_eval.h"
 #include "crop4d/eval/ground_misalignment.h"
 #include "crop4d/eval/trajectory_metrics.h"
 
@@ -35,6 +40,9 @@ struct FusedSessionEval {
   // its poses are first taken to the truth's frame by AlignYawTranslation, as for its passes.
   bool frame_by_convention = false;
   TrajectoryMetrics metrics;
+  // The calibration the fused poses were placed with against the truth, when the field records
+  // it (a simulated rig whose written calibration is off) and the session has camera.json.
+  std::optional<CalibrationError> calibration;
 
   bool ok() const { return error.empty(); }
 };

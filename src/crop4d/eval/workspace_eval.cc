@@ -26,6 +26,7 @@
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_list.h"
 #include "crop4d/workspace/pass_summary.h"
+#include "crop4d/workspace/stage_summary.h"
 
 namespace crop4d::eval {
 namespace {
@@ -255,6 +256,11 @@ json FusedJson(const FusedEval& fused) {
                            {"interpolated", s.interpolated},
                            {"dropped", s.dropped}};
     item["metrics"] = s.ok() ? MetricsJson(s.metrics) : json(nullptr);
+    if (s.calibration) {
+      item["calibration_ray_error_deg"] = {{"written", s.calibration->written_deg},
+                                           {"fused", s.calibration->fused_deg},
+                                           {"refined", s.calibration->refined}};
+    }
     sessions.push_back(std::move(item));
   }
   j["sessions"] = std::move(sessions);
@@ -618,6 +624,25 @@ std::vector<PassEval> ListPasses(const workspace::Layout& ws, const WorkspaceEva
   return passes;
 }
 
+// Each pass's time offset in the joint problem (WS/fused/summary.json), when the workspace is
+// fused; a summary that cannot be read leaves them unset (with a warning).
+void ReadFusedTimeOffsets(const workspace::Layout& ws, std::vector<PassEval>* passes) {
+  std::error_code ec;
+  if (!fs::exists(ws.FusedSummary(), ec)) return;
+  try {
+    for (const workspace::FusedPassSummary& fused :
+         workspace::ReadFusedSummary(ws.FusedSummary().string()).pass_list) {
+      for (PassEval& pass : *passes) {
+        if (pass.session == fused.session && pass.pass == fused.pass) {
+          pass.fused_time_offset_s = fused.time_offset_s;
+        }
+      }
+    }
+  } catch (const InputError& e) {
+    spdlog::warn("eval: the fused time offsets are not evaluated: {}", e.what());
+  }
+}
+
 // Truth files, read once per session and frame (body_poses.tum is at the IMU rate).
 struct TruthCache {
   std::map<std::string, std::vector<io::StampedPose>> poses;       // by truth file
@@ -670,7 +695,7 @@ void EvaluatePass(const workspace::Layout& ws, const std::string& field,
     for (geometry::Rigid3& pose : estimate_poses) pose = truth_from_local * pose;
   }
   pass.metrics = ComputeTrajectoryMetrics(estimate_poses, associated.truth, options.metrics);
-  if (pass.time_offset_s && pass.pose_frame == "camera") {
+  if ((pass.time_offset_s || pass.fused_time_offset_s) && pass.pose_frame == "camera") {
     pass.true_time_offset_s = PassTrueTimeOffset(field, pass.session, estimate, &truth->captures);
   }
 }
@@ -741,6 +766,7 @@ WorkspaceEval EvaluateWorkspace(const std::string& workspace, const std::string&
   eval.options = options;
   const workspace::Layout ws(workspace);
   eval.passes = ListPasses(ws, options);
+  if (options.fused) ReadFusedTimeOffsets(ws, &eval.passes);
   const std::vector<std::string> association_files =
       options.associations ? FindAssociationFiles(workspace) : std::vector<std::string>();
   bool has_fused = false;
@@ -834,15 +860,19 @@ json MetricsObject(const WorkspaceEval& eval) {
                         {"dropped_out_of_span", pass.dropped_out_of_span},
                         {"dropped_gap", pass.dropped_gap}};
     p["metrics"] = pass.ok() ? MetricsJson(pass.metrics) : json(nullptr);
-    if (pass.time_offset_s) {
+    // Row SLAM's and the joint problem's offsets, each with the truth and the error.
+    for (const auto& [key, estimate] :
+         {std::pair{"time_offset_s", pass.time_offset_s},
+          std::pair{"fused_time_offset_s", pass.fused_time_offset_s}}) {
+      if (!estimate) continue;
       const auto optional_json = [](const std::optional<double>& v) {
         return v ? json(*v) : json(nullptr);
       };
       std::optional<double> error;
-      if (pass.true_time_offset_s) error = *pass.time_offset_s - *pass.true_time_offset_s;
-      p["time_offset_s"] = {{"estimate", *pass.time_offset_s},
-                            {"truth", optional_json(pass.true_time_offset_s)},
-                            {"error", optional_json(error)}};
+      if (pass.true_time_offset_s) error = *estimate - *pass.true_time_offset_s;
+      p[key] = {{"estimate", *estimate},
+                {"truth", optional_json(pass.true_time_offset_s)},
+                {"error", optional_json(error)}};
     }
     passes.push_back(std::move(p));
   }
@@ -1018,6 +1048,13 @@ std::string FormatFusedTable(const WorkspaceEval& eval) {
     out += fmt::format(
         "aligned: SE(3) alignment per session; one alignment of all sessions together: {} cm\n",
         Cm(f.ate_aligned_joint_m));
+    for (const FusedSessionEval& s : f.sessions) {
+      if (!s.calibration) continue;
+      out += fmt::format(
+          "{:<{}}  calibration: rays {:.3f} deg from the truth as written, {:.3f} deg fused{}\n",
+          s.session, w, s.calibration->written_deg, s.calibration->fused_deg,
+          s.calibration->refined ? " (refined)" : " (as written)");
+    }
   }
   if (!eval.clouds.empty()) {
     const CloudSetOptions& o = eval.options.clouds;
@@ -1118,13 +1155,17 @@ std::string FormatPassTable(const WorkspaceEval& eval) {
         "orientations, shift from the centroids)\n";
   }
   for (const PassEval& p : eval.passes) {
-    if (!p.time_offset_s) continue;
-    out += fmt::format("{} {}: camera-IMU time offset {:+.1f} ms", p.session, p.pass,
-                       1e3 * *p.time_offset_s);
-    if (p.true_time_offset_s) {
-      out += fmt::format(" (truth {:+.1f} ms, error {:+.1f} ms)", 1e3 * *p.true_time_offset_s,
-                         1e3 * (*p.time_offset_s - *p.true_time_offset_s));
+    if (!p.time_offset_s && !p.fused_time_offset_s) continue;
+    out += fmt::format("{} {}: camera-IMU time offset", p.session, p.pass);
+    for (const auto& [label, estimate] :
+         {std::pair{"row SLAM", p.time_offset_s}, std::pair{"fused", p.fused_time_offset_s}}) {
+      if (!estimate) continue;
+      out += fmt::format(" {} {:+.1f} ms", label, 1e3 * *estimate);
+      if (p.true_time_offset_s) {
+        out += fmt::format(" (error {:+.1f} ms)", 1e3 * (*estimate - *p.true_time_offset_s));
+      }
     }
+    if (p.true_time_offset_s) out += fmt::format(", truth {:+.1f} ms", 1e3 * *p.true_time_offset_s);
     out += "\n";
   }
   if (o.worst_pass >= 0) {

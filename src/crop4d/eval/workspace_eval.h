@@ -102,6 +102,9 @@ struct PassEval {
   // image stamp, s) when it was estimated, and the truth over the pass's images when the field
   // records the capture instants (ground_truth/<session>/cam0_exposure.csv).
   std::optional<double> time_offset_s, true_time_offset_s;
+  // The offset the joint 4D problem used for the pass (WS/fused/summary.json passes[].
+  // time_offset_s), when it used one.
+  std::optional<double> fused_time_offset_s;
 
   bool ok() const { return error.empty(); }
 };

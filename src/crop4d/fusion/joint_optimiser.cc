@@ -28,12 +28,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-bool SameCamera(const geometry::PinholeRadTan& a, const geometry::PinholeRadTan& b) {
-  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy &&
-         a.cx == b.cx && a.cy == b.cy && a.k1 == b.k1 && a.k2 == b.k2 && a.p1 == b.p1 &&
-         a.p2 == b.p2 && a.k3 == b.k3;
-}
-
 // A ground tie with its point in the body frame of each state.
 struct BodyTie {
   int pass_a, state_a, pass_b, state_b;
@@ -67,6 +61,41 @@ class JointProblem {
       graphs_.push_back(std::make_unique<slam::PassGraph>(*pass_options, passes_[p], blocks_[p]));
       pass_options_.push_back(std::move(pass_options));
     }
+    rig_cameras_ = GroupPassesByCamera(passes);
+    for (const RigCamera& camera : rig_cameras_) {
+      calibrations_.push_back(slam::CameraCalibrationBlocks::From(camera.camera));
+    }
+    refined_.assign(rig_cameras_.size(), false);
+  }
+
+  const std::vector<RigCamera>& RigCameras() const { return rig_cameras_; }
+
+  // From now on, the calibration of rig camera c is refined with the poses (refine[c]).
+  void RefineCameras(const std::vector<bool>& refine) {
+    refined_ = refine;
+    for (std::size_t c = 0; c < rig_cameras_.size(); ++c) {
+      for (const int p : rig_cameras_[c].passes) {
+        graphs_[p]->set_calibration(refined_[c] ? &calibrations_[c] : nullptr);
+      }
+    }
+  }
+
+  // Every rig camera as written and as the problem has it now.
+  std::vector<RefinedCalibration> Calibrations() const {
+    std::vector<RefinedCalibration> out;
+    for (std::size_t c = 0; c < rig_cameras_.size(); ++c) {
+      const RigCamera& rig = rig_cameras_[c];
+      RefinedCalibration r;
+      r.passes = rig.passes;
+      r.refined = refined_[c];
+      r.written_camera = rig.camera;
+      r.written_body_from_camera = rig.body_from_camera;
+      r.camera = refined_[c] ? calibrations_[c].Camera(rig.camera) : rig.camera;
+      r.body_from_camera = refined_[c] ? calibrations_[c].BodyFromCamera(rig.body_from_camera)
+                                       : rig.body_from_camera;
+      out.push_back(std::move(r));
+    }
+    return out;
   }
 
   // The time offset of pass p as the reprojection factors use it (unset when they do not), and
@@ -99,9 +128,9 @@ class JointProblem {
   }
 
   double Error(const JointObservation& obs, const Eigen::Vector3d& point) const {
-    const JointOptimiser::Pass& pass = passes_[obs.pass];
-    return slam::ReprojectionError(*pass.camera, pass.body_from_camera,
-                                   graphs_[obs.pass]->BodyAtCapture(obs.state), point, obs.pixel);
+    const slam::PassGraph& graph = *graphs_[obs.pass];
+    return slam::ReprojectionError(graph.Camera(), graph.BodyFromCamera(),
+                                   graph.BodyAtCapture(obs.state), point, obs.pixel);
   }
 
   // Builds and solves the problem with the kept observations of `landmarks`.
@@ -122,6 +151,12 @@ class JointProblem {
       }
     }
     if (num_observations != nullptr) *num_observations = count;
+    for (std::size_t c = 0; c < rig_cameras_.size(); ++c) {
+      if (refined_[c]) {
+        AddCalibrationPriors(joint_options_.calibration, rig_cameras_[c], &calibrations_[c],
+                             &problem);
+      }
+    }
     for (const BodyTie& tie : ties_) {
       problem.AddResidualBlock(GroundTieFactor::Create(tie.point_a, tie.point_b, tie.across,
                                                        joint_options_.ground_tie_sigma_across_m,
@@ -178,6 +213,11 @@ class JointProblem {
   // lie wherever the heap put them, which depends on what the process did before).
   std::vector<slam::StateBlocks> storage_;
   std::vector<std::span<slam::StateBlocks>> blocks_;
+  // The rig's cameras, their calibration blocks (the graphs of refined cameras point into
+  // them: sized once) and whether each is refined.
+  std::vector<RigCamera> rig_cameras_;
+  std::vector<slam::CameraCalibrationBlocks> calibrations_;
+  std::vector<bool> refined_;
   // Each pass's options (the graphs hold references to them) and graph.
   std::vector<std::unique_ptr<slam::RowOptimiser::Options>> pass_options_;
   std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
@@ -186,6 +226,38 @@ class JointProblem {
 // Whether observation o of a landmark comes from a pass other than its first observation's.
 bool IsCross(const JointLandmark& landmark, std::size_t o) {
   return landmark.observations[o].pass != landmark.observations.front().pass;
+}
+
+// Per rig camera, the kept observations of landmarks from a pass other than the landmark's
+// first one, in the camera's images: what observes its calibration beyond a single pass.
+std::vector<std::int64_t> CrossObservationsPerCamera(const std::vector<RigCamera>& cameras,
+                                                     std::size_t num_passes,
+                                                     const std::vector<JointLandmark>& landmarks,
+                                                     const std::vector<int>& ids,
+                                                     const std::vector<std::vector<bool>>& keep) {
+  std::vector<int> camera_of_pass(num_passes, -1);
+  for (std::size_t c = 0; c < cameras.size(); ++c) {
+    for (const int p : cameras[c].passes) camera_of_pass[p] = static_cast<int>(c);
+  }
+  std::vector<std::int64_t> counts(cameras.size(), 0);
+  for (std::size_t l = 0; l < ids.size(); ++l) {
+    const JointLandmark& landmark = landmarks[ids[l]];
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (keep[l][o] && IsCross(landmark, o))
+        ++counts[camera_of_pass[landmark.observations[o].pass]];
+    }
+  }
+  return counts;
+}
+
+// Which rig cameras the joint problem refines (CalibrationRefinementOptions::refine).
+std::vector<bool> CamerasToRefine(const CalibrationRefinementOptions& options,
+                                  const std::vector<std::int64_t>& cross_observations) {
+  std::vector<bool> refine(cross_observations.size());
+  for (std::size_t c = 0; c < refine.size(); ++c) {
+    refine[c] = options.refine.value_or(cross_observations[c] >= options.min_cross_observations);
+  }
+  return refine;
 }
 
 // The rigid motion (b_from_a) that carries pass a's placement of its ties' ground points onto
@@ -420,6 +492,7 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
 OptionCheck JointOptimiser::Options::Check() const {
   if (const OptionCheck why = row.Check(); !why.empty()) return "row." + why;
   if (const OptionCheck why = alignment.Check(); !why.empty()) return "alignment." + why;
+  if (const OptionCheck why = calibration.Check(); !why.empty()) return "calibration." + why;
   for (const auto& [name, value] :
        {std::pair{"precise_gps_sigma_m", precise_gps_sigma_m},
         std::pair{"ground_tie_sigma_across_m", ground_tie_sigma_across_m},
@@ -517,7 +590,7 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
       const geometry::PinholeRadTan& camera = *passes[obs.pass].camera;
       Eigen::Vector2d pixel = obs.pixel;
       Eigen::Vector3d ray;
-      if (!SameCamera(camera, reference) &&
+      if (!SameIntrinsics(camera, reference) &&
           !(camera.Unproject(obs.pixel, &ray) && reference.Project(ray, &pixel))) {
         pixel = obs.pixel;  // outside the reference's model: let the error bound judge it
       }
@@ -542,6 +615,9 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
     keep.push_back(std::move(masks[l]));
   }
   summary.triangulation_seconds = SecondsSince(start);
+  const std::vector<std::int64_t> cross_per_camera =
+      CrossObservationsPerCamera(problem.RigCameras(), passes.size(), landmarks, ids, keep);
+  problem.RefineCameras(CamerasToRefine(options_.calibration, cross_per_camera));
 
   // (2) The whole problem.
   start = Clock::now();
@@ -639,6 +715,22 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   summary.ground_tie_rms_across_m = tie_rms.x();
   summary.ground_tie_rms_vertical_m = tie_rms.y();
 
+  result.calibrations = problem.Calibrations();
+  for (std::size_t c = 0; c < result.calibrations.size(); ++c) {
+    RefinedCalibration& r = result.calibrations[c];
+    r.num_cross_observations = cross_per_camera[c];
+    if (!r.refined) continue;
+    ++summary.num_cameras_refined;
+    spdlog::info(
+        "joint problem: camera of {} passes refined from {} cross observations: fx {:+.2f} px, "
+        "fy {:+.2f} px, cx {:+.2f} px, cy {:+.2f} px, k1 {:+.4f}, k2 {:+.4f}, T_BS rotation "
+        "{:.3f} deg, lever arm ({:+.1f}, {:+.1f}, {:+.1f}) mm",
+        r.passes.size(), r.num_cross_observations, r.camera.fx - r.written_camera.fx,
+        r.camera.fy - r.written_camera.fy, r.camera.cx - r.written_camera.cx,
+        r.camera.cy - r.written_camera.cy, r.camera.k1 - r.written_camera.k1,
+        r.camera.k2 - r.written_camera.k2, r.RotationChangeDeg(), 1e3 * r.LeverArmChange().x(),
+        1e3 * r.LeverArmChange().y(), 1e3 * r.LeverArmChange().z());
+  }
   result.states = problem.States();
   result.cameras = problem.CameraPoses();
   result.landmarks_world = std::move(kept_points);

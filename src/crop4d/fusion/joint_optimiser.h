@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/fusion/camera_refinement.h"
 #include "crop4d/fusion/ground_ties.h"
 #include "crop4d/fusion/pass_alignment.h"
 #include "crop4d/slam/row_optimiser.h"
@@ -82,6 +83,9 @@ class JointOptimiser {
     // False: row SLAM's values held. `row.estimate_time_offset` is not used here; its prior
     // sigma and bounds are.
     std::optional<bool> estimate_time_offset;
+    // The cameras' calibration (intrinsics and T_BS rotation) refined with the poses
+    // (camera_refinement.h); off by default.
+    CalibrationRefinementOptions calibration;
 
     // Empty when the options are valid, otherwise the first invalid option and why, as
     // "name: must be ... (got x)" ("row.name: ..." for the row-SLAM options;
@@ -130,6 +134,8 @@ class JointOptimiser {
     int num_time_offsets_held = 0;
     // GPS fixes dropped by the outlier gate after the first solve (row.gps_gate_chi2; 0: off).
     int num_gps_rejected = 0;
+    // Cameras whose calibration the joint problem refined (Options::calibration).
+    int num_cameras_refined = 0;
   };
 
   struct Result {
@@ -146,6 +152,10 @@ class JointOptimiser {
     // Each pass's camera–IMU time offset after the solve, s (refined or held; unset when the
     // reprojection factors of the pass did not use one).
     std::vector<std::optional<double>> time_offsets_s;
+    // Every camera of the rig (camera_refinement.h: passes with identical intrinsics and T_BS
+    // share one), its calibration as written and after the solve (the same when not refined).
+    // `cameras` above are placed with the refined T_BS.
+    std::vector<RefinedCalibration> calibrations;
     Summary summary;
   };
 

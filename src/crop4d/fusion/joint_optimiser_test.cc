@@ -122,6 +122,16 @@ std::vector<JointLandmark> Landmarks(const TwoPasses& tp, bool shared,
   return landmarks;
 }
 
+// As MakeTwoPasses, with pass 1 on RTK too and initialised at the truth.
+void MakeTwoRtkPasses(TwoPasses& tp) {
+  MakeTwoPasses(tp);
+  Scenario s1 = tp.s;
+  s1.times = tp.times[1];
+  const JointOptimiser::Pass rtk = MakeInput(s1, ShiftedTruth(s1, tp.times[1], kGpsBias));
+  tp.passes[1].gps_fixes = rtk.gps_fixes;
+  tp.passes[1].initial_states = ShiftedTruth(s1, tp.times[1], Eigen::Vector3d::Zero());
+}
+
 double PositionRms(const TwoPasses& tp, int pass, const std::vector<slam::RowState>& states) {
   double sum = 0;
   for (const slam::RowState& st : states) {
@@ -325,12 +335,7 @@ double CaptureCameraRms(const TwoPasses& tp, int pass, const JointOptimiser::Res
 // issue's bound), closer than row SLAM's. Measured: 25.4 and 24.0 ms.
 TEST(JointOptimiser, RefinesEachPassTimeOffsetThroughTheSharedLandmarks) {
   TwoPasses tp;
-  MakeTwoPasses(tp);
-  Scenario s1 = tp.s;
-  s1.times = tp.times[1];
-  const JointOptimiser::Pass rtk = MakeInput(s1, ShiftedTruth(s1, tp.times[1], kGpsBias));
-  tp.passes[1].gps_fixes = rtk.gps_fixes;
-  tp.passes[1].initial_states = ShiftedTruth(s1, tp.times[1], Eigen::Vector3d::Zero());
+  MakeTwoRtkPasses(tp);
   const std::array<double, 2> td_true{0.025, 0.0255};
   const std::vector<JointLandmark> landmarks = Landmarks(tp, /*shared=*/true, td_true);
   std::vector<JointOptimiser::Pass> passes = tp.passes;
@@ -400,6 +405,89 @@ TEST(JointOptimiser, GpsGateDropsMultipathOutliers) {
   EXPECT_LT(PositionRms(tp, 1, result.states[1]), 0.03);
 }
 
+// Two RTK passes of one session whose camera calibration was written off by 3 px of focal
+// length, 2.8 px of principal point, 0.005 of k1, 0.31 degrees of T_BS rotation and 1.9 cm of
+// lever arm: the ground seen from both rows pins the calibration, and the refined rays and
+// lever arm are much closer to the true ones.
+TEST(JointOptimiser, RefinesTheCameraCalibrationThroughTheSharedLandmarks) {
+  TwoPasses tp;
+  MakeTwoRtkPasses(tp);
+  const std::vector<JointLandmark> landmarks = Landmarks(tp, /*shared=*/true);
+  geometry::PinholeRadTan written = tp.s.camera;
+  written.fx += 3.0;
+  written.fy += 3.0;
+  written.cx += 2.0;
+  written.cy -= 2.0;
+  written.k1 += 0.005;
+  const geometry::Rigid3 written_body_from_camera(
+      tp.s.body_from_camera.rotation() * geometry::ExpQuat(Eigen::Vector3d(0.003, -0.004, 0.002)),
+      tp.s.body_from_camera.translation() + Eigen::Vector3d(0.015, -0.012, 0.0));
+  std::vector<JointOptimiser::Pass> passes = tp.passes;
+  for (JointOptimiser::Pass& pass : passes) {
+    pass.camera = &written;
+    pass.body_from_camera = written_body_from_camera;
+  }
+
+  JointOptimiser::Options options;
+  options.calibration.refine = true;
+  const JointOptimiser::Result lever_arm_held = JointOptimiser(options).Solve(passes, landmarks);
+  options.calibration.refine_lever_arm = true;
+  const JointOptimiser::Result refined = JointOptimiser(options).Solve(passes, landmarks);
+  options.calibration.refine_lever_arm = false;
+  const JointOptimiser::Result held =
+      JointOptimiser(JointOptimiser::Options()).Solve(passes, landmarks);
+  options.calibration.refine = std::nullopt;  // auto, with more cross observations asked than exist
+  options.calibration.min_cross_observations = 1000000;
+  const JointOptimiser::Result too_few = JointOptimiser(options).Solve(passes, landmarks);
+
+  // The two passes share one camera.
+  ASSERT_EQ(refined.calibrations.size(), 1u);
+  const RefinedCalibration& r = refined.calibrations[0];
+  EXPECT_EQ(r.passes, (std::vector<int>{0, 1}));
+  EXPECT_TRUE(r.refined);
+  EXPECT_EQ(refined.summary.num_cameras_refined, 1);
+  EXPECT_GT(r.num_cross_observations, 1000);
+  for (const JointOptimiser::Result* kept : {&held, &too_few}) {
+    ASSERT_EQ(kept->calibrations.size(), 1u);
+    EXPECT_FALSE(kept->calibrations[0].refined);
+    EXPECT_EQ(kept->summary.num_cameras_refined, 0);
+    EXPECT_EQ(kept->calibrations[0].camera.fx, written.fx);
+    EXPECT_EQ(kept->calibrations[0].num_cross_observations, r.num_cross_observations);
+  }
+  const double before =
+      RayAngleRmsDeg(written, written_body_from_camera, tp.s.camera, tp.s.body_from_camera);
+  const double after =
+      RayAngleRmsDeg(r.camera, r.body_from_camera, tp.s.camera, tp.s.body_from_camera);
+  std::printf(
+      "rays %.3f deg written, %.3f deg refined; fx %+.2f fy %+.2f cx %+.2f cy %+.2f px, k1 "
+      "%+.4f from the truth; T_BS rotation changed by %.3f deg; reprojection RMS %.3f px "
+      "refined, %.3f px held\n",
+      before, after, r.camera.fx - tp.s.camera.fx, r.camera.fy - tp.s.camera.fy,
+      r.camera.cx - tp.s.camera.cx, r.camera.cy - tp.s.camera.cy, r.camera.k1 - tp.s.camera.k1,
+      r.RotationChangeDeg(), refined.summary.reprojection_rms_px, held.summary.reprojection_rms_px);
+  EXPECT_GT(before, 0.2);
+  EXPECT_LT(after, 0.3 * before);
+  // The lever arm written 1.9 cm off horizontally: the two driving directions see it.
+  const Eigen::Vector3d lever_arm_error =
+      r.body_from_camera.translation() - tp.s.body_from_camera.translation();
+  std::printf("lever arm error %.1f %.1f %.1f mm refined (written 15.0 -12.0 0.0)\n",
+              1e3 * lever_arm_error.x(), 1e3 * lever_arm_error.y(), 1e3 * lever_arm_error.z());
+  EXPECT_LT(lever_arm_error.head<2>().norm(), 0.4 * 0.0192);
+  // By default the lever arm is held as written; the rest is refined all the same, and the
+  // rotation takes up part of the lever arm's error (measured: rays 0.44 deg from the truth).
+  const RefinedCalibration& held_arm = lever_arm_held.calibrations.at(0);
+  EXPECT_TRUE(held_arm.refined);
+  EXPECT_EQ(held_arm.body_from_camera.translation(), written_body_from_camera.translation());
+  const double after_held = RayAngleRmsDeg(held_arm.camera, held_arm.body_from_camera, tp.s.camera,
+                                           tp.s.body_from_camera);
+  EXPECT_LT(after_held, 0.5 * before);
+  EXPECT_GT(after_held, after);
+  EXPECT_LT(refined.summary.reprojection_rms_px, held.summary.reprojection_rms_px);
+  // The cameras are placed with the refined T_BS.
+  const geometry::Rigid3 c = refined.states[0][3].nav.world_from_body * r.body_from_camera;
+  EXPECT_LT((refined.cameras[0][3].rotation().coeffs() - c.rotation().coeffs()).norm(), 1e-12);
+}
+
 TEST(JointOptimiser, OptionErrorsNameTheOption) {
   EXPECT_EQ(JointOptimiser::Options().Error(), "");
   JointOptimiser::Options o;
@@ -408,6 +496,9 @@ TEST(JointOptimiser, OptionErrorsNameTheOption) {
   o = JointOptimiser::Options();
   o.row.max_iterations = 0;
   EXPECT_EQ(o.Error(), "row.max_iterations: must be > 0 (got 0)");
+  o = JointOptimiser::Options();
+  o.calibration.rotation_sigma_deg = -1;
+  EXPECT_EQ(o.Error(), "calibration.rotation_sigma_deg: must be > 0 (got -1)");
   o = JointOptimiser::Options();
   o.row.max_abs_time_offset_s = 2;
   EXPECT_EQ(o.Error(), "row.max_abs_time_offset_s: must be in (0, 1] s (got 2)");

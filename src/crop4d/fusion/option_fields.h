@@ -34,6 +34,18 @@ void VisitFields(GroundTieOptions& o, V&& visit) {
 }
 
 template <class V>
+void VisitFields(CalibrationRefinementOptions& o, V&& visit) {
+  visit("refine", o.refine);
+  visit("min_cross_observations", o.min_cross_observations);
+  visit("focal_sigma_px", o.focal_sigma_px);
+  visit("principal_point_sigma_px", o.principal_point_sigma_px);
+  visit("distortion_sigma", o.distortion_sigma);
+  visit("rotation_sigma_deg", o.rotation_sigma_deg);
+  visit("lever_arm_sigma_m", o.lever_arm_sigma_m);
+  visit("refine_lever_arm", o.refine_lever_arm);
+}
+
+template <class V>
 void VisitFields(JointOptimiser::Options& o, V&& visit) {
   visit("row", o.row);
   visit("align_passes", o.align_passes);
@@ -43,6 +55,7 @@ void VisitFields(JointOptimiser::Options& o, V&& visit) {
   visit("ground_tie_sigma_vertical_m", o.ground_tie_sigma_vertical_m);
   visit("ground_tie_loss_scale", o.ground_tie_loss_scale);
   visit("estimate_time_offset", o.estimate_time_offset);
+  visit("calibration", o.calibration);
 }
 
 }  // namespace crop4d::fusion

@@ -1,5 +1,6 @@
 #include "crop4d/pipeline/densify_stage.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 #include <tbb/task_arena.h>
 
@@ -25,6 +26,7 @@
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/stage_option_fields.h"
+#include "crop4d/workspace/fused_camera.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_list.h"
 #include "crop4d/workspace/pass_measurements.h"
@@ -87,7 +89,8 @@ std::vector<std::string> SessionsToDensify(const io::Field& field, const workspa
     }
   }
   for (const std::string& id : sessions) {
-    for (const fs::path& file : {layout.FusedPoses(id), layout.FusedSparse(id)}) {
+    for (const fs::path& file :
+         {layout.FusedPoses(id), layout.FusedSparse(id), layout.FusedCamera(id)}) {
       if (!fs::exists(file)) {
         throw InputError(
             file.string(), 0,
@@ -112,15 +115,16 @@ std::vector<Eigen::Vector2d> DiscCenters(const io::Field& field,
   return centers;
 }
 
-// The fingerprint of a session's inputs: the stage revision, the options, the fused poses and
-// sparse cloud, the measurements of the session's passes (the camera and its image list) and
-// field.yaml (rows and sites).
+// The fingerprint of a session's inputs: the stage revision, the options, the fused poses,
+// intrinsics and sparse cloud, the measurements of the session's passes (the camera and its image
+// list) and field.yaml (rows and sites).
 std::string SessionFingerprint(const workspace::Layout& layout, const std::string& id,
                                const json& options_json, const std::string& field_folder) {
   Fnv1aHasher fingerprint;
   fingerprint.Add(kDensifyStageRevision);
   fingerprint.AddString(options_json.dump());
-  std::vector<fs::path> inputs = {layout.FusedPoses(id), layout.FusedSparse(id)};
+  std::vector<fs::path> inputs = {layout.FusedPoses(id), layout.FusedSparse(id),
+                                  layout.FusedCamera(id)};
   for (const slam::RowPass& pass : workspace::ReadPassList(layout.root().string(), id)) {
     inputs.push_back(layout.PassMeasurements(id, pass.id));
   }
@@ -252,6 +256,17 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
   report.num_poses = static_cast<int>(poses.size());
   const io::ImageSequence images =
       workspace::SessionImages(layout.root().string(), id, field.folder(), options.camera);
+  // The intrinsics the fused poses go with (refined by fuse, or as the dataset wrote them).
+  const geometry::PinholeRadTan camera =
+      workspace::ReadFusedCamera(layout.FusedCamera(id).string()).intrinsics;
+  if (camera.width != images.camera().camera.width ||
+      camera.height != images.camera().camera.height) {
+    throw InputError(layout.FusedCamera(id).string(), 0,
+                     fmt::format("the fused camera is {}x{} px, the session's images {}x{} (stale "
+                                 "fused outputs? run `crop4d fuse --force`)",
+                                 camera.width, camera.height, images.camera().camera.width,
+                                 images.camera().camera.height));
+  }
   std::vector<std::size_t> view_image;
   const std::vector<dense::DenseView> views =
       ViewsOfPoses(poses, images, id, layout.FusedPoses(id), &view_image);
@@ -277,7 +292,7 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
   dense::HeightFieldStereo::Result result;
   arena->execute([&] {
     result = stereo.Run(
-        images.camera().camera, views,
+        camera, views,
         [&](int v) {
           dense::RgbImage out;
           const cv::Mat bgr = images.LoadImage(view_image[v]);

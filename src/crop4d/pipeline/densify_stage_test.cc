@@ -22,6 +22,7 @@
 #include "crop4d/io/tum.h"
 #include "crop4d/sim/renderer.h"
 #include "crop4d/sim/simulator.h"
+#include "crop4d/workspace/fused_camera.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/pass_list.h"
 #include "crop4d/workspace/pass_measurements.h"
@@ -68,7 +69,8 @@ class DensifyStageTest : public ::testing::Test {
   }
 
   // What row SLAM records of the session for densify: one pass over the whole session with its
-  // measurements (the camera and the image list of the field).
+  // measurements (the camera and the image list of the field); and what fuse records of its
+  // camera (camera.json: the calibration as written).
   void WriteRowSlamRecord() const {
     const io::ImageSequence images(io::Field(field_).OpenSession(session_), "cam0");
     std::vector<Timestamp> times;
@@ -87,6 +89,8 @@ class DensifyStageTest : public ::testing::Test {
         workspace::SelectPassMeasurements(&camera, nullptr, nullptr, times, times.front(),
                                           times.back(),
                                           fs::path(images.folder()).lexically_relative(field_)));
+    workspace::WriteFusedCamera(layout.FusedCamera(session_).string(),
+                                {images.camera().camera, images.camera().body_from_sensor});
   }
 
   DensifyStageOptions Options() const {
@@ -163,6 +167,24 @@ TEST_F(DensifyStageTest, WritesAnAccurateCloudAndSkipsWhenUpToDate) {
   DensifyStageOptions other = Options();
   other.stereo.min_score = 0.6;
   EXPECT_FALSE(RunDensifyStage(field_, workspace_, other)[0].skipped);
+
+  // The intrinsics come from fuse's camera.json: another calibration is densified again, one of
+  // another image size is refused naming the file.
+  const std::string camera_path = workspace::Layout(workspace_).FusedCamera(session_).string();
+  workspace::FusedCamera camera = workspace::ReadFusedCamera(camera_path);
+  camera.intrinsics.cx += 0.5;
+  camera.refined = true;
+  workspace::WriteFusedCamera(camera_path, camera);
+  EXPECT_FALSE(RunDensifyStage(field_, workspace_, other)[0].skipped);
+  camera.intrinsics.width *= 2;
+  workspace::WriteFusedCamera(camera_path, camera);
+  try {
+    RunDensifyStage(field_, workspace_, other);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("camera.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("crop4d fuse"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(DensifyStageTest, MissingFusedOutputSaysToRunFuse) {

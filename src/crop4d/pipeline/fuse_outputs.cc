@@ -20,13 +20,14 @@ namespace {
 // The clouds of a session's passes re-triangulated from the given cameras, with each point's
 // track length and reprojection error.
 io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
+                               const geometry::PinholeRadTan& camera,
                                const std::vector<std::vector<geometry::Rigid3>>& cameras,
                                const slam::TriangulationOptions& options) {
   io::PlyPointCloud cloud;
   io::PlyScalarField length{"track_length", io::PlyType::kInt32, {}};
   io::PlyScalarField error{"reprojection_error", io::PlyType::kFloat32, {}};
   for (std::size_t p = 0; p < passes.size(); ++p) {
-    const slam::TrackCloud pass_cloud = CloudOfTracks(*passes[p], cameras[p], options);
+    const slam::TrackCloud pass_cloud = CloudOfTracks(*passes[p], camera, cameras[p], options);
     cloud.points.insert(cloud.points.end(), pass_cloud.points_world.begin(),
                         pass_cloud.points_world.end());
     cloud.colors.insert(cloud.colors.end(), pass_cloud.colors.begin(), pass_cloud.colors.end());
@@ -41,18 +42,35 @@ io::PlyPointCloud SessionCloud(const std::vector<const LoadedPass*>& passes,
 
 }  // namespace
 
-// WS/fused/<session>/poses.tum and sparse.ply: the session's fused cameras (all passes, in time
-// order) and its passes' clouds re-triangulated from them.
+std::vector<workspace::FusedCamera> FusedIntrinsics(
+    const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const fusion::JointOptimiser::Result& result) {
+  std::vector<workspace::FusedCamera> out(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    if (passes[p]->input.camera != nullptr) out[p].intrinsics = *passes[p]->input.camera;
+    out[p].body_from_camera = passes[p]->input.body_from_camera;
+  }
+  for (const fusion::RefinedCalibration& c : result.calibrations) {
+    for (const int p : c.passes) {
+      out[p] = {c.camera, c.body_from_camera, c.refined, c.RotationChangeDeg()};
+    }
+  }
+  return out;
+}
+
 void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                          const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                         const std::vector<workspace::FusedCamera>& intrinsics,
                          const std::vector<std::string>& sessions, const FuseStageOptions& options,
                          const workspace::Layout& layout) {
   for (const std::string& session : sessions) {
     std::vector<io::StampedPose> poses;
     std::vector<const LoadedPass*> session_passes;
     std::vector<std::vector<geometry::Rigid3>> session_cameras;
+    const workspace::FusedCamera* camera = nullptr;
     for (std::size_t p = 0; p < passes.size(); ++p) {
       if (passes[p]->data.session != session) continue;
+      if (camera == nullptr) camera = &intrinsics[p];
       session_passes.push_back(passes[p].get());
       session_cameras.push_back(cameras[p]);
       for (std::size_t k = 0; k < cameras[p].size(); ++k) {
@@ -61,13 +79,16 @@ void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
     }
     std::sort(poses.begin(), poses.end(),
               [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
+    if (camera == nullptr) continue;  // (every session listed has passes)
     io::WriteTum(layout.FusedPoses(session).string(), poses,
                  "world_from_camera of session " + session +
                      " after 4D fusion (all passes), field ENU frame");
+    workspace::WriteFusedCamera(layout.FusedCamera(session).string(), *camera);
     io::PlyWriteOptions ply;
     ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
     io::WritePly(layout.FusedSparse(session).string(),
-                 SessionCloud(session_passes, session_cameras, options.cloud), ply);
+                 SessionCloud(session_passes, camera->intrinsics, session_cameras, options.cloud),
+                 ply);
   }
 }
 
@@ -103,6 +124,7 @@ void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
 // images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
 void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                  const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                 const std::vector<workspace::FusedCamera>& intrinsics,
                  const std::vector<fusion::JointLandmark>& landmarks,
                  const fusion::JointOptimiser::Result& result, const workspace::Layout& layout) {
   io::ColmapModel model;
@@ -113,7 +135,7 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
     if (!camera_of_session.count(session)) {
       const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
       camera_of_session[session] = id;
-      model.cameras.push_back({id, *passes[p]->input.camera});
+      model.cameras.push_back({id, intrinsics[p].intrinsics});
     }
     const std::map<Timestamp, std::string> names = ImageNames(*passes[p]);
     for (std::size_t k = 0; k < cameras[p].size(); ++k) {
@@ -142,9 +164,9 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
       io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
       point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
       image.points2d.push_back({obs.pixel, point.point3d_id});
-      const double e = slam::ReprojectionError(
-          *passes[obs.pass]->input.camera, passes[obs.pass]->input.body_from_camera,
-          result.states[obs.pass][obs.state].nav.world_from_body, point.xyz, obs.pixel);
+      // From the fused camera (at its capture instant, with the fused intrinsics).
+      const double e = slam::ReprojectionError(intrinsics[obs.pass].intrinsics, geometry::Rigid3(),
+                                               cameras[obs.pass][obs.state], point.xyz, obs.pixel);
       error_sum += std::isfinite(e) ? e : 0.0;
     }
     point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
@@ -154,6 +176,35 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
 }
 
 using json = nlohmann::json;
+
+namespace {
+
+json IntrinsicsJson(const geometry::PinholeRadTan& c) {
+  return {{"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"k1", c.k1}, {"k2", c.k2}};
+}
+
+// The rig's cameras in the joint problem: the passes of each, whether its calibration was
+// refined, from how many cross observations, the intrinsics as written and after the solve, and
+// the turn of its T_BS.
+json CamerasJson(const std::vector<fusion::RefinedCalibration>& calibrations,
+                 const std::vector<FusePassReport>& passes) {
+  json list = json::array();
+  for (const fusion::RefinedCalibration& c : calibrations) {
+    json pass_ids = json::array();
+    for (const int p : c.passes) pass_ids.push_back(passes[p].session + "/" + passes[p].pass);
+    list.push_back({{"passes", pass_ids},
+                    {"refined", c.refined},
+                    {"cross_observations", c.num_cross_observations},
+                    {"written", IntrinsicsJson(c.written_camera)},
+                    {"intrinsics", IntrinsicsJson(c.camera)},
+                    {"rotation_change_deg", c.RotationChangeDeg()},
+                    {"lever_arm_change_m",
+                     {c.LeverArmChange().x(), c.LeverArmChange().y(), c.LeverArmChange().z()}}});
+  }
+  return list;
+}
+
+}  // namespace
 
 // The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
 // the joint solve, the ground ties and the per-pass corrections.
@@ -215,6 +266,7 @@ json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Res
     if (result.time_offsets_s[p]) pass_list.back()["time_offset_s"] = *result.time_offsets_s[p];
   }
   summary["passes"] = pass_list;
+  summary["cameras"] = CamerasJson(result.calibrations, report.passes);
   summary["seconds"] = {{"triangulation", s.triangulation_seconds},
                         {"solve", s.solve_seconds},
                         {"final_solve", s.final_solve_seconds},
@@ -252,6 +304,21 @@ std::string FormatFuseReport(const FuseReport& report) {
         << report.tie_pairs.size() << " pairs of passes without cross matches, RMS after fusion "
         << 100 * s.ground_tie_rms_across_m << " cm across, " << 100 * s.ground_tie_rms_vertical_m
         << " cm vertical\n";
+  }
+  for (const fusion::RefinedCalibration& c : report.calibrations) {
+    if (!c.refined) continue;
+    char line[320];
+    std::snprintf(line, sizeof(line),
+                  "  camera of %zu passes refined from %lld cross observations: fx %+.2f fy %+.2f "
+                  "cx %+.2f cy %+.2f px, k1 %+.4f k2 %+.4f, T_BS turned %.3f deg, lever arm "
+                  "moved (%+.1f, %+.1f, %+.1f) mm\n",
+                  c.passes.size(), static_cast<long long>(c.num_cross_observations),
+                  c.camera.fx - c.written_camera.fx, c.camera.fy - c.written_camera.fy,
+                  c.camera.cx - c.written_camera.cx, c.camera.cy - c.written_camera.cy,
+                  c.camera.k1 - c.written_camera.k1, c.camera.k2 - c.written_camera.k2,
+                  c.RotationChangeDeg(), 1e3 * c.LeverArmChange().x(), 1e3 * c.LeverArmChange().y(),
+                  1e3 * c.LeverArmChange().z());
+    out << line;
   }
   out << "  session      pass     shift east/north/up [cm]   rotation [deg]\n";
   for (const FusePassReport& pr : report.passes) {

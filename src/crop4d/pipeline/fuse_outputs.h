@@ -14,14 +14,23 @@
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/pipeline/fuse_pass.h"
 #include "crop4d/pipeline/fuse_stage.h"
+#include "crop4d/workspace/fused_camera.h"
 #include "crop4d/workspace/layout.h"
 
 namespace crop4d::pipeline::fuse {
 
-// WS/fused/<session>/poses.tum and sparse.ply: the session's fused cameras (all passes, in time
-// order) and its passes' clouds re-triangulated from them.
+// Each pass's intrinsics as its fused cameras go with them: its rig camera's calibration
+// refined by the joint problem, or as written (JointOptimiser::Result::calibrations).
+std::vector<workspace::FusedCamera> FusedIntrinsics(
+    const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const fusion::JointOptimiser::Result& result);
+
+// WS/fused/<session>/poses.tum, camera.json and sparse.ply: the session's fused cameras (all
+// passes, in time order), the intrinsics they go with (those of its first pass: a session's
+// passes share its camera) and its passes' clouds re-triangulated from them.
 void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                          const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                         const std::vector<workspace::FusedCamera>& intrinsics,
                          const std::vector<std::string>& sessions, const FuseStageOptions& options,
                          const workspace::Layout& layout);
 
@@ -35,11 +44,13 @@ void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
 // images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
 void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                  const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                 const std::vector<workspace::FusedCamera>& intrinsics,
                  const std::vector<fusion::JointLandmark>& landmarks,
                  const fusion::JointOptimiser::Result& result, const workspace::Layout& layout);
 
 // WS/fused/summary.json's content: the fingerprint, the options, the sessions, the association
-// and joint-problem counts, the ground ties, each pass's move and time offset, the timings.
+// and joint-problem counts, the ground ties, each pass's move and time offset, the rig's cameras
+// (refined or as written), the timings.
 nlohmann::json FuseSummaryJson(const FuseReport& report,
                                const fusion::JointOptimiser::Result& result,
                                const std::string& stamp, const FuseStageOptions& options,

@@ -85,7 +85,8 @@ std::map<Timestamp, std::string> ImageNames(const LoadedPass& pass) {
 
 // The cloud tracks of a pass (their keypoints and colours) triangulated from the given cameras
 // (one per image).
-slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
+slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const geometry::PinholeRadTan& camera,
+                               const std::vector<geometry::Rigid3>& cameras,
                                const slam::TriangulationOptions& options) {
   const workspace::PassData& data = pass.data;
   std::vector<slam::LandmarkTrack> tracks(data.tracks.cloud.size());
@@ -95,7 +96,7 @@ slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometr
     }
     tracks[i].color = data.tracks.cloud[i].color;
   }
-  return slam::TriangulateTrackCloud(*pass.input.camera, cameras, tracks, options);
+  return slam::TriangulateTrackCloud(camera, cameras, tracks, options);
 }
 
 }  // namespace crop4d::pipeline::fuse

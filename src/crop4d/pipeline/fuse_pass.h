@@ -42,8 +42,9 @@ void LoadPassProblem(const std::string& workspace, LoadedPass* pass);
 std::map<Timestamp, std::string> ImageNames(const LoadedPass& pass);
 
 // The cloud tracks of a pass (their keypoints and colours) triangulated from the given cameras
-// (one per image).
-slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const std::vector<geometry::Rigid3>& cameras,
+// (one per image) with the intrinsics `camera`.
+slam::TrackCloud CloudOfTracks(const LoadedPass& pass, const geometry::PinholeRadTan& camera,
+                               const std::vector<geometry::Rigid3>& cameras,
                                const slam::TriangulationOptions& options);
 
 }  // namespace crop4d::pipeline::fuse

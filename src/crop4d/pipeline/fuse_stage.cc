@@ -92,7 +92,7 @@ fusion::GroundTiePass TiePass(const LoadedPass& pass, const slam::TriangulationO
   for (const slam::RowState& state : pass.input.initial_states) {
     tie.cameras.push_back(state.nav.world_from_body * pass.input.body_from_camera);
   }
-  const slam::TrackCloud cloud = CloudOfTracks(pass, tie.cameras, options);
+  const slam::TrackCloud cloud = CloudOfTracks(pass, *pass.input.camera, tie.cameras, options);
   tie.points = cloud.points_world;
   tie.colors = cloud.colors;
   return tie;
@@ -425,12 +425,14 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
   const fusion::JointOptimiser::Result result =
       SolveJoint(graph, passes, landmarks, ties, protects, options);
   report.joint = result.summary;
+  report.calibrations = result.calibrations;
 
   // Outputs.
   const std::vector<std::vector<geometry::Rigid3>> cameras = FusedCameras(passes, result, &report);
-  WriteSessionOutputs(passes, cameras, sessions, options, layout);
+  const std::vector<workspace::FusedCamera> intrinsics = fuse::FusedIntrinsics(passes, result);
+  WriteSessionOutputs(passes, cameras, intrinsics, sessions, options, layout);
   WriteJointLandmarks(passes, landmarks, result, layout);
-  if (options.write_colmap) WriteColmap(passes, cameras, landmarks, result, layout);
+  if (options.write_colmap) WriteColmap(passes, cameras, intrinsics, landmarks, result, layout);
   report.seconds = SecondsSince(start);
 
   json summary = FuseSummaryJson(report, result, stamp, options, sessions);

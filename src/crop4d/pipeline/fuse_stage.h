@@ -104,6 +104,9 @@ struct FuseReport {
   fusion::JointOptimiser::Summary joint;
   std::vector<FuseTiePairReport> tie_pairs;
   std::vector<FusePassReport> passes;
+  // The rig's cameras: their calibration as written and after the joint solve (refined with
+  // fuse.refine_calibration).
+  std::vector<fusion::RefinedCalibration> calibrations;
   // The sessions' grades (written to quality.json; read back when the stage is up to date).
   SeasonQuality quality;
   double seconds = 0;

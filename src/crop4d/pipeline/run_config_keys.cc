@@ -138,6 +138,20 @@ Key Choice(const char* section, const char* name, const char* comment, const cha
           }};
 }
 
+// An optional<bool> field as the words auto (unset), true and false.
+Key AutoBool(const char* section, const char* name, const char* comment, const char* field) {
+  return Choice(
+      section, name, comment, field, {"auto", "true", "false"},
+      [field](RunConfig& c) -> std::string {
+        const std::optional<bool>& v = FieldOf<std::optional<bool>>(c, field);
+        return !v ? "auto" : (*v ? "true" : "false");
+      },
+      [field](RunConfig& c, const std::string& w) {
+        FieldOf<std::optional<bool>>(c, field) =
+            w == "auto" ? std::nullopt : std::optional<bool>(w == "true");
+      });
+}
+
 // A string option that takes one of `words` as is.
 Key Word(const char* section, const char* name, const char* comment, std::vector<std::string> words,
          const char* field) {
@@ -323,21 +337,25 @@ void AddFuseKeys(std::vector<Key>& k) {
       [](RunConfig& c, const std::string& w) {
         FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") = w == "iterative";
       }));
-  k.push_back(Choice(
+  k.push_back(AutoBool(
       "fuse", "estimate_time_offset",
       "refine each pass's camera-IMU time offset in the joint problem: auto (the passes whose "
       "row SLAM estimated one, slam.estimate_time_offset), true (every pass) or false (row "
       "SLAM's held)",
-      "fuse.optimiser.estimate_time_offset", {"auto", "true", "false"},
-      [](RunConfig& c) -> std::string {
-        const std::optional<bool>& v =
-            FieldOf<std::optional<bool>>(c, "fuse.optimiser.estimate_time_offset");
-        return !v ? "auto" : (*v ? "true" : "false");
-      },
-      [](RunConfig& c, const std::string& w) {
-        FieldOf<std::optional<bool>>(c, "fuse.optimiser.estimate_time_offset") =
-            w == "auto" ? std::nullopt : std::optional<bool>(w == "true");
-      }));
+      "fuse.optimiser.estimate_time_offset"));
+  k.push_back(AutoBool(
+      "fuse", "refine_calibration",
+      "refine each camera's intrinsics and T_BS rotation in the joint problem: auto (where its "
+      "images hold calibration_min_cross_observations), true or false (as written)",
+      "fuse.optimiser.calibration.refine"));
+  k.push_back(Bool("fuse", "refine_lever_arm",
+                   "with refine_calibration, also refine the camera's lever arm (trades with the "
+                   "time offset along the track; docs/fusion.md)",
+                   "fuse.optimiser.calibration.refine_lever_arm"));
+  k.push_back(Int("fuse", "calibration_min_cross_observations",
+                  "refine_calibration auto: the observations of landmarks shared between passes "
+                  "a camera's images need",
+                  "fuse.optimiser.calibration.min_cross_observations", 0, 1000000000));
   k.push_back(Bool("fuse", "colmap", "write the COLMAP text model of the fused reconstruction",
                    "fuse.write_colmap"));
   k.push_back(Bool("fuse", "ground_ties",

@@ -1,8 +1,10 @@
 #pragma once
 
-// Test helper: the camera the slam tests project through.
+// Test helpers: the camera the slam tests project through, and its mounting.
 
 #include "crop4d/geometry/camera.h"
+#include "crop4d/geometry/rigid.h"
+#include "crop4d/geometry/rotation.h"
 
 namespace crop4d::slam::testing {
 
@@ -21,6 +23,14 @@ inline geometry::PinholeRadTan DistortedTestCamera() {
   camera.p2 = -5e-4;
   camera.k3 = 0.01;
   return camera;
+}
+
+// A camera looking forward along the body x axis, tilted 0.5 rad down, 1.5 m up.
+inline geometry::Rigid3 TestBodyFromCamera() {
+  Eigen::Matrix3d R;
+  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // camera (right, down, forward) → body (fwd, left, up)
+  return geometry::Rigid3(R * geometry::ExpSO3(Eigen::Vector3d(-0.5, 0.0, 0.0)),
+                          Eigen::Vector3d(0.4, 0.05, 1.5));
 }
 
 }  // namespace crop4d::slam::testing

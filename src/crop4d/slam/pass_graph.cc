@@ -305,7 +305,7 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
 void PassGraph::AddObservation(ceres::Problem* problem, std::size_t state,
                                const Eigen::Vector2d& pixel, double* point_world) const {
   StateBlocks& b = blocks_[state];
-  if (!uses_time_offset()) {
+  if (!uses_time_offset() && calibration_ == nullptr) {
     problem->AddResidualBlock(ReprojectionFactor::Create(*input_.camera, input_.body_from_camera,
                                                          pixel, options_.reprojection_sigma_px),
                               reprojection_loss_.get(), b.pose, point_world);
@@ -330,6 +330,14 @@ void PassGraph::AddObservation(ceres::Problem* problem, std::size_t state,
   TimeOffsetReprojectionFactor::FixedMotion motion;
   motion.vel_world = Eigen::Map<const Eigen::Vector3d>(b.vel);
   motion.rate_body = Eigen::Map<const Eigen::Vector3d>(b.rate);
+  if (calibration_ != nullptr) {
+    problem->AddResidualBlock(
+        new CalibratedReprojectionFactor(*input_.camera, input_.body_from_camera, pixel,
+                                         options_.reprojection_sigma_px, motion),
+        reprojection_loss_.get(), b.pose, point_world, &time_offset_s_, calibration_->intrinsics,
+        calibration_->rotation, calibration_->lever_arm);
+    return;
+  }
   problem->AddResidualBlock(
       TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera, pixel,
                                            options_.reprojection_sigma_px, motion),
@@ -344,12 +352,23 @@ geometry::Rigid3 PassGraph::BodyAtCapture(std::size_t k) const {
 }
 
 std::vector<geometry::Rigid3> PassGraph::CapturePoses() const {
+  const geometry::Rigid3 body_from_camera = BodyFromCamera();
   std::vector<geometry::Rigid3> poses;
   poses.reserve(blocks_.size());
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
-    poses.push_back(BodyAtCapture(k) * input_.body_from_camera);
+    poses.push_back(BodyAtCapture(k) * body_from_camera);
   }
   return poses;
+}
+
+geometry::PinholeRadTan PassGraph::Camera() const {
+  if (input_.camera == nullptr) return {};
+  return calibration_ != nullptr ? calibration_->Camera(*input_.camera) : *input_.camera;
+}
+
+geometry::Rigid3 PassGraph::BodyFromCamera() const {
+  return calibration_ != nullptr ? calibration_->BodyFromCamera(input_.body_from_camera)
+                                 : input_.body_from_camera;
 }
 
 ceres::Problem::Options ProblemOptions() {

@@ -14,6 +14,7 @@
 #include <span>
 #include <vector>
 
+#include "crop4d/slam/calibrated_reprojection_factor.h"
 #include "crop4d/slam/pose_manifold.h"
 #include "crop4d/slam/row_optimiser.h"
 #include "crop4d/slam/state_layout.h"
@@ -81,6 +82,15 @@ class PassGraph {
   // when estimated) or 0 until a solve changes it.
   double* time_offset_block() const { return &time_offset_s_; }
   double time_offset_s() const { return time_offset_s_; }
+  // With `calibration` set (the joint problem's calibration refinement; it must outlive the
+  // graph's problems), the reprojection factors refine it (calibrated_reprojection_factor.h,
+  // on the pass's time offset block, held at 0 when the pass has none) and Camera(),
+  // BodyFromCamera() and CapturePoses() follow it. Unset (nullptr): the pass's calibration as
+  // given.
+  void set_calibration(CameraCalibrationBlocks* calibration) { calibration_ = calibration; }
+  // The camera's intrinsics and body_from_camera as the reprojection factors use them now.
+  geometry::PinholeRadTan Camera() const;
+  geometry::Rigid3 BodyFromCamera() const;
   // world_from_body of state k at its capture instant (time_offset_reprojection_factor.h), and
   // world_from_camera of every state there: the poses the reprojection factors use. Without
   // the time offset: the states' poses.
@@ -108,6 +118,8 @@ class PassGraph {
   mutable PoseManifold pose_manifold_;
   // Ceres writes the estimate here (a parameter block, as the state blocks are).
   mutable double time_offset_s_ = 0.0;
+  // The camera calibration refined jointly (set_calibration); Ceres writes into it.
+  CameraCalibrationBlocks* calibration_ = nullptr;
 };
 
 // Problem options for graphs whose manifolds and losses the PassGraph owns.

@@ -22,17 +22,9 @@ std::vector<double> Vec(const Eigen::VectorXd& v) {
 
 geometry::PinholeRadTan TestCamera() { return testing::DistortedTestCamera(); }
 
-// Camera looking forward along the body x axis and tilted down: z_cam ≈ x_body.
-Rigid3 TestBodyFromCamera() {
-  Eigen::Matrix3d R;
-  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // camera (right, down, forward) → body (fwd, left, up)
-  return Rigid3(R * geometry::ExpSO3(Eigen::Vector3d(-0.5, 0.0, 0.0)),
-                Eigen::Vector3d(0.4, 0.05, 1.5));
-}
-
 TEST(ReprojectionFactor, ResidualJacobiansAndError) {
   const geometry::PinholeRadTan camera = TestCamera();
-  const Rigid3 body_from_camera = TestBodyFromCamera();
+  const Rigid3 body_from_camera = testing::TestBodyFromCamera();
   const Rigid3 world_from_body(geometry::ExpQuat(Eigen::Vector3d(0.02, -0.03, 0.8)),
                                Eigen::Vector3d(2.0, 1.0, 0.1));
   const Eigen::Vector3d point_camera(0.6, 0.3, 4.0);
@@ -66,7 +58,7 @@ TEST(ReprojectionFactor, ResidualJacobiansAndError) {
 // recovered to < 1 mm from noise-free pixels.
 TEST(ReprojectionFactor, LandmarkOnlyBundleAdjustmentRecoversPoints) {
   const geometry::PinholeRadTan camera = TestCamera();
-  const Rigid3 body_from_camera = TestBodyFromCamera();
+  const Rigid3 body_from_camera = testing::TestBodyFromCamera();
   std::vector<Vector7d> poses;
   for (int k = 0; k < 6; ++k) {
     poses.push_back(PoseToBlock(Rigid3(geometry::ExpQuat(Eigen::Vector3d(0, 0, 0.02 * k)),

@@ -21,17 +21,9 @@ std::vector<double> Vec(const Eigen::VectorXd& v) {
   return std::vector<double>(v.data(), v.data() + v.size());
 }
 
-// Camera looking forward along the body x axis and tilted down.
-Rigid3 TestBodyFromCamera() {
-  Eigen::Matrix3d R;
-  R << 0, 0, 1, -1, 0, 0, 0, -1, 0;  // camera (right, down, forward) → body (fwd, left, up)
-  return Rigid3(R * geometry::ExpSO3(Eigen::Vector3d(-0.5, 0.0, 0.0)),
-                Eigen::Vector3d(0.4, 0.05, 1.5));
-}
-
 struct Rig {
   geometry::PinholeRadTan camera = testing::DistortedTestCamera();
-  Rigid3 body_from_camera = TestBodyFromCamera();
+  Rigid3 body_from_camera = testing::TestBodyFromCamera();
   Rigid3 world_from_body{geometry::ExpQuat(Eigen::Vector3d(0.02, -0.03, 0.8)),
                          Eigen::Vector3d(2.0, 1.0, 0.1)};
   Eigen::Vector3d vel{1.1, 0.4, -0.05};

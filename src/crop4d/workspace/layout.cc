@@ -66,6 +66,10 @@ fs::path Layout::FusedSparse(const std::string& session) const {
   return FusedSessionDir(session) / "sparse.ply";
 }
 
+fs::path Layout::FusedCamera(const std::string& session) const {
+  return FusedSessionDir(session) / "camera.json";
+}
+
 fs::path Layout::DenseCloud(const std::string& session) const {
   return DenseDir() / (session + ".ply");
 }

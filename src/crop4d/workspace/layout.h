@@ -67,6 +67,7 @@ class Layout {
   std::filesystem::path FusedSessionDir(const std::string& session) const;
   std::filesystem::path FusedPoses(const std::string& session) const;
   std::filesystem::path FusedSparse(const std::string& session) const;
+  std::filesystem::path FusedCamera(const std::string& session) const;
 
   // Dense clouds (owned by the densify stage).
   std::filesystem::path DenseDir() const { return root_ / "dense"; }

@@ -19,6 +19,7 @@ TEST(LayoutTest, EveryArtefactLivesWhereDesignSaysAndPathsAreDistinct) {
   EXPECT_EQ(ws.PassList("s").string(), "/w/sessions/s/passes.csv");
   EXPECT_EQ(ws.AssociationsDir("robust").string(), "/w/associations/robust");
   EXPECT_EQ(ws.FusedSparse("s").string(), "/w/fused/s/sparse.ply");
+  EXPECT_EQ(ws.FusedCamera("s").string(), "/w/fused/s/camera.json");
   EXPECT_EQ(ws.FusedColmapDir().string(), "/w/fused/colmap");
   EXPECT_EQ(ws.DenseCloud("s").string(), "/w/dense/s.ply");
   EXPECT_EQ(ws.DenseSummary("s").string(), "/w/dense/s.json");
@@ -47,6 +48,7 @@ TEST(LayoutTest, EveryArtefactLivesWhereDesignSaysAndPathsAreDistinct) {
                                      ws.FusedLandmarks(),
                                      ws.FusedPoses("s"),
                                      ws.FusedSparse("s"),
+                                     ws.FusedCamera("s"),
                                      ws.DenseCloud("s"),
                                      ws.DenseSummary("s"),
                                      ws.AnalysisSummary(),

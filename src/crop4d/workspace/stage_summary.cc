@@ -53,6 +53,12 @@ FusedSummary ReadFusedSummary(const std::string& path) {
     s.shared_landmarks = joint.at("shared_landmarks").get<int>();
     s.reprojection_rms_px = joint.at("reprojection_rms_px").get<double>();
     s.converged = joint.at("converged").get<bool>();
+    for (const json& pass : s.json.at("passes")) {
+      FusedPassSummary p{pass.at("session").get<std::string>(), pass.at("pass").get<std::string>(),
+                         std::nullopt};
+      if (pass.contains("time_offset_s")) p.time_offset_s = pass.at("time_offset_s").get<double>();
+      s.pass_list.push_back(std::move(p));
+    }
   });
   return s;
 }

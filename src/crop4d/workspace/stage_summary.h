@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,13 @@ void WriteVersionedJson(const std::string& path, nlohmann::json summary, int sch
 // writes the file (for the error messages).
 nlohmann::json ReadVersionedJson(const std::string& path, int schema, const std::string& rerun);
 
+// One pass of the joint problem ("passes"): the camera-IMU time offset it used, s (capture
+// instant − image stamp), when its reprojections used one.
+struct FusedPassSummary {
+  std::string session, pass;
+  std::optional<double> time_offset_s;
+};
+
 struct FusedSummary {
   std::string fingerprint;
   std::vector<std::string> sessions;
@@ -31,6 +39,7 @@ struct FusedSummary {
   int shared_landmarks = 0;
   double reprojection_rms_px = 0;
   bool converged = false;
+  std::vector<FusedPassSummary> pass_list;
   nlohmann::json json;
 };
 

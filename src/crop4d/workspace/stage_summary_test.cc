@@ -51,6 +51,9 @@ class StageSummaryTest : public ::testing::Test {
               {"shared_landmarks", 120},
               {"reprojection_rms_px", 0.75},
               {"converged", true}}},
+            {"passes",
+             {{{"session", "2016-06-01"}, {"pass", "row00"}, {"time_offset_s", 0.0251}},
+              {{"session", "2016-06-15"}, {"pass", "row01"}}}},
             {"seconds", {{"total", 3.5}}}};
   }
   static json Dense() {
@@ -74,6 +77,12 @@ TEST_F(StageSummaryTest, FusedSummaryRoundTrips) {
   EXPECT_EQ(s.shared_landmarks, 120);
   EXPECT_DOUBLE_EQ(s.reprojection_rms_px, 0.75);
   EXPECT_TRUE(s.converged);
+  ASSERT_EQ(s.pass_list.size(), 2u);
+  EXPECT_EQ(s.pass_list[0].session, "2016-06-01");
+  EXPECT_EQ(s.pass_list[0].pass, "row00");
+  EXPECT_EQ(s.pass_list[0].time_offset_s, 0.0251);
+  EXPECT_EQ(s.pass_list[1].pass, "row01");
+  EXPECT_FALSE(s.pass_list[1].time_offset_s.has_value());
   EXPECT_EQ(s.json.at("schema").get<int>(), kFusedSummarySchema);
   EXPECT_DOUBLE_EQ(s.json.at("seconds").at("total").get<double>(), 3.5);
 }

@@ -1,4 +1,5 @@
-// The association summaries, WS/fused/quality.json and WS/eval/metrics.json: round trips that
+// The association summaries, WS/fused/quality.json, WS/fused/<s>/camera.json and
+// WS/eval/metrics.json: round trips that
 // keep the bytes the stages wrote before they had typed readers, and the errors for malformed,
 // incomplete and foreign-schema files.
 #include <gtest/gtest.h>
@@ -8,10 +9,12 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include "crop4d/core/error.h"
 #include "crop4d/workspace/association_summary.h"
 #include "crop4d/workspace/eval_metrics.h"
+#include "crop4d/workspace/fused_camera.h"
 #include "crop4d/workspace/json_file.h"
 #include "crop4d/workspace/layout.h"
 #include "crop4d/workspace/season_quality.h"
@@ -112,6 +115,49 @@ TEST_F(TypedJsonFilesTest, AnAssociationSummaryRoundTripsWithTheStagesBytes) {
   EXPECT_DOUBLE_EQ(s.alignment_shift_m, 0.25);
   EXPECT_DOUBLE_EQ(s.seconds, 3.25);
   EXPECT_EQ(s.json, j);
+}
+
+TEST_F(TypedJsonFilesTest, AFusedCameraRoundTripsToTheLastBitAndRefusesBadFiles) {
+  FusedCamera camera;
+  camera.intrinsics = {1280,     960,      1101.123456789012, 1090.1 / 3, 640.25,  479.1 / 7,
+                       -0.2 / 3, 0.05 / 7, 1e-3 / 3,          -5e-4,      0.01 / 9};
+  camera.body_from_camera =
+      geometry::Rigid3(Eigen::Quaterniond(0.5, -0.5, 0.5, -0.5) *
+                           Eigen::Quaterniond(0.99, 0.01, 0.1 / 3, 0.02).normalized(),
+                       Eigen::Vector3d(0.4 / 3, 0.05, 1.5 / 7));
+  camera.refined = true;
+  camera.rotation_change_deg = 0.3 / 7;
+  const std::string path = Path("fused/s/camera.json");
+  fs::create_directories(fs::path(path).parent_path());
+  WriteFusedCamera(path, camera);
+  const FusedCamera back = ReadFusedCamera(path);
+  const geometry::PinholeRadTan& a = camera.intrinsics;
+  const geometry::PinholeRadTan& b = back.intrinsics;
+  EXPECT_EQ(std::tie(a.width, a.height, a.fx, a.fy, a.cx, a.cy, a.k1, a.k2, a.p1, a.p2, a.k3),
+            std::tie(b.width, b.height, b.fx, b.fy, b.cx, b.cy, b.k1, b.k2, b.p1, b.p2, b.k3));
+  EXPECT_TRUE(back.refined);
+  EXPECT_EQ(back.rotation_change_deg, camera.rotation_change_deg);
+  EXPECT_EQ(back.body_from_camera.rotation().coeffs(), camera.body_from_camera.rotation().coeffs());
+  EXPECT_EQ(back.body_from_camera.translation(), camera.body_from_camera.translation());
+
+  std::string what = ErrorOf([&] { ReadFusedCamera(Path("fused/t/camera.json")); });
+  EXPECT_TRUE(Has(what, "fused/t/camera.json") && Has(what, "crop4d fuse")) << what;
+  json j = json::parse(Read(path));
+  j["intrinsics"].erase("cy");
+  what = ErrorOf([&] { ReadFusedCamera(Write("no_cy.json", j.dump())); });
+  EXPECT_TRUE(Has(what, "no_cy.json") && Has(what, "crop4d fuse --force")) << what;
+  j = json::parse(Read(path));
+  j["intrinsics"]["fx"] = -3.0;
+  what = ErrorOf([&] { ReadFusedCamera(Write("negative.json", j.dump())); });
+  EXPECT_TRUE(Has(what, "negative.json") && Has(what, "fx")) << what;
+  j = json::parse(Read(path));
+  j["body_from_camera"]["rotation_xyzw"] = {0.0, 0.0, 0.0, 2.0};
+  what = ErrorOf([&] { ReadFusedCamera(Write("not_unit.json", j.dump())); });
+  EXPECT_TRUE(Has(what, "not_unit.json") && Has(what, "unit quaternion")) << what;
+  j = json::parse(Read(path));
+  j["schema"] = 2;
+  what = ErrorOf([&] { ReadFusedCamera(Write("future.json", j.dump())); });
+  EXPECT_TRUE(Has(what, "future.json") && Has(what, "schema")) << what;
 }
 
 TEST_F(TypedJsonFilesTest, AssociationSummariesAreListedBesideTheirFiles) {

@@ -238,6 +238,8 @@ json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Res
                       {"ground_ties", s.num_ground_ties},
                       {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
                       {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
+                      {"gps_rejected", s.num_gps_rejected},
+                      {"cameras_refined", s.num_cameras_refined},
                       {"converged", s.converged}};
   json tie_list = json::array();
   for (const FuseTiePairReport& t : report.tie_pairs) {

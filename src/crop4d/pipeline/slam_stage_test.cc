@@ -93,6 +93,7 @@ TEST_F(SlamStageTest, CamImuRtkIsCentimetreAccurateOnEveryPass) {
     EXPECT_LT(summary["back_end"]["reprojection_rms_px"].get<double>(), 1.0);
     EXPECT_LT(summary["back_end"]["final_cost"].get<double>(),
               summary["back_end"]["initial_cost"].get<double>());
+    EXPECT_EQ(summary["back_end"]["gps_rejected"].get<int>(), 0);  // the gate is off
     EXPECT_TRUE(summary.contains("seconds"));
   }
 }

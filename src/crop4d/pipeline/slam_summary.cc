@@ -56,6 +56,8 @@ json BackEndJson(const slam::RowOptimiser::Summary& s) {
   return {{"imu_factors", s.num_imu_factors},
           {"imu_gaps", s.num_imu_gaps},
           {"gps_factors", s.num_gps_factors},
+          // Fixes dropped by the outlier gate (slam.gps_gate_chi2; 0 with the gate off).
+          {"gps_rejected", s.num_gps_rejected},
           {"still_intervals", s.num_still_intervals},
           {"gps_normalised_rms", s.gps_normalised_rms},
           {"gps_normalised_rms_horizontal", s.gps_normalised_rms_horizontal},

@@ -54,6 +54,8 @@ std::vector<RigCamera> GroupPassesByCamera(const std::vector<slam::RowOptimiser:
 
 void AddCalibrationPriors(const CalibrationRefinementOptions& options, const RigCamera& camera,
                           slam::CameraCalibrationBlocks* blocks, ceres::Problem* problem) {
+  // No image of the camera in the problem: nothing observes its calibration.
+  if (!problem->HasParameterBlock(blocks->intrinsics)) return;
   constexpr int kI = slam::CameraCalibrationBlocks::kIntrinsicsSize;
   const slam::CameraCalibrationBlocks written = slam::CameraCalibrationBlocks::From(camera.camera);
   Eigen::Matrix<double, kI, 1> sqrt_information;

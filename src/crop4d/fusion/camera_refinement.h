@@ -69,7 +69,8 @@ struct RigCamera {
 std::vector<RigCamera> GroupPassesByCamera(const std::vector<slam::RowOptimiser::Input>& passes);
 
 // The priors of one camera's calibration blocks about `camera`'s written values; the lever arm
-// is held constant unless options.refine_lever_arm. The blocks must be in the problem.
+// is held constant unless options.refine_lever_arm. Nothing when no reprojection factor of the
+// camera is in the problem.
 void AddCalibrationPriors(const CalibrationRefinementOptions& options, const RigCamera& camera,
                           slam::CameraCalibrationBlocks* blocks, ceres::Problem* problem);
 

@@ -250,12 +250,23 @@ std::vector<std::int64_t> CrossObservationsPerCamera(const std::vector<RigCamera
   return counts;
 }
 
-// Which rig cameras the joint problem refines (CalibrationRefinementOptions::refine).
+// Which rig cameras the joint problem refines (CalibrationRefinementOptions::refine). A camera
+// with a fixed pass is held as written: its calibration is shared with the pass, whose cameras
+// would move with it (a degraded session must not move a trusted one).
 std::vector<bool> CamerasToRefine(const CalibrationRefinementOptions& options,
-                                  const std::vector<std::int64_t>& cross_observations) {
-  std::vector<bool> refine(cross_observations.size());
+                                  const std::vector<RigCamera>& cameras,
+                                  const std::vector<std::int64_t>& cross_observations,
+                                  const std::vector<bool>& fixed_passes) {
+  std::vector<bool> refine(cameras.size());
   for (std::size_t c = 0; c < refine.size(); ++c) {
     refine[c] = options.refine.value_or(cross_observations[c] >= options.min_cross_observations);
+    for (const int p : cameras[c].passes) {
+      if (refine[c] && !fixed_passes.empty() && fixed_passes[p]) {
+        spdlog::info(
+            "joint problem: the calibration of a camera with held passes stays as written");
+        refine[c] = false;
+      }
+    }
   }
   return refine;
 }
@@ -617,7 +628,8 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   summary.triangulation_seconds = SecondsSince(start);
   const std::vector<std::int64_t> cross_per_camera =
       CrossObservationsPerCamera(problem.RigCameras(), passes.size(), landmarks, ids, keep);
-  problem.RefineCameras(CamerasToRefine(options_.calibration, cross_per_camera));
+  problem.RefineCameras(
+      CamerasToRefine(options_.calibration, problem.RigCameras(), cross_per_camera, fixed_passes));
 
   // (2) The whole problem.
   start = Clock::now();

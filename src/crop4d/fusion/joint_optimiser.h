@@ -84,7 +84,7 @@ class JointOptimiser {
     // sigma and bounds are.
     std::optional<bool> estimate_time_offset;
     // The cameras' calibration (intrinsics and T_BS rotation) refined with the poses
-    // (camera_refinement.h); off by default.
+    // (camera_refinement.h); off by default. A camera with a fixed pass (Solve) is held.
     CalibrationRefinementOptions calibration;
 
     // Empty when the options are valid, otherwise the first invalid option and why, as

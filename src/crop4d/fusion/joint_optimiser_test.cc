@@ -483,6 +483,15 @@ TEST(JointOptimiser, RefinesTheCameraCalibrationThroughTheSharedLandmarks) {
   EXPECT_LT(after_held, 0.5 * before);
   EXPECT_GT(after_held, after);
   EXPECT_LT(refined.summary.reprojection_rms_px, held.summary.reprojection_rms_px);
+  // A fixed pass (a trusted session while a degraded one is registered onto it) holds the
+  // calibration it shares: its cameras must not move.
+  options.calibration.refine = true;
+  const JointOptimiser::Result with_fixed =
+      JointOptimiser(options).Solve(passes, landmarks, {}, {true, false});
+  EXPECT_FALSE(with_fixed.calibrations.at(0).refined);
+  EXPECT_EQ(
+      with_fixed.cameras[0][3].translation(),
+      (passes[0].initial_states[3].nav.world_from_body * written_body_from_camera).translation());
   // The cameras are placed with the refined T_BS.
   const geometry::Rigid3 c = refined.states[0][3].nav.world_from_body * r.body_from_camera;
   EXPECT_LT((refined.cameras[0][3].rotation().coeffs() - c.rotation().coeffs()).norm(), 1e-12);

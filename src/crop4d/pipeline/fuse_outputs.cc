@@ -79,15 +79,18 @@ void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
     }
     std::sort(poses.begin(), poses.end(),
               [](const io::StampedPose& a, const io::StampedPose& b) { return a.t < b.t; });
-    if (camera == nullptr) continue;  // (every session listed has passes)
     io::WriteTum(layout.FusedPoses(session).string(), poses,
                  "world_from_camera of session " + session +
                      " after 4D fusion (all passes), field ENU frame");
-    workspace::WriteFusedCamera(layout.FusedCamera(session).string(), *camera);
+    if (camera != nullptr) {
+      workspace::WriteFusedCamera(layout.FusedCamera(session).string(), *camera);
+    }
     io::PlyWriteOptions ply;
     ply.comment = "crop4d fused sparse cloud of session " + session + ", field ENU frame (metres)";
     io::WritePly(layout.FusedSparse(session).string(),
-                 SessionCloud(session_passes, camera->intrinsics, session_cameras, options.cloud),
+                 SessionCloud(session_passes,
+                              camera != nullptr ? camera->intrinsics : geometry::PinholeRadTan(),
+                              session_cameras, options.cloud),
                  ply);
   }
 }

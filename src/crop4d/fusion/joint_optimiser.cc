@@ -520,6 +520,68 @@ JointOptimiser::JointOptimiser(Options options) : options_(std::move(options)) {
   }
 }
 
+namespace {
+
+// The fit of the final solve into `summary`: landmarks, shared landmarks, cross observations,
+// the reprojection RMS of all and of the cross observations, the ground ties' RMS.
+void SummariseFinalSolve(const JointProblem& problem, const std::vector<JointLandmark>& landmarks,
+                         const std::vector<Eigen::Vector3d>& points, const std::vector<int>& ids,
+                         const std::vector<std::vector<bool>>& masks,
+                         JointOptimiser::Summary* summary) {
+  double sum_sq = 0, cross_sq = 0;
+  std::int64_t count = 0, cross = 0;
+  for (std::size_t l = 0; l < points.size(); ++l) {
+    const JointLandmark& landmark = landmarks[ids[l]];
+    bool shared = false;
+    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+      if (!masks[l][o]) continue;
+      const double e = problem.Error(landmark.observations[o], points[l]);
+      if (!std::isfinite(e)) continue;
+      sum_sq += e * e;
+      ++count;
+      if (IsCross(landmark, o)) {
+        cross_sq += e * e;
+        ++cross;
+        shared = true;
+      }
+    }
+    summary->num_shared_landmarks += shared ? 1 : 0;
+  }
+  summary->num_cross_observations = cross;
+  summary->reprojection_rms_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
+  summary->cross_reprojection_rms_px = cross > 0 ? std::sqrt(cross_sq / cross) : 0.0;
+  summary->num_landmarks = static_cast<int>(points.size());
+  const Eigen::Vector2d tie_rms = problem.TieRms();
+  summary->ground_tie_rms_across_m = tie_rms.x();
+  summary->ground_tie_rms_vertical_m = tie_rms.y();
+}
+
+// The rig's cameras after the solve with their cross observations; each refined one is counted
+// in `summary` and logged.
+std::vector<RefinedCalibration> SummariseCalibrations(
+    const JointProblem& problem, const std::vector<std::int64_t>& cross_per_camera,
+    JointOptimiser::Summary* summary) {
+  std::vector<RefinedCalibration> calibrations = problem.Calibrations();
+  for (std::size_t c = 0; c < calibrations.size(); ++c) {
+    RefinedCalibration& r = calibrations[c];
+    r.num_cross_observations = cross_per_camera[c];
+    if (!r.refined) continue;
+    ++summary->num_cameras_refined;
+    spdlog::info(
+        "joint problem: camera of {} passes refined from {} cross observations: fx {:+.2f} px, "
+        "fy {:+.2f} px, cx {:+.2f} px, cy {:+.2f} px, k1 {:+.4f}, k2 {:+.4f}, T_BS rotation "
+        "{:.3f} deg, lever arm ({:+.1f}, {:+.1f}, {:+.1f}) mm",
+        r.passes.size(), r.num_cross_observations, r.camera.fx - r.written_camera.fx,
+        r.camera.fy - r.written_camera.fy, r.camera.cx - r.written_camera.cx,
+        r.camera.cy - r.written_camera.cy, r.camera.k1 - r.written_camera.k1,
+        r.camera.k2 - r.written_camera.k2, r.RotationChangeDeg(), 1e3 * r.LeverArmChange().x(),
+        1e3 * r.LeverArmChange().y(), 1e3 * r.LeverArmChange().z());
+  }
+  return calibrations;
+}
+
+}  // namespace
+
 JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
                                              const std::vector<JointLandmark>& landmarks,
                                              const std::vector<JointGroundTie>& ground_ties,
@@ -699,50 +761,8 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
     }
   }
 
-  // Statistics of the final solve.
-  double sum_sq = 0, cross_sq = 0;
-  std::int64_t count = 0, cross = 0;
-  for (std::size_t l = 0; l < kept_points.size(); ++l) {
-    const JointLandmark& landmark = landmarks[kept_ids[l]];
-    bool shared = false;
-    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-      if (!kept_masks[l][o]) continue;
-      const double e = problem.Error(landmark.observations[o], kept_points[l]);
-      if (!std::isfinite(e)) continue;
-      sum_sq += e * e;
-      ++count;
-      if (IsCross(landmark, o)) {
-        cross_sq += e * e;
-        ++cross;
-        shared = true;
-      }
-    }
-    summary.num_shared_landmarks += shared ? 1 : 0;
-  }
-  summary.num_cross_observations = cross;
-  summary.reprojection_rms_px = count > 0 ? std::sqrt(sum_sq / count) : 0.0;
-  summary.cross_reprojection_rms_px = cross > 0 ? std::sqrt(cross_sq / cross) : 0.0;
-  summary.num_landmarks = static_cast<int>(kept_points.size());
-  const Eigen::Vector2d tie_rms = problem.TieRms();
-  summary.ground_tie_rms_across_m = tie_rms.x();
-  summary.ground_tie_rms_vertical_m = tie_rms.y();
-
-  result.calibrations = problem.Calibrations();
-  for (std::size_t c = 0; c < result.calibrations.size(); ++c) {
-    RefinedCalibration& r = result.calibrations[c];
-    r.num_cross_observations = cross_per_camera[c];
-    if (!r.refined) continue;
-    ++summary.num_cameras_refined;
-    spdlog::info(
-        "joint problem: camera of {} passes refined from {} cross observations: fx {:+.2f} px, "
-        "fy {:+.2f} px, cx {:+.2f} px, cy {:+.2f} px, k1 {:+.4f}, k2 {:+.4f}, T_BS rotation "
-        "{:.3f} deg, lever arm ({:+.1f}, {:+.1f}, {:+.1f}) mm",
-        r.passes.size(), r.num_cross_observations, r.camera.fx - r.written_camera.fx,
-        r.camera.fy - r.written_camera.fy, r.camera.cx - r.written_camera.cx,
-        r.camera.cy - r.written_camera.cy, r.camera.k1 - r.written_camera.k1,
-        r.camera.k2 - r.written_camera.k2, r.RotationChangeDeg(), 1e3 * r.LeverArmChange().x(),
-        1e3 * r.LeverArmChange().y(), 1e3 * r.LeverArmChange().z());
-  }
+  SummariseFinalSolve(problem, landmarks, kept_points, kept_ids, kept_masks, &summary);
+  result.calibrations = SummariseCalibrations(problem, cross_per_camera, &summary);
   result.states = problem.States();
   result.cameras = problem.CameraPoses();
   result.landmarks_world = std::move(kept_points);

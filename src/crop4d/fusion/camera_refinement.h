@@ -36,10 +36,12 @@
 namespace crop4d::fusion {
 
 struct CalibrationRefinementOptions {
-  // Unset (auto): a camera is refined when the kept observations of landmarks shared between
-  // passes in its images (cross-row and cross-session matches) number at least
-  // min_cross_observations; true: every camera; false: none (the calibration as written).
-  std::optional<bool> refine = false;
+  // Unset (auto, the default): a camera is refined when every pass of it has its camera–IMU
+  // time offset in the problem (an offset left out is absorbed into the calibration) and the
+  // kept observations of landmarks shared between passes in its images (cross-row and
+  // cross-session matches) number at least min_cross_observations; true: every camera; false:
+  // none (the calibration as written).
+  std::optional<bool> refine;
   int min_cross_observations = 1000;
   // Prior standard deviations about the written calibration: fx and fy, px; cx and cy, px;
   // k1 and k2; the T_BS rotation, degrees; its lever arm, m.

@@ -105,6 +105,12 @@ class JointProblem {
     return graphs_[p]->time_offset_s();
   }
   bool EstimatesTimeOffset(std::size_t p) const { return graphs_[p]->estimates_time_offset(); }
+  // Per pass: whether its reprojections use its time offset (refined or held).
+  std::vector<bool> UsesTimeOffsets() const {
+    std::vector<bool> uses;
+    for (const auto& graph : graphs_) uses.push_back(graph->uses_time_offset());
+    return uses;
+  }
 
   // The GPS outlier gate of every pass (slam::PassGraph::GateGps); the number of fixes dropped.
   int GateGps(double chi2) {
@@ -253,13 +259,18 @@ std::vector<std::int64_t> CrossObservationsPerCamera(const std::vector<RigCamera
 // Which rig cameras the joint problem refines (CalibrationRefinementOptions::refine). A camera
 // with a fixed pass is held as written: its calibration is shared with the pass, whose cameras
 // would move with it (a degraded session must not move a trusted one).
+// `uses_time_offset[p]`: pass p's reprojections use its time offset (auto needs it).
 std::vector<bool> CamerasToRefine(const CalibrationRefinementOptions& options,
                                   const std::vector<RigCamera>& cameras,
                                   const std::vector<std::int64_t>& cross_observations,
+                                  const std::vector<bool>& uses_time_offset,
                                   const std::vector<bool>& fixed_passes) {
   std::vector<bool> refine(cameras.size());
   for (std::size_t c = 0; c < refine.size(); ++c) {
-    refine[c] = options.refine.value_or(cross_observations[c] >= options.min_cross_observations);
+    bool every_offset = true;
+    for (const int p : cameras[c].passes) every_offset = every_offset && uses_time_offset[p];
+    refine[c] = options.refine.value_or(every_offset &&
+                                        cross_observations[c] >= options.min_cross_observations);
     for (const int p : cameras[c].passes) {
       if (refine[c] && !fixed_passes.empty() && fixed_passes[p]) {
         spdlog::info(
@@ -690,8 +701,8 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   summary.triangulation_seconds = SecondsSince(start);
   const std::vector<std::int64_t> cross_per_camera =
       CrossObservationsPerCamera(problem.RigCameras(), passes.size(), landmarks, ids, keep);
-  problem.RefineCameras(
-      CamerasToRefine(options_.calibration, problem.RigCameras(), cross_per_camera, fixed_passes));
+  problem.RefineCameras(CamerasToRefine(options_.calibration, problem.RigCameras(),
+                                        cross_per_camera, problem.UsesTimeOffsets(), fixed_passes));
 
   // (2) The whole problem.
   start = Clock::now();

@@ -84,7 +84,8 @@ class JointOptimiser {
     // sigma and bounds are.
     std::optional<bool> estimate_time_offset;
     // The cameras' calibration (intrinsics and T_BS rotation) refined with the poses
-    // (camera_refinement.h); off by default. A camera with a fixed pass (Solve) is held.
+    // (camera_refinement.h); by default where the passes' time offsets are in the problem and
+    // enough cross observations see it. A camera with a fixed pass (Solve) is held.
     CalibrationRefinementOptions calibration;
 
     // Empty when the options are valid, otherwise the first invalid option and why, as

@@ -342,17 +342,18 @@ TEST(JointOptimiser, RefinesEachPassTimeOffsetThroughTheSharedLandmarks) {
   passes[0].time_offset_s = td_true[0] + 0.003;
   passes[1].time_offset_s = td_true[1] - 0.003;
 
-  const JointOptimiser::Result refined =
-      JointOptimiser(JointOptimiser::Options()).Solve(passes, landmarks);
+  // The calibration is exact here: held, so that the offsets alone are compared.
+  JointOptimiser::Options options;
+  options.calibration.refine = false;
+  const JointOptimiser::Result refined = JointOptimiser(options).Solve(passes, landmarks);
   EXPECT_EQ(refined.summary.num_time_offsets_estimated, 2);
   EXPECT_EQ(refined.summary.num_time_offsets_held, 0);
-  JointOptimiser::Options hold;
+  JointOptimiser::Options hold = options;
   hold.estimate_time_offset = false;
   const JointOptimiser::Result held = JointOptimiser(hold).Solve(passes, landmarks);
   EXPECT_EQ(held.summary.num_time_offsets_held, 2);
   // Without any offset (the stamps taken as the capture instants).
-  const JointOptimiser::Result none =
-      JointOptimiser(JointOptimiser::Options()).Solve(tp.passes, landmarks);
+  const JointOptimiser::Result none = JointOptimiser(options).Solve(tp.passes, landmarks);
   EXPECT_EQ(none.summary.num_time_offsets_estimated + none.summary.num_time_offsets_held, 0);
   for (int p = 0; p < 2; ++p) {
     ASSERT_TRUE(refined.time_offsets_s[p].has_value());
@@ -434,11 +435,21 @@ TEST(JointOptimiser, RefinesTheCameraCalibrationThroughTheSharedLandmarks) {
   options.calibration.refine_lever_arm = true;
   const JointOptimiser::Result refined = JointOptimiser(options).Solve(passes, landmarks);
   options.calibration.refine_lever_arm = false;
-  const JointOptimiser::Result held =
-      JointOptimiser(JointOptimiser::Options()).Solve(passes, landmarks);
-  options.calibration.refine = std::nullopt;  // auto, with more cross observations asked than exist
+  JointOptimiser::Options off;
+  off.calibration.refine = false;
+  const JointOptimiser::Result held = JointOptimiser(off).Solve(passes, landmarks);
+  // Auto (the default) without the passes' time offsets in the problem: held.
+  options.calibration.refine = std::nullopt;
+  const JointOptimiser::Result without_offsets = JointOptimiser(options).Solve(passes, landmarks);
+  EXPECT_FALSE(without_offsets.calibrations.at(0).refined);
+  // Auto with the offsets (here 0, held) but more cross observations asked than exist: held;
+  // with enough: refined.
+  std::vector<JointOptimiser::Pass> with_offsets = passes;
+  for (JointOptimiser::Pass& pass : with_offsets) pass.time_offset_s = 0.0;
+  options.estimate_time_offset = false;
+  EXPECT_TRUE(JointOptimiser(options).Solve(with_offsets, landmarks).calibrations.at(0).refined);
   options.calibration.min_cross_observations = 1000000;
-  const JointOptimiser::Result too_few = JointOptimiser(options).Solve(passes, landmarks);
+  const JointOptimiser::Result too_few = JointOptimiser(options).Solve(with_offsets, landmarks);
 
   // The two passes share one camera.
   ASSERT_EQ(refined.calibrations.size(), 1u);

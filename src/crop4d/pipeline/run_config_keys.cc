@@ -346,7 +346,8 @@ void AddFuseKeys(std::vector<Key>& k) {
   k.push_back(AutoBool(
       "fuse", "refine_calibration",
       "refine each camera's intrinsics and T_BS rotation in the joint problem: auto (where its "
-      "images hold calibration_min_cross_observations), true or false (as written)",
+      "passes' time offsets are estimated and its images hold "
+      "calibration_min_cross_observations), true or false (as written)",
       "fuse.optimiser.calibration.refine"));
   k.push_back(Bool("fuse", "refine_lever_arm",
                    "with refine_calibration, also refine the camera's lever arm (trades with the "

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <tuple>
 #include <utility>
 
@@ -126,6 +127,26 @@ void MatchCounts::Add(const MatchCounts& o) {
   correct_near += o.correct_near;
 }
 
+std::map<std::string, int> RankSessions(const std::vector<AssociationInput>& inputs,
+                                        const SessionTimeline& timeline) {
+  std::map<std::string, int> ranks;
+  std::set<std::string> extra;  // sessions outside the timeline: after it, by name
+  for (const AssociationInput& input : inputs) {
+    if (!input.error.empty()) continue;
+    for (const association::PassRef* ref : {&input.association.a, &input.association.b}) {
+      const int index = timeline.IndexOf(ref->session);
+      if (index >= 0) {
+        ranks[ref->session] = index;
+      } else {
+        extra.insert(ref->session);
+      }
+    }
+  }
+  int next = static_cast<int>(timeline.sessions.size());
+  for (const std::string& session : extra) ranks[session] = next++;
+  return ranks;
+}
+
 OptionCheck AssociationEvalOptions::Check() const {
   OptionChecker c;
   c.Greater("max_distance_m", max_distance_m, 0.0)
@@ -144,21 +165,8 @@ AssociationEval EvaluateAssociations(const std::vector<AssociationInput>& inputs
   AssociationEval eval;
   eval.options = options;
 
-  // Sessions outside the timeline come after it, by name.
-  std::map<std::string, int> extra_rank;
-  const auto rank_of = [&](const std::string& session) {
-    const int index = timeline.IndexOf(session);
-    if (index >= 0) return index;
-    return static_cast<int>(timeline.sessions.size()) + extra_rank[session];
-  };
-  for (const AssociationInput& input : inputs) {
-    if (!input.error.empty()) continue;
-    for (const association::PassRef* ref : {&input.association.a, &input.association.b}) {
-      if (timeline.IndexOf(ref->session) < 0) extra_rank.emplace(ref->session, 0);
-    }
-  }
-  int next = 0;
-  for (auto& [session, rank] : extra_rank) rank = next++;
+  const std::map<std::string, int> ranks = RankSessions(inputs, timeline);
+  const auto rank_of = [&](const std::string& session) { return ranks.at(session); };
 
   // Every keypoint of every match, grouped by image.
   std::vector<std::size_t> first_slot(inputs.size(), 0);

@@ -21,6 +21,7 @@
 // texture changed: the hardest case for appearance-based matching).
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -150,6 +151,11 @@ struct AssociationEval {
   std::int64_t images = 0;                    // distinct images whose true geometry was needed
   DepthSourceStats depth;                     // truth.stats() after the evaluation
 };
+
+// The order in which the sessions of the readable inputs are evaluated: their index in the
+// timeline; sessions outside it after it, by name.
+std::map<std::string, int> RankSessions(const std::vector<AssociationInput>& inputs,
+                                        const SessionTimeline& timeline);
 
 // Evaluates every input. The true geometry of each image that appears in a match is asked for
 // once, session after session (in timeline order, unknown sessions last by name) and in time

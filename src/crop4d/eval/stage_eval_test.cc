@@ -228,6 +228,11 @@ TEST_F(StageEvalTest, EvaluatesAssociationsFusionAndClouds) {
   EXPECT_EQ(assoc.eval.depth.from_field, 5);
   EXPECT_EQ(assoc.eval.depth.rendered, 0);
   EXPECT_EQ(assoc.eval.images, 5);
+  // The passes have no row SLAM files here: the ceiling says so for both pairs of passes.
+  ASSERT_EQ(assoc.ceiling.errors.size(), 2u);
+  EXPECT_NE(assoc.ceiling.errors[0].find("crop4d slam"), std::string::npos)
+      << assoc.ceiling.errors[0];
+  EXPECT_TRUE(assoc.ceiling.groups.empty());
 
   // Fused trajectories: 1 cm raw, nothing after alignment.
   ASSERT_TRUE(eval.fused.has_value());
@@ -278,6 +283,7 @@ TEST_F(StageEvalTest, EvaluatesAssociationsFusionAndClouds) {
   EXPECT_EQ(a["files"][1]["b"]["pass"], "row01");
   EXPECT_EQ(a["files"][1]["b"]["direction"], -1);
   EXPECT_EQ(a["depth_maps"]["from_field"], 5);
+  EXPECT_EQ(a["ceiling"]["errors"].size(), 2u);
   EXPECT_EQ(j["fused"]["overall"]["num_evaluated"], 2);
   EXPECT_NEAR(j["fused"]["overall"]["ate_raw_m"]["rmse"].get<double>(), 0.01, 1e-5);
   EXPECT_TRUE(j["fused"]["sessions"][0]["metrics"]["ate_aligned_m"]["rmse"].is_number());
@@ -291,7 +297,7 @@ TEST_F(StageEvalTest, EvaluatesAssociationsFusionAndClouds) {
   const std::string table = FormatWorkspaceEvalTable(eval);
   for (const char* text : {"association precision", "row opposite dir", "session+rain", "75.00",
                            "50.00", "5 from the field", "ground misalignment", "row_slam", "5.00",
-                           "-5.00", "2.00", "all pairs", "ATE raw cm"}) {
+                           "-5.00", "2.00", "all pairs", "ATE raw cm", "ceiling not counted"}) {
     EXPECT_NE(table.find(text), std::string::npos) << text << "\n" << table;
   }
 }

@@ -24,6 +24,7 @@
 #include "crop4d/sim/sim_config.h"
 #include "crop4d/workspace/eval_metrics.h"
 #include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_data.h"
 #include "crop4d/workspace/pass_list.h"
 #include "crop4d/workspace/pass_summary.h"
 #include "crop4d/workspace/stage_summary.h"
@@ -180,6 +181,39 @@ json PassRefJson(const association::PassRef& ref, const PassLayout& layout) {
           {"direction", layout.direction}};
 }
 
+// The correct matches of `method` within near_depth_m in pair type `type` (0 when none).
+std::int64_t CorrectNear(const AssociationEval& e, PairType type, const std::string& method) {
+  for (const AssociationGroupEval& g : e.groups) {
+    if (g.type == type && g.method == method) return g.counts.correct_near;
+  }
+  return 0;
+}
+
+json CeilingJson(const AssociationCeiling& ceiling, const AssociationEval& e) {
+  json by_type = json::array();
+  for (const CeilingGroup& g : ceiling.groups) {
+    const CeilingCounts& c = g.counts;
+    json share = json::object();
+    for (const AssociationGroupEval& m : e.methods) {
+      share[m.method] = c.partners_near > 0
+                            ? json(static_cast<double>(CorrectNear(e, g.type, m.method)) /
+                                   static_cast<double>(c.partners_near))
+                            : json(nullptr);
+    }
+    by_type.push_back({{"type", PairTypeName(g.type)},
+                       {"pass_pairs", g.pass_pairs},
+                       {"image_pairs", c.image_pairs},
+                       {"keypoints", c.keypoints},
+                       {"partners", c.partners},
+                       {"partners_near", c.partners_near},
+                       {"chance_near", c.chance_near},
+                       {"share_of_ceiling_near", std::move(share)}});
+  }
+  return {{"chance_shift_m", ceiling.chance_shift_m},
+          {"by_type", std::move(by_type)},
+          {"errors", ceiling.errors}};
+}
+
 json AssociationSectionJson(const WorkspaceAssociationEval& section) {
   const AssociationEval& e = section.eval;
   json j;
@@ -230,6 +264,7 @@ json AssociationSectionJson(const WorkspaceAssociationEval& section) {
     files.push_back(std::move(item));
   }
   j["files"] = std::move(files);
+  j["ceiling"] = CeilingJson(section.ceiling, e);
   return j;
 }
 
@@ -530,6 +565,24 @@ bool BothSelected(const std::vector<std::string>& sessions, const association::P
   return selected(a.session) && selected(b.session);
 }
 
+// The keypoints of a pass's images (its features.bin), for the association ceiling.
+PassKeypoints LoadPassKeypoints(const std::string& workspace, const association::PassRef& ref) {
+  for (const slam::RowPass& pass : workspace::ReadPassList(workspace, ref.session)) {
+    if (pass.id != ref.pass) continue;
+    const workspace::PassData data =
+        workspace::LoadPassData(workspace, ref.session, pass, {.features = true});
+    PassKeypoints keypoints;
+    keypoints.times = data.times;
+    for (const features::FeatureSet& f : data.features) {
+      std::vector<Eigen::Vector2d>& pixels = keypoints.pixels.emplace_back();
+      pixels.reserve(f.size());
+      for (std::size_t i = 0; i < f.size(); ++i) pixels.push_back(f.Point(i));
+    }
+    return keypoints;
+  }
+  throw InputError(fmt::format("pass {} is not in sessions/{}/passes.csv", ref.pass, ref.session));
+}
+
 WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& workspace,
                                                        const std::string& field,
                                                        const std::vector<std::string>& files,
@@ -584,10 +637,15 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
   try {
     SimulatedFieldTruth truth(field, truth_options);
     result.eval = EvaluateAssociations(inputs, timeline, truth, options.association);
+    result.ceiling = EvaluateCeiling(
+        inputs, timeline, truth,
+        [&](const association::PassRef& ref) { return LoadPassKeypoints(workspace, ref); },
+        options.association);
   } catch (const std::exception& e) {
     // No simulate.yaml, no EGL to render with, a cache that cannot be written: the section
     // says why, the other sections are still evaluated.
     result.error = e.what();
+    result.ceiling = AssociationCeiling();
     result.eval = AssociationEval();
     result.eval.options = options.association;
     for (const AssociationInput& input : inputs) {
@@ -949,6 +1007,45 @@ std::string FormatWorkspaceEvalTable(const WorkspaceEval& eval) {
   return out;
 }
 
+// The ceiling per pair type, and each method's correct matches near the camera as a share of it.
+std::string FormatCeilingTable(const AssociationCeiling& ceiling, const AssociationEval& e) {
+  if (ceiling.groups.empty() && ceiling.errors.empty()) return "";
+  const std::string near = fmt::format("<={:g}m", e.options.near_depth_m);
+  std::string out = fmt::format(
+      "association ceiling: keypoints of image a with a keypoint of image b whose true point is "
+      "within {:g} cm, in the image pairs some method matched (no matcher finds more correct "
+      "matches); by chance: image b's points shifted {:g} cm; share: a method's correct matches "
+      "{} over the ceiling {}\n",
+      100.0 * e.options.max_distance_m, 100.0 * ceiling.chance_shift_m, near, near);
+  std::string header =
+      fmt::format("{:<16}  {:>11}  {:>9}  {:>9}  {:>9}  {:>14}", "pair type", "image pairs",
+                  "keypoints", "ceiling", "ceil " + near, "by chance " + near);
+  for (const AssociationGroupEval& m : e.methods) {
+    header += fmt::format("  {:>14}", m.method + " share %");
+  }
+  out += header + "\n";
+  for (const CeilingGroup& g : ceiling.groups) {
+    const CeilingCounts& c = g.counts;
+    std::string line =
+        fmt::format("{:<16}  {:>11}  {:>9}  {:>9}  {:>9}  {:>14}", PairTypeLabel(g.type),
+                    c.image_pairs, c.keypoints, c.partners, c.partners_near, c.chance_near);
+    for (const AssociationGroupEval& m : e.methods) {
+      line += fmt::format(
+          "  {:>14}",
+          c.partners_near > 0
+              ? fmt::format("{:.1f}", 100.0 *
+                                          static_cast<double>(CorrectNear(e, g.type, m.method)) /
+                                          static_cast<double>(c.partners_near))
+              : std::string("-"));
+    }
+    out += line + "\n";
+  }
+  for (const std::string& error : ceiling.errors) {
+    out += "ceiling not counted for " + error + "\n";
+  }
+  return out;
+}
+
 std::string FormatAssociationTable(const WorkspaceAssociationEval& section) {
   const AssociationEval& e = section.eval;
   std::string out = fmt::format(
@@ -1011,6 +1108,7 @@ std::string FormatAssociationTable(const WorkspaceAssociationEval& section) {
                e.options.near_depth_m) +
            ratios;
   }
+  out += FormatCeilingTable(section.ceiling, e);
   const DepthSourceStats& d = e.depth;
   out += fmt::format(
       "true depth of {} images: {} from the field, {} cached, {} rendered ({:.1f} s, {:.2f} s "

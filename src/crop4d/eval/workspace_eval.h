@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "crop4d/core/option_check.h"
+#include "crop4d/eval/association_ceiling.h"
 #include "crop4d/eval/association_eval.h"
 #include "crop4d/eval/canopy_eval.h"
 #include "crop4d/eval/dense_eval.h"
@@ -132,6 +133,9 @@ struct WorkspaceAssociationEval {
   std::string error;
   int num_files = 0;  // association files found (selected sessions)
   AssociationEval eval;
+  // How many correct matches the matched image pairs hold at all (association_ceiling.h);
+  // empty groups when `error` is set.
+  AssociationCeiling ceiling;
 };
 
 struct WorkspaceEval {

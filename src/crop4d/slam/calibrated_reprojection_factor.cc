@@ -62,20 +62,12 @@ CalibratedReprojectionFactor::CalibratedReprojectionFactor(
 
 bool CalibratedReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                             double** jacobians) const {
-  const Eigen::Map<const Eigen::Vector3d> p(parameters[0]);
-  const Eigen::Map<const Eigen::Quaterniond> q(parameters[0] + 3);
-  const Eigen::Map<const Eigen::Vector3d> point_world(parameters[1]);
-  const double td = parameters[2][0];
   const double* intrinsics = parameters[3];
   const Eigen::Map<const Eigen::Vector3d> delta(parameters[4]);
   const Eigen::Map<const Eigen::Vector3d> lever_arm_shift(parameters[5]);
-  const Eigen::Vector3d& v = motion_.vel_world;
-  const Eigen::Vector3d& w = motion_.rate_body;
-
-  const Eigen::Matrix3d Rt = q.normalized().toRotationMatrix().transpose();
-  const Eigen::Matrix3d Et = geometry::ExpSO3(w * td).transpose();
-  const Eigen::Vector3d a = Rt * (point_world - p - v * td);
-  const Eigen::Vector3d point_body = Et * a;
+  const BodyPointAtCapture body(parameters[0], motion_.vel_world, motion_.rate_body,
+                                Eigen::Vector3d(parameters[1]), parameters[2][0]);
+  const Eigen::Vector3d& point_body = body.point_body();
   const Eigen::Vector3d point_camera0 =
       camera_from_body_rotation_ * (point_body - lever_arm_shift) + camera_from_body_translation_;
   const Eigen::Matrix3d correction = geometry::ExpSO3(-delta);
@@ -90,20 +82,11 @@ bool CalibratedReprojectionFactor::Evaluate(double const* const* parameters, dou
   if (jacobians == nullptr) return true;
 
   const Eigen::Matrix<double, 2, 3> d_r_d_pb = d_r_d_pc * correction * camera_from_body_rotation_;
-  const Eigen::Matrix3d EtRt = Et * Rt;
-  const Eigen::Matrix3d Et_hat_a = Et * geometry::Hat(a);
-  if (jacobians[0] != nullptr) {
-    Eigen::Matrix<double, 3, 6> d_pb_d_pose;
-    d_pb_d_pose.leftCols<3>() = -EtRt;
-    d_pb_d_pose.rightCols<3>() = Et_hat_a;
-    const Eigen::Matrix<double, 2, 6> J = d_r_d_pb * d_pb_d_pose;
-    WritePoseJacobian<2>(J, parameters[0], jacobians[0]);
-  }
-  if (jacobians[1] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[1])) = d_r_d_pb * EtRt;
-  }
+  using Map23 = Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>;
+  if (jacobians[0] != nullptr) body.WritePoseJacobian(d_r_d_pb, parameters[0], jacobians[0]);
+  if (jacobians[1] != nullptr) (Map23(jacobians[1])) = body.PointJacobian(d_r_d_pb);
   if (jacobians[2] != nullptr) {
-    (Eigen::Map<Eigen::Vector2d>(jacobians[2])) = d_r_d_pb * (Et_hat_a * w - EtRt * v);
+    (Eigen::Map<Eigen::Vector2d>(jacobians[2])) = body.TimeOffsetJacobian(d_r_d_pb);
   }
   if (jacobians[3] != nullptr) {
     const Eigen::Vector2d xy = point_camera.head<2>() / point_camera.z();
@@ -115,12 +98,10 @@ bool CalibratedReprojectionFactor::Evaluate(double const* const* parameters, dou
     (Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>>(jacobians[3])) = inv_sigma_ * J;
   }
   if (jacobians[4] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[4])) =
+    (Map23(jacobians[4])) =
         d_r_d_pc * correction * geometry::Hat(point_camera0) * geometry::RightJacobianSO3(-delta);
   }
-  if (jacobians[5] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[5])) = -d_r_d_pb;
-  }
+  if (jacobians[5] != nullptr) (Map23(jacobians[5])) = -d_r_d_pb;
   return true;
 }
 

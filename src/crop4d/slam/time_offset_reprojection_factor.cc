@@ -39,23 +39,45 @@ ceres::CostFunction* TimeOffsetReprojectionFactor::Create(const geometry::Pinhol
                                           std::move(motion));
 }
 
+BodyPointAtCapture::BodyPointAtCapture(const double* pose, const Eigen::Vector3d& vel_world,
+                                       const Eigen::Vector3d& rate_body,
+                                       const Eigen::Vector3d& point_world, double td)
+    : v_(vel_world), w_(rate_body), td_(td) {
+  const Eigen::Map<const Eigen::Vector3d> p(pose);
+  const Eigen::Map<const Eigen::Quaterniond> q(pose + 3);
+  const Eigen::Matrix3d Rt = q.normalized().toRotationMatrix().transpose();
+  const Eigen::Matrix3d Et = geometry::ExpSO3(w_ * td).transpose();
+  const Eigen::Vector3d a = Rt * (point_world - p - v_ * td);
+  point_body_ = Et * a;
+  EtRt_ = Et * Rt;
+  Et_hat_a_ = Et * geometry::Hat(a);
+}
+
+void BodyPointAtCapture::WritePoseJacobian(const Eigen::Matrix<double, 2, 3>& d_r_d_pb,
+                                           const double* pose, double* jacobian) const {
+  Eigen::Matrix<double, 3, 6> d_pb_d_pose;
+  d_pb_d_pose.leftCols<3>() = -EtRt_;
+  d_pb_d_pose.rightCols<3>() = Et_hat_a_;
+  const Eigen::Matrix<double, 2, 6> J = d_r_d_pb * d_pb_d_pose;
+  slam::WritePoseJacobian<2>(J, pose, jacobian);
+}
+
+Eigen::Matrix<double, 2, 3> BodyPointAtCapture::RateJacobian(
+    const Eigen::Matrix<double, 2, 3>& d_r_d_pb) const {
+  return td_ * d_r_d_pb * Et_hat_a_ * geometry::RightJacobianSO3(-w_ * td_);
+}
+
 bool TimeOffsetReprojectionFactor::Evaluate(double const* const* parameters, double* residuals,
                                             double** jacobians) const {
-  const Eigen::Map<const Eigen::Vector3d> p(parameters[0]);
-  const Eigen::Map<const Eigen::Quaterniond> q(parameters[0] + 3);
   // Block indices: pose, [vel, rate,] point, td.
   const int point_index = motion_ ? 1 : 3;
   const int td_index = point_index + 1;
   const Eigen::Vector3d v = motion_ ? motion_->vel_world : Eigen::Vector3d(parameters[1]);
   const Eigen::Vector3d w = motion_ ? motion_->rate_body : Eigen::Vector3d(parameters[2]);
-  const Eigen::Map<const Eigen::Vector3d> point_world(parameters[point_index]);
-  const double td = parameters[td_index][0];
-  const Eigen::Matrix3d Rt = q.normalized().toRotationMatrix().transpose();
-  const Eigen::Matrix3d Et = geometry::ExpSO3(w * td).transpose();
-  const Eigen::Vector3d a = Rt * (point_world - p - v * td);
-  const Eigen::Vector3d point_body = Et * a;
+  const BodyPointAtCapture body(parameters[0], v, w, Eigen::Vector3d(parameters[point_index]),
+                                parameters[td_index][0]);
   const Eigen::Vector3d point_camera =
-      camera_from_body_rotation_ * point_body + camera_from_body_translation_;
+      camera_from_body_rotation_ * body.point_body() + camera_from_body_translation_;
   Eigen::Matrix<double, 2, 3> d_r_d_pc;
   if (!WhitenedReprojection(camera_, pixel_, inv_sigma_, point_camera, residuals,
                             jacobians != nullptr ? &d_r_d_pc : nullptr)) {
@@ -64,29 +86,15 @@ bool TimeOffsetReprojectionFactor::Evaluate(double const* const* parameters, dou
   if (jacobians == nullptr) return true;
   // ∂r/∂X_b (X_c = R_cb X_b + t_cb).
   const Eigen::Matrix<double, 2, 3> d_r_d_pb = d_r_d_pc * camera_from_body_rotation_;
-  const Eigen::Matrix3d EtRt = Et * Rt;
-  const Eigen::Matrix3d Et_hat_a = Et * geometry::Hat(a);
-  if (jacobians[0] != nullptr) {
-    Eigen::Matrix<double, 3, 6> d_pb_d_pose;
-    d_pb_d_pose.leftCols<3>() = -EtRt;
-    d_pb_d_pose.rightCols<3>() = Et_hat_a;
-    const Eigen::Matrix<double, 2, 6> J = d_r_d_pb * d_pb_d_pose;
-    WritePoseJacobian<2>(J, parameters[0], jacobians[0]);
-  }
-  if (!motion_ && jacobians[1] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[1])) =
-        -td * d_r_d_pb * EtRt;
-  }
-  if (!motion_ && jacobians[2] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[2])) =
-        td * d_r_d_pb * Et_hat_a * geometry::RightJacobianSO3(-w * td);
-  }
+  using Map23 = Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>;
+  if (jacobians[0] != nullptr) body.WritePoseJacobian(d_r_d_pb, parameters[0], jacobians[0]);
+  if (!motion_ && jacobians[1] != nullptr) (Map23(jacobians[1])) = body.VelocityJacobian(d_r_d_pb);
+  if (!motion_ && jacobians[2] != nullptr) (Map23(jacobians[2])) = body.RateJacobian(d_r_d_pb);
   if (jacobians[point_index] != nullptr) {
-    (Eigen::Map<Eigen::Matrix<double, 2, 3, Eigen::RowMajor>>(jacobians[point_index])) =
-        d_r_d_pb * EtRt;
+    (Map23(jacobians[point_index])) = body.PointJacobian(d_r_d_pb);
   }
   if (jacobians[td_index] != nullptr) {
-    (Eigen::Map<Eigen::Vector2d>(jacobians[td_index])) = d_r_d_pb * (Et_hat_a * w - EtRt * v);
+    (Eigen::Map<Eigen::Vector2d>(jacobians[td_index])) = body.TimeOffsetJacobian(d_r_d_pb);
   }
   return true;
 }

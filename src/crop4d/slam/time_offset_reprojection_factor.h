@@ -60,6 +60,39 @@ class TimeOffsetReprojectionFactor final : public ceres::CostFunction {
   std::optional<FixedMotion> motion_;
 };
 
+// The landmark in the body frame at the capture instant (X_b above) and its Jacobians, shared by
+// the factors that project through it (this one and CalibratedReprojectionFactor): each gives
+// ∂r/∂X_b and gets ∂r/∂ of the pose, the point and td.
+class BodyPointAtCapture {
+ public:
+  // pose[7] (p, q), the state's velocity and rate, the landmark and td.
+  BodyPointAtCapture(const double* pose, const Eigen::Vector3d& vel_world,
+                     const Eigen::Vector3d& rate_body, const Eigen::Vector3d& point_world,
+                     double td);
+
+  const Eigen::Vector3d& point_body() const { return point_body_; }
+  // ∂r/∂pose in the pose block's global size (7), for r with ∂r/∂X_b = d_r_d_pb.
+  void WritePoseJacobian(const Eigen::Matrix<double, 2, 3>& d_r_d_pb, const double* pose,
+                         double* jacobian) const;
+  Eigen::Matrix<double, 2, 3> PointJacobian(const Eigen::Matrix<double, 2, 3>& d_r_d_pb) const {
+    return d_r_d_pb * EtRt_;
+  }
+  Eigen::Vector2d TimeOffsetJacobian(const Eigen::Matrix<double, 2, 3>& d_r_d_pb) const {
+    return d_r_d_pb * (Et_hat_a_ * w_ - EtRt_ * v_);
+  }
+  Eigen::Matrix<double, 2, 3> VelocityJacobian(const Eigen::Matrix<double, 2, 3>& d_r_d_pb) const {
+    return -td_ * d_r_d_pb * EtRt_;
+  }
+  Eigen::Matrix<double, 2, 3> RateJacobian(const Eigen::Matrix<double, 2, 3>& d_r_d_pb) const;
+
+ private:
+  Eigen::Vector3d v_, w_;
+  double td_;
+  Eigen::Vector3d point_body_;
+  Eigen::Matrix3d EtRt_;      // Eᵀ Rᵀ
+  Eigen::Matrix3d Et_hat_a_;  // Eᵀ [a]×
+};
+
 // world_from_body at stamp + td, predicted from the state at the stamp as above.
 geometry::Rigid3 BodyAtCapture(const geometry::Rigid3& world_from_body,
                                const Eigen::Vector3d& vel_world, const Eigen::Vector3d& rate_body,

@@ -3,6 +3,7 @@
 #include <ceres/normal_prior.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -106,6 +107,46 @@ double RayAngleRmsDeg(const geometry::PinholeRadTan& camera_a,
     }
   }
   return count > 0 ? std::sqrt(sum / count) * 180.0 / std::numbers::pi : 0.0;
+}
+
+namespace {
+
+bool SameRigid(const geometry::Rigid3& a, const geometry::Rigid3& b) {
+  return a.translation() == b.translation() && a.rotation().coeffs() == b.rotation().coeffs();
+}
+
+}  // namespace
+
+void UseRefinedCalibrations(const std::vector<RefinedCalibration>& first,
+                            std::vector<slam::RowOptimiser::Input>* passes,
+                            std::deque<geometry::PinholeRadTan>* storage) {
+  for (const RefinedCalibration& c : first) {
+    if (!c.refined) continue;
+    storage->push_back(c.camera);
+    for (slam::RowOptimiser::Input& pass : *passes) {
+      if (pass.camera != nullptr && SameIntrinsics(*pass.camera, c.written_camera) &&
+          SameRigid(pass.body_from_camera, c.written_body_from_camera)) {
+        pass.camera = &storage->back();
+        pass.body_from_camera = c.body_from_camera;
+      }
+    }
+  }
+}
+
+void ReportRefinedCalibrations(const std::vector<RefinedCalibration>& first,
+                               std::vector<RefinedCalibration>* second) {
+  for (RefinedCalibration& held : *second) {
+    for (const RefinedCalibration& c : first) {
+      if (c.refined && SameIntrinsics(held.written_camera, c.camera) &&
+          SameRigid(held.written_body_from_camera, c.body_from_camera)) {
+        held.refined = true;
+        held.written_camera = c.written_camera;
+        held.written_body_from_camera = c.written_body_from_camera;
+        held.num_cross_observations =
+            std::max(held.num_cross_observations, c.num_cross_observations);
+      }
+    }
+  }
 }
 
 }  // namespace crop4d::fusion

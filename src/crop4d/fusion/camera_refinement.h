@@ -24,6 +24,7 @@
 #include <ceres/problem.h>
 
 #include <cstdint>
+#include <deque>
 #include <optional>
 #include <vector>
 
@@ -91,6 +92,20 @@ struct RefinedCalibration {
     return body_from_camera.translation() - written_body_from_camera.translation();
   }
 };
+
+// A joint solve in two steps (fuse with degraded sessions: the trusted passes alone, then every
+// pass with those held, which holds their cameras too): the second step must hold the cameras
+// where the first refined them, not as written, or the trusted sessions' cameras would differ
+// from a season without the degraded ones. Points every pass whose camera is written as one
+// that `first` refined (the trusted passes and the degraded sessions of the same rig) at the
+// refined camera, kept in `storage`.
+void UseRefinedCalibrations(const std::vector<RefinedCalibration>& first,
+                            std::vector<slam::RowOptimiser::Input>* passes,
+                            std::deque<geometry::PinholeRadTan>* storage);
+// After the second step: its calibrations held at a refinement of the first step are reported
+// as that refinement of the written calibration.
+void ReportRefinedCalibrations(const std::vector<RefinedCalibration>& first,
+                               std::vector<RefinedCalibration>* second);
 
 // How far apart two calibrations send a camera's rays: the RMS angle, degrees, between the
 // body-frame rays of a 9 × 7 grid of pixels spread over the image (5 % from its borders),

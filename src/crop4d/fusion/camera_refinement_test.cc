@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <deque>
 
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/slam/camera_test_util.h"
@@ -32,6 +33,63 @@ TEST(CameraRefinement, PassesWithTheSameCalibrationShareOneCamera) {
   EXPECT_EQ(cameras[1].camera.k2, other_lens.k2);
   EXPECT_TRUE(SameIntrinsics(cameras[0].camera, camera));
   EXPECT_FALSE(SameIntrinsics(cameras[1].camera, camera));
+}
+
+TEST(CameraRefinement, ASecondSolveHoldsTheCamerasTheFirstRefined) {
+  const geometry::PinholeRadTan camera = slam::testing::DistortedTestCamera();
+  geometry::PinholeRadTan other = camera;
+  other.fx += 5.0;
+  const geometry::Rigid3 mount(geometry::ExpQuat(Eigen::Vector3d(0.1, -1.2, 0.3)),
+                               Eigen::Vector3d(0.4, 0.0, 1.5));
+  std::vector<slam::RowOptimiser::Input> passes(3);
+  for (slam::RowOptimiser::Input& pass : passes) {
+    pass.camera = &camera;
+    pass.body_from_camera = mount;
+  }
+  passes[2].camera = &other;  // another camera, not refined
+  // The first solve (passes 0 and 1 alone) refined the camera.
+  RefinedCalibration refined;
+  refined.passes = {0, 1};
+  refined.refined = true;
+  refined.written_camera = camera;
+  refined.written_body_from_camera = mount;
+  refined.camera = camera;
+  refined.camera.cx += 0.7;
+  refined.body_from_camera = geometry::Rigid3(
+      mount.rotation() * geometry::ExpQuat(Eigen::Vector3d(0.004, 0, 0)), mount.translation());
+  refined.num_cross_observations = 5000;
+  std::deque<geometry::PinholeRadTan> storage;
+  UseRefinedCalibrations({refined}, &passes, &storage);
+  for (int p : {0, 1}) {
+    ASSERT_NE(passes[p].camera, &camera);
+    EXPECT_TRUE(SameIntrinsics(*passes[p].camera, refined.camera));
+    EXPECT_TRUE(
+        passes[p].body_from_camera.rotation().isApprox(refined.body_from_camera.rotation()));
+  }
+  EXPECT_EQ(passes[2].camera, &other);
+  EXPECT_TRUE(passes[2].body_from_camera.rotation().isApprox(mount.rotation()));
+
+  // The second solve held both cameras as given: the refined one is reported as refined from
+  // what was written, the other as it was.
+  RefinedCalibration held_refined;
+  held_refined.passes = {0, 1};
+  held_refined.written_camera = held_refined.camera = *passes[0].camera;
+  held_refined.written_body_from_camera = held_refined.body_from_camera =
+      passes[0].body_from_camera;
+  held_refined.num_cross_observations = 6000;
+  RefinedCalibration held_other;
+  held_other.passes = {2};
+  held_other.written_camera = held_other.camera = other;
+  held_other.written_body_from_camera = held_other.body_from_camera = mount;
+  std::vector<RefinedCalibration> second = {held_refined, held_other};
+  ReportRefinedCalibrations({refined}, &second);
+  EXPECT_TRUE(second[0].refined);
+  EXPECT_TRUE(SameIntrinsics(second[0].written_camera, camera));
+  EXPECT_TRUE(SameIntrinsics(second[0].camera, refined.camera));
+  EXPECT_NEAR(second[0].RotationChangeDeg(), 0.004 * 180.0 / M_PI, 1e-9);
+  EXPECT_EQ(second[0].num_cross_observations, 6000);
+  EXPECT_FALSE(second[1].refined);
+  EXPECT_TRUE(SameIntrinsics(second[1].written_camera, other));
 }
 
 TEST(CameraRefinement, RayAnglesMeasureHowFarACalibrationTurnsTheRays) {

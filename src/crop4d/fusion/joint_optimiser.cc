@@ -180,7 +180,14 @@ class JointProblem {
       double* td = graphs_[p]->time_offset_block();
       if (problem.HasParameterBlock(td)) problem.SetParameterBlockConstant(td);
     }
-    return slam::RunSolver(options_, &problem, landmarks);
+    // The time offsets (one per pass, each in its graph) and the calibrations after the states,
+    // in pass and camera order: the same order, and sums, in every process.
+    std::vector<double*> last_blocks;
+    for (const auto& graph : graphs_) last_blocks.push_back(graph->time_offset_block());
+    for (slam::CameraCalibrationBlocks& c : calibrations_) {
+      last_blocks.insert(last_blocks.end(), {c.intrinsics, c.rotation, c.lever_arm});
+    }
+    return slam::RunSolver(options_, &problem, landmarks, last_blocks);
   }
 
   // RMS disagreement of the ties across the row and vertically, m.

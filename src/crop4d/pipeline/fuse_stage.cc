@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -271,6 +272,8 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
   for (const auto& pass : passes) inputs.push_back(pass->input);
   const fusion::JointOptimiser optimiser(options.optimiser);
   const bool two_steps = std::find(protects.begin(), protects.end(), false) != protects.end();
+  std::deque<geometry::PinholeRadTan> refined_cameras;  // the cameras the inputs point to
+  std::vector<fusion::RefinedCalibration> first_calibrations;
   if (two_steps) {
     std::int64_t conflicting = 0;
     const fusion::PassSubset trusted = fusion::RestrictToPasses(
@@ -284,8 +287,16 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
         inputs[trusted.original_pass[k]].time_offset_s = first.time_offsets_s[k];
       }
     }
+    first_calibrations = first.calibrations;
+    fusion::UseRefinedCalibrations(first_calibrations, &inputs, &refined_cameras);
   }
-  return optimiser.Solve(inputs, landmarks, ties, two_steps ? protects : std::vector<bool>{});
+  fusion::JointOptimiser::Result result =
+      optimiser.Solve(inputs, landmarks, ties, two_steps ? protects : std::vector<bool>{});
+  fusion::ReportRefinedCalibrations(first_calibrations, &result.calibrations);
+  result.summary.num_cameras_refined = static_cast<int>(
+      std::count_if(result.calibrations.begin(), result.calibrations.end(),
+                    [](const fusion::RefinedCalibration& c) { return c.refined; }));
+  return result;
 }
 
 // The fused world_from_camera of every image of every pass, and each pass's correction against

@@ -50,6 +50,7 @@ struct FuseStageOptions {
     // iterations after the cost stops falling by 1e-4 per iteration take half the time and
     // lower the fused ATE RMSE by at most 0.24 mm (bench/RESULTS.md).
     o.row.function_tolerance = 1e-4;
+    o.row.gps_gate_chi2 = 21.1;  // as row SLAM's (slam_stage.h)
     return o;
   }();
   // Ground ties (fusion/ground_ties.h) between the two passes of a row on two dates whose

@@ -30,6 +30,7 @@
 #include "crop4d/pipeline/run_log.h"
 #include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
+#include "crop4d/workspace/fused_camera.h"
 
 extern char** environ;
 
@@ -528,7 +529,7 @@ TEST_F(SeasonRunTest, TruncatedOutputsAreRedoneAndGiveTheResultsOfAnUninterrupte
 
 // Case 1: a session whose RTK receiver has no fix is processed with its metre-level one. It is
 // listed as degraded and registered onto the healthy session without moving it, so the healthy
-// session's poses and canopy heights are those of a run without it (to 2 mm): here the run in
+// session's poses, camera and canopy heights are those of a run without it: here the run in
 // which it has no fix at all and is skipped. Case 2: that run takes its terrain from the later
 // session, whose heights must be no more biased against the truth than with the earliest one
 // (a canopy-top terrain made them 10-12 cm too low).
@@ -568,13 +569,26 @@ TEST_F(SeasonRunTest, ADegradedSessionCannotMoveAHealthyOneNorSetItsTerrain) {
     worst = std::max(worst, (with.at(t) - p).norm());
   }
   EXPECT_LT(worst, 0.002);
+  // The camera: refined from the trusted session alone in both runs (the degraded one then
+  // holds it), so the same but for the slightly different landmarks of the two solves.
+  const workspace::FusedCamera camera_with = workspace::ReadFusedCamera(
+      (dir_ / "ws_spoiled" / "fused" / late / "camera.json").string());
+  const workspace::FusedCamera camera_without = workspace::ReadFusedCamera(
+      (dir_ / "ws_alone" / "fused" / late / "camera.json").string());
+  EXPECT_EQ(camera_with.refined, camera_without.refined);
+  EXPECT_NEAR(camera_with.intrinsics.fx, camera_without.intrinsics.fx, 0.01);
+  EXPECT_NEAR(camera_with.intrinsics.cx, camera_without.intrinsics.cx, 0.01);
+  EXPECT_NEAR(camera_with.intrinsics.cy, camera_without.intrinsics.cy, 0.01);
+  EXPECT_NEAR(camera_with.rotation_change_deg, camera_without.rotation_change_deg, 0.01);
   const auto heights_with = SiteHeights(dir_ / "ws_spoiled" / "analysis" / "site_heights.csv");
   const auto heights_without = SiteHeights(dir_ / "ws_alone" / "analysis" / "site_heights.csv");
   int compared = 0;
   for (const auto& [key, h] : heights_without) {
     if (key.find(late) == std::string::npos) continue;
     ASSERT_TRUE(heights_with.count(key)) << key;
-    EXPECT_NEAR(heights_with.at(key), h, 0.002) << key;
+    // 1 cm: the dense clouds of this test's coarse 1.5 cm cells moved a site's height by up to
+    // 6.2 mm for cameras 0.001 px apart (measured, with the poses 3 µm apart).
+    EXPECT_NEAR(heights_with.at(key), h, 0.01) << key;
     ++compared;
   }
   EXPECT_EQ(compared, 4);

@@ -138,6 +138,9 @@ std::vector<bool> PassStandstills(const PassJob& job, const features::FrontEnd::
 slam::RowOptimiser::Options PassOptimiserOptions(const PassJob& job) {
   slam::RowOptimiser::Options op = job.options.optimiser;
   if (job.streams.imu == nullptr) {
+    // The time offset is the camera's to the IMU: without one, the images' stamps are the
+    // states' times (an image folder's EXIF time, as its GPS fixes').
+    op.estimate_time_offset = false;
     // Without an IMU only the receiver scales the pass: a metre-level one leaves a 20 m pass
     // tens of percent off (measured on the demo field: the soil's depth asked for −20 to +28 %),
     // so the soil's depth below a camera of known height may correct more than with an IMU.

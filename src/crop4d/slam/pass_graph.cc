@@ -380,7 +380,8 @@ ceres::Problem::Options ProblemOptions() {
 }
 
 ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
-                                 const std::vector<double*>& schur_blocks) {
+                                 const std::vector<double*>& schur_blocks,
+                                 const std::vector<double*>& last_blocks) {
   ceres::Solver::Options so;
   so.max_num_iterations = options.max_iterations;
   so.function_tolerance = options.function_tolerance;
@@ -402,6 +403,10 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
     problem->GetParameterBlocks(&blocks);
     for (double* block : blocks) ordering->AddElementToGroup(block, 1);
     for (double* block : schur_blocks) ordering->AddElementToGroup(block, 0);
+    int group = 2;
+    for (double* block : last_blocks) {
+      if (problem->HasParameterBlock(block)) ordering->AddElementToGroup(block, group++);
+    }
     so.linear_solver_ordering = ordering;
   } else {
     so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -421,12 +426,13 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
 }
 
 ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
-                                 std::vector<Eigen::Vector3d>* landmarks) {
+                                 std::vector<Eigen::Vector3d>* landmarks,
+                                 const std::vector<double*>& last_blocks) {
   std::vector<double*> blocks;
   if (landmarks != nullptr) {
     for (Eigen::Vector3d& p : *landmarks) blocks.push_back(p.data());
   }
-  return RunSolver(options, problem, blocks);
+  return RunSolver(options, problem, blocks, last_blocks);
 }
 
 std::vector<geometry::Rigid3> CameraPoses(std::span<const StateBlocks> blocks,

@@ -126,11 +126,18 @@ class PassGraph {
 ceres::Problem::Options ProblemOptions();
 
 // Solves with Levenberg–Marquardt; `schur_blocks` (landmarks) are eliminated first by the
-// Schur complement (SPARSE_SCHUR), none: sparse normal Cholesky.
+// Schur complement (SPARSE_SCHUR), none: sparse normal Cholesky. With Schur elimination,
+// `last_blocks` (those in the problem) come after every other block, each in a group of its
+// own, in the given order. Ceres orders the blocks of one group by their address: blocks that
+// live outside the states' one array (a pass's time offset, a camera's calibration) would land
+// before or after the states as the heap placed them, which differs between processes, and so
+// would the solve's sums in their last bits.
 ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
-                                 const std::vector<double*>& schur_blocks);
+                                 const std::vector<double*>& schur_blocks,
+                                 const std::vector<double*>& last_blocks = {});
 ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Problem* problem,
-                                 std::vector<Eigen::Vector3d>* landmarks);
+                                 std::vector<Eigen::Vector3d>* landmarks,
+                                 const std::vector<double*>& last_blocks = {});
 
 // world_from_camera of every state.
 std::vector<geometry::Rigid3> CameraPoses(std::span<const StateBlocks> blocks,

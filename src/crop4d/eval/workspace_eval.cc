@@ -637,10 +637,16 @@ WorkspaceAssociationEval EvaluateWorkspaceAssociations(const std::string& worksp
   try {
     SimulatedFieldTruth truth(field, truth_options);
     result.eval = EvaluateAssociations(inputs, timeline, truth, options.association);
-    result.ceiling = EvaluateCeiling(
-        inputs, timeline, truth,
-        [&](const association::PassRef& ref) { return LoadPassKeypoints(workspace, ref); },
-        options.association);
+    try {
+      result.ceiling = EvaluateCeiling(
+          inputs, timeline, truth,
+          [&](const association::PassRef& ref) { return LoadPassKeypoints(workspace, ref); },
+          options.association);
+    } catch (const std::exception& e) {
+      // The precision above stands; the ceiling says why it is missing.
+      result.ceiling = AssociationCeiling();
+      result.ceiling.errors.push_back(fmt::format("every pair of passes: {}", e.what()));
+    }
   } catch (const std::exception& e) {
     // No simulate.yaml, no EGL to render with, a cache that cannot be written: the section
     // says why, the other sections are still evaluated.

@@ -14,21 +14,7 @@
 
 #include "crop4d/eval/workspace_eval.h"
 
-namespace {
-
 using namespace crop4d;
-
-std::int64_t CorrectNear(const eval::AssociationEval& e, eval::PairType type, const char* method,
-                         bool near) {
-  for (const eval::AssociationGroupEval& g : e.groups) {
-    if (g.type == type && g.method == method) {
-      return near ? g.counts.correct_near : g.counts.correct;
-    }
-  }
-  return 0;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   if (argc < 3) {
@@ -60,7 +46,7 @@ int main(int argc, char** argv) {
     const eval::CeilingCounts& c = g.counts;
     const auto share = [&](const char* method) {
       return c.partners_near > 0
-                 ? 100.0 * static_cast<double>(CorrectNear(a.eval, g.type, method, true)) /
+                 ? 100.0 * static_cast<double>(a.eval.GroupCounts(g.type, method).correct_near) /
                        static_cast<double>(c.partners_near)
                  : 0.0;
     };
@@ -69,10 +55,10 @@ int main(int argc, char** argv) {
         eval::PairTypeName(g.type), static_cast<long long>(c.image_pairs),
         static_cast<long long>(c.partners), static_cast<long long>(c.partners_near),
         static_cast<long long>(c.chance_near),
-        static_cast<long long>(CorrectNear(a.eval, g.type, "naive", false)),
-        static_cast<long long>(CorrectNear(a.eval, g.type, "naive", true)),
-        static_cast<long long>(CorrectNear(a.eval, g.type, "robust", false)),
-        static_cast<long long>(CorrectNear(a.eval, g.type, "robust", true)), share("naive"),
+        static_cast<long long>(a.eval.GroupCounts(g.type, "naive").correct),
+        static_cast<long long>(a.eval.GroupCounts(g.type, "naive").correct_near),
+        static_cast<long long>(a.eval.GroupCounts(g.type, "robust").correct),
+        static_cast<long long>(a.eval.GroupCounts(g.type, "robust").correct_near), share("naive"),
         share("robust"));
   }
   return 0;

@@ -127,6 +127,13 @@ void MatchCounts::Add(const MatchCounts& o) {
   correct_near += o.correct_near;
 }
 
+MatchCounts AssociationEval::GroupCounts(PairType type, const std::string& method) const {
+  for (const AssociationGroupEval& g : groups) {
+    if (g.type == type && g.method == method) return g.counts;
+  }
+  return {};
+}
+
 std::map<std::string, int> RankSessions(const std::vector<AssociationInput>& inputs,
                                         const SessionTimeline& timeline) {
   std::map<std::string, int> ranks;

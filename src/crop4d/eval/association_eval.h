@@ -150,6 +150,9 @@ struct AssociationEval {
   int num_failed = 0;                         // files with an error
   std::int64_t images = 0;                    // distinct images whose true geometry was needed
   DepthSourceStats depth;                     // truth.stats() after the evaluation
+
+  // The pooled counts of one pair type and method (all zero when it has no file).
+  MatchCounts GroupCounts(PairType type, const std::string& method) const;
 };
 
 // The order in which the sessions of the readable inputs are evaluated: their index in the

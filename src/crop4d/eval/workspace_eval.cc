@@ -181,24 +181,17 @@ json PassRefJson(const association::PassRef& ref, const PassLayout& layout) {
           {"direction", layout.direction}};
 }
 
-// The correct matches of `method` within near_depth_m in pair type `type` (0 when none).
-std::int64_t CorrectNear(const AssociationEval& e, PairType type, const std::string& method) {
-  for (const AssociationGroupEval& g : e.groups) {
-    if (g.type == type && g.method == method) return g.counts.correct_near;
-  }
-  return 0;
-}
-
 json CeilingJson(const AssociationCeiling& ceiling, const AssociationEval& e) {
   json by_type = json::array();
   for (const CeilingGroup& g : ceiling.groups) {
     const CeilingCounts& c = g.counts;
     json share = json::object();
     for (const AssociationGroupEval& m : e.methods) {
-      share[m.method] = c.partners_near > 0
-                            ? json(static_cast<double>(CorrectNear(e, g.type, m.method)) /
-                                   static_cast<double>(c.partners_near))
-                            : json(nullptr);
+      share[m.method] =
+          c.partners_near > 0
+              ? json(static_cast<double>(e.GroupCounts(g.type, m.method).correct_near) /
+                     static_cast<double>(c.partners_near))
+              : json(nullptr);
     }
     by_type.push_back({{"type", PairTypeName(g.type)},
                        {"pass_pairs", g.pass_pairs},
@@ -1039,9 +1032,10 @@ std::string FormatCeilingTable(const AssociationCeiling& ceiling, const Associat
       line += fmt::format(
           "  {:>14}",
           c.partners_near > 0
-              ? fmt::format("{:.1f}", 100.0 *
-                                          static_cast<double>(CorrectNear(e, g.type, m.method)) /
-                                          static_cast<double>(c.partners_near))
+              ? fmt::format("{:.1f}",
+                            100.0 *
+                                static_cast<double>(e.GroupCounts(g.type, m.method).correct_near) /
+                                static_cast<double>(c.partners_near))
               : std::string("-"));
     }
     out += line + "\n";

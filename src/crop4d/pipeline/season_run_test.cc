@@ -571,10 +571,10 @@ TEST_F(SeasonRunTest, ADegradedSessionCannotMoveAHealthyOneNorSetItsTerrain) {
   EXPECT_LT(worst, 0.002);
   // The camera: refined from the trusted session alone in both runs (the degraded one then
   // holds it), so the same but for the slightly different landmarks of the two solves.
-  const workspace::FusedCamera camera_with = workspace::ReadFusedCamera(
-      (dir_ / "ws_spoiled" / "fused" / late / "camera.json").string());
-  const workspace::FusedCamera camera_without = workspace::ReadFusedCamera(
-      (dir_ / "ws_alone" / "fused" / late / "camera.json").string());
+  const workspace::FusedCamera camera_with =
+      workspace::ReadFusedCamera((dir_ / "ws_spoiled" / "fused" / late / "camera.json").string());
+  const workspace::FusedCamera camera_without =
+      workspace::ReadFusedCamera((dir_ / "ws_alone" / "fused" / late / "camera.json").string());
   EXPECT_EQ(camera_with.refined, camera_without.refined);
   EXPECT_NEAR(camera_with.intrinsics.fx, camera_without.intrinsics.fx, 0.01);
   EXPECT_NEAR(camera_with.intrinsics.cx, camera_without.intrinsics.cx, 0.01);

@@ -91,6 +91,7 @@ void VisitFields(PlantDetectionOptions& o, V&& visit) {
   visit("min_prominence_m", o.min_prominence_m);
   visit("min_prominence_fraction", o.min_prominence_fraction);
   visit("min_spacing_m", o.min_spacing_m);
+  visit("max_row_offset_m", o.max_row_offset_m);
 }
 
 template <class V>

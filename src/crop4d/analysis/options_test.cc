@@ -30,7 +30,8 @@ TEST(AnalysisOptions, CheckNamesTheWrongOption) {
                              {"max_rate_per_day", [](R& o) { o.max_rate_per_day = 0; }}});
   using P = PlantDetectionOptions;
   ExpectCheckNamesOption<P>(P(), {{"top_fraction", [](P& o) { o.top_fraction = 1.5; }},
-                                  {"min_cells", [](P& o) { o.min_cells = 0; }}});
+                                  {"min_cells", [](P& o) { o.min_cells = 0; }},
+                                  {"max_row_offset_m", [](P& o) { o.max_row_offset_m = -1; }}});
   GridSpec grid;
   grid.width = grid.height = 10;
   ExpectCheckNamesOption<GridSpec>(grid, {{"width", [](GridSpec& o) { o.width = 0; }},

@@ -19,7 +19,8 @@ OptionCheck PlantDetectionOptions::Check() const {
       .AtMost("top_fraction", top_fraction, 1.0)
       .AtLeast("min_spacing_m", min_spacing_m, 0.0)
       .AtLeast("min_prominence_m", min_prominence_m, 0.0)
-      .AtLeast("min_prominence_fraction", min_prominence_fraction, 0.0);
+      .AtLeast("min_prominence_fraction", min_prominence_fraction, 0.0)
+      .AtLeast("max_row_offset_m", max_row_offset_m, 0.0);
   return c.Result();
 }
 
@@ -209,6 +210,24 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
     if (!near) kept.push_back(p);
   }
   return kept;
+}
+
+std::vector<DetectedPlant> PlantsOnRows(std::vector<DetectedPlant> plants,
+                                        const std::vector<io::RowDeclaration>& rows,
+                                        const PlantDetectionOptions& options) {
+  if (rows.empty() || !(options.max_row_offset_m > 0)) return plants;
+  const auto off_rows = [&](const DetectedPlant& p) {
+    for (const io::RowDeclaration& row : rows) {
+      const Eigen::Vector2d d = row.end_enu - row.start_enu;
+      const double length2 = d.squaredNorm();
+      const double t =
+          length2 > 0 ? std::clamp((p.stem - row.start_enu).dot(d) / length2, 0.0, 1.0) : 0.0;
+      if ((p.stem - (row.start_enu + t * d)).norm() <= options.max_row_offset_m) return false;
+    }
+    return true;
+  };
+  plants.erase(std::remove_if(plants.begin(), plants.end(), off_rows), plants.end());
+  return plants;
 }
 
 }  // namespace crop4d::analysis

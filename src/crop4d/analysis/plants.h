@@ -18,6 +18,7 @@
 
 #include "crop4d/analysis/canopy.h"
 #include "crop4d/core/option_check.h"
+#include "crop4d/io/dataset.h"
 
 namespace crop4d::analysis {
 
@@ -39,6 +40,12 @@ struct PlantDetectionOptions {
   // Stems closer than this are one plant (an island split in two by a gap in the cloud),
   // metres.
   double min_spacing_m = 0.08;
+  // Where the field declares its rows (field.yaml), a plant whose stem lies farther than this
+  // from every row's centre line is no plant of the crop — a weed, or noise on the soil between
+  // the rows — and no site counts it (PlantsOnRows), metres; 0: every plant counts. Seeders
+  // place the crop within a few centimetres of the line; the bound leaves room for a row
+  // declared a few centimetres off. Measured in bench/RESULTS.md, "Plants off the rows".
+  double max_row_offset_m = 0.15;
 
   OptionCheck Check() const;
 };
@@ -54,6 +61,12 @@ struct DetectedPlant {
 std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
                                         const Eigen::AlignedBox2d& area,
                                         const CanopyOptions& canopy,
+                                        const PlantDetectionOptions& options);
+
+// The plants whose stems lie within max_row_offset_m of the centre line (the segment from start
+// to end) of one of `rows`; all of them when `rows` is empty or max_row_offset_m is 0.
+std::vector<DetectedPlant> PlantsOnRows(std::vector<DetectedPlant> plants,
+                                        const std::vector<io::RowDeclaration>& rows,
                                         const PlantDetectionOptions& options);
 
 }  // namespace crop4d::analysis

@@ -129,6 +129,35 @@ TEST(DetectPlantsTest, ALowBumpOnAPlantIsNotAPlant) {
   EXPECT_EQ(DetectPlants(cloud, Truth(), area, CanopyOptions{}, low).size(), 2u);
 }
 
+// Plants off the declared rows are weeds or noise between them: the stems beyond
+// max_row_offset_m from every row's segment go, those beside a row or past its end by less stay.
+TEST(PlantsOnRowsTest, StemsFarFromEveryRowGo) {
+  io::RowDeclaration a, b;
+  a.start_enu = {0.0, 0.0};
+  a.end_enu = {0.0, 10.0};
+  b.index = 1;
+  b.start_enu = {0.9, 0.0};
+  b.end_enu = {1.2, 10.0};  // a slanted row
+  const std::vector<io::RowDeclaration> rows{a, b};
+  auto plant = [](double x, double y) { return DetectedPlant{{x, y}, 0.1, 0.01}; };
+  const std::vector<DetectedPlant> found{plant(0.05, 5.0), plant(-0.14, 2.0), plant(0.45, 5.0),
+                                         plant(1.1, 5.0),  plant(0.88, 5.0),  plant(0.0, 10.1),
+                                         plant(0.0, 10.5), plant(-0.3, 7.0)};
+  PlantDetectionOptions options;
+  ASSERT_EQ(options.max_row_offset_m, 0.15);
+  const std::vector<DetectedPlant> kept = PlantsOnRows(found, rows, options);
+  std::vector<Eigen::Vector2d> stems;
+  for (const DetectedPlant& p : kept) stems.push_back(p.stem);
+  // The slanted row passes x = 1.05 at y = 5: (1.1, 5) lies 5 cm from it, (0.88, 5) 17 cm.
+  const std::vector<Eigen::Vector2d> expected{{0.05, 5.0}, {-0.14, 2.0}, {1.1, 5.0}, {0.0, 10.1}};
+  ASSERT_EQ(stems.size(), expected.size());
+  for (std::size_t k = 0; k < expected.size(); ++k) EXPECT_EQ(stems[k], expected[k]) << k;
+  // No rows declared, or the test off: every plant counts.
+  EXPECT_EQ(PlantsOnRows(found, {}, options).size(), found.size());
+  options.max_row_offset_m = 0;
+  EXPECT_EQ(PlantsOnRows(found, rows, options).size(), found.size());
+}
+
 TEST(MeasureSiteTest, PlantTopsAreTheMeanOfThePlantsInTheSite) {
   // Three plants in the site (0.08, 0.10, 0.12 m) and a taller one just outside it.
   const SessionCloud cloud =

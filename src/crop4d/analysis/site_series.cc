@@ -52,14 +52,15 @@ SiteSeries MeasureSiteSeries(const std::vector<SessionCloud>& clouds,
 std::vector<SiteResult> MeasureSeasonSites(
     const std::vector<io::Site>& sites, const std::vector<SeasonSession>& sessions,
     const std::vector<SessionCloud>& clouds, const GroundFunction& ground,
-    const Eigen::AlignedBox2d& area, const CanopyOptions& canopy,
-    const PlantDetectionOptions& plant_options, const PlaneOptions& plane,
-    std::vector<std::size_t>* plants_found) {
+    const Eigen::AlignedBox2d& area, const std::vector<io::RowDeclaration>& rows,
+    const CanopyOptions& canopy, const PlantDetectionOptions& plant_options,
+    const PlaneOptions& plane, std::vector<std::size_t>* plants_found) {
   CROP4D_CHECK(clouds.size() == sessions.size());
   // Plants: islands of canopy in each session; young plants are separate islands.
   std::vector<std::vector<DetectedPlant>> detected(clouds.size());
   tbb::parallel_for(std::size_t{0}, clouds.size(), [&](std::size_t k) {
-    detected[k] = DetectPlants(clouds[k], ground, area, canopy, plant_options);
+    detected[k] = PlantsOnRows(DetectPlants(clouds[k], ground, area, canopy, plant_options), rows,
+                               plant_options);
   });
   if (plants_found != nullptr) {
     plants_found->clear();

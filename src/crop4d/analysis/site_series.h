@@ -63,14 +63,15 @@ struct SeasonSession {
   bool trusted = true;
 };
 
-// Every site in every session: plants found in each session (DetectPlants over `area`), then
-// MeasureSiteSeries per site. Site-major: result i * sessions.size() + k is site i in session
-// k. `plants_found` (if given) gets the number of plants found per session.
+// Every site in every session: plants found in each session (DetectPlants over `area`, those
+// off the declared `rows` left out: PlantsOnRows), then MeasureSiteSeries per site. Site-major:
+// result i * sessions.size() + k is site i in session k. `plants_found` (if given) gets the number
+// of plants found per session.
 std::vector<SiteResult> MeasureSeasonSites(
     const std::vector<io::Site>& sites, const std::vector<SeasonSession>& sessions,
     const std::vector<SessionCloud>& clouds, const GroundFunction& ground,
-    const Eigen::AlignedBox2d& area, const CanopyOptions& canopy,
-    const PlantDetectionOptions& plants, const PlaneOptions& plane,
+    const Eigen::AlignedBox2d& area, const std::vector<io::RowDeclaration>& rows,
+    const CanopyOptions& canopy, const PlantDetectionOptions& plants, const PlaneOptions& plane,
     std::vector<std::size_t>* plants_found = nullptr);
 
 // A growth curve per site (FitGrowth) over the trusted sessions' heights above the DTM, days

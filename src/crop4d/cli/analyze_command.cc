@@ -145,6 +145,11 @@ RunFunction SetupAnalyze(CLI::App& app) {
   app.add_option("--plant-min-prominence-fraction", o.plants.min_prominence_fraction,
                  "...and at least this fraction of its own height")
       ->capture_default_str();
+  app.add_option("--plant-max-row-offset", o.plants.max_row_offset_m,
+                 "Where field.yaml declares rows, plants farther than this from every row's "
+                 "centre line (weeds, noise between the rows) count at no site, m (0: off)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--crown-radius", o.canopy.crown_radius_m,
                  "crown-peaks: a crown top is the highest canopy within this radius, m")
       ->capture_default_str();

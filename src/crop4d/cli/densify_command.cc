@@ -117,6 +117,11 @@ RunFunction SetupDensify(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--max-views", o.stereo.max_views, "Images matched per tile, references included")
       ->capture_default_str();
+  app.add_option("--near-time", o.stereo.near_time_s,
+                 "Tiles with plants are matched in images captured within this time of their "
+                 "reference, s: leaves sway in the wind (0: any time)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--min-score", o.stereo.min_score, "Least aggregated ZNCC of a kept point (-1..1)")
       ->capture_default_str();
   app.add_option("--top-surface-margin", o.stereo.top_surface_margin,

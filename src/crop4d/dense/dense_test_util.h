@@ -57,13 +57,18 @@ struct RenderedSession {
 
 // Renders the images of session `index` whose camera is within `max_distance_m` of `center`
 // (on the terrain) and sees it inside the image: the views a dense reconstruction of a small
-// region around `center` needs.
+// region around `center` needs. `wind_sway_m` > 0: the leaves sway by this much (gusts of 2 s).
 inline RenderedSession RenderAround(const sim::Simulator& simulator, sim::Renderer* renderer,
                                     int index, const Eigen::Vector2d& center, double max_distance_m,
-                                    bool depth = false) {
+                                    bool depth = false, double wind_sway_m = 0.0) {
   const sim::World& world = simulator.world();
   const sim::SessionRecord rec = simulator.SimulateSession(index);
-  renderer->SetSession(rec.conditions);
+  sim::SessionConditions conditions = rec.conditions;
+  if (wind_sway_m > 0) {
+    conditions.wind_sway_m = wind_sway_m;
+    conditions.wind_period_s = 2.0;
+  }
+  renderer->SetSession(conditions);
   RenderedSession out;
   out.id = rec.info.id;
   out.date = rec.info.date;
@@ -82,6 +87,7 @@ inline RenderedSession RenderAround(const sim::Simulator& simulator, sim::Render
     RenderedImage image;
     image.t = t;
     image.world_from_camera = world_from_camera;
+    renderer->SetTime(rec.Seconds(t));
     renderer->Render(world_from_camera, &image.bgr, depth ? &image.depth : nullptr);
     out.images.push_back(std::move(image));
   }

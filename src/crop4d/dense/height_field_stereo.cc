@@ -156,6 +156,7 @@ struct ViewImage {
 struct ViewGeometry {
   Eigen::Matrix3d camera_from_world;
   Eigen::Vector3d center;
+  double time_s = 0;
 };
 
 // The views of one tile: the references first.
@@ -541,6 +542,8 @@ OptionCheck HeightFieldStereo::Options::Check() const {
       .Require(fine_step_m < fine_half_range_m, "fine_step_m", "must be < fine_half_range_m",
                fine_step_m)
       .InRange("max_views", max_views, 2, 32)
+      .AtLeast("near_time_s", near_time_s, 0.0)
+      .Between("near_time_min_green", near_time_min_green, 0.0, 1.0)
       .Greater("max_view_distance_m", max_view_distance_m, 0.0)
       .AtLeast("image_margin_px", image_margin_px, 0.0)
       .AtLeast("min_reference_separation_m", min_reference_separation_m, 0.0)
@@ -602,6 +605,9 @@ CellGrid MakeCellGrid(double cell_m, const DenseRegion& region, std::int64_t* nu
 struct Tile {
   int i0, j0, nx, ny;
   TileViews views;
+  // The views near the first reference in time alone (Options::near_time_s; empty when off);
+  // they replace `views` where the tile holds plants (ChooseViewsInTime).
+  TileViews near_views;
 };
 
 // The tiles that hold cells of the region.
@@ -628,17 +634,49 @@ std::vector<ViewGeometry> MakeViewGeometry(const std::vector<DenseView>& views) 
   for (std::size_t v = 0; v < views.size(); ++v) {
     geometry[v].camera_from_world = views[v].world_from_camera.RotationMatrix().transpose();
     geometry[v].center = views[v].world_from_camera.translation();
+    geometry[v].time_s = views[v].time_s;
   }
   return geometry;
 }
 
+// A view that sees a tile.
+struct ViewCandidate {
+  int view;
+  Eigen::Vector2d parallax;  // (camera xy − point xy) / (camera z − point z)
+};
+
+// Keeps the first candidate (the reference) and the others captured within near_time_s of it;
+// where fewer than min_views + 2 are (a slow camera, a tile at the edge of a pass), the nearest
+// in time up to that many.
+void KeepViewsNearInTime(const Options& o, const std::vector<ViewGeometry>& geometry,
+                         std::vector<ViewCandidate>* candidates) {
+  if (candidates->size() < 2) return;
+  const double t0 = geometry[(*candidates)[0].view].time_s;
+  auto gap = [&](const ViewCandidate& c) { return std::abs(geometry[c.view].time_s - t0); };
+  std::vector<ViewCandidate> by_time(candidates->begin() + 1, candidates->end());
+  std::stable_sort(by_time.begin(), by_time.end(),
+                   [&](const ViewCandidate& a, const ViewCandidate& b) { return gap(a) < gap(b); });
+  const std::size_t least = static_cast<std::size_t>(o.min_views) + 1;
+  std::vector<int> kept;
+  for (std::size_t k = 0; k < by_time.size(); ++k) {
+    if (gap(by_time[k]) <= o.near_time_s || k < least) kept.push_back(by_time[k].view);
+  }
+  std::sort(kept.begin(), kept.end());
+  candidates->erase(std::remove_if(candidates->begin() + 1, candidates->end(),
+                                   [&](const ViewCandidate& c) {
+                                     return !std::binary_search(kept.begin(), kept.end(), c.view);
+                                   }),
+                    candidates->end());
+}
+
 // The views of a tile, from the poses alone: those that see the tile's ground corners (with a
-// margin), at most max_view_distance_m away. The references are the most top-down view and the
-// next most top-down one at least min_reference_separation_m from it; the others are chosen
+// margin), at most max_view_distance_m away (with `near_in_time`, only those captured near the
+// first reference in time: KeepViewsNearInTime). The references are the most top-down view and
+// the next most top-down one at least min_reference_separation_m from it; the others are chosen
 // greedily for parallax. No views when fewer than min_views besides a reference are found.
 TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camera,
                           const std::vector<ViewGeometry>& geometry, const CellGrid& grid,
-                          const GroundLevels& ground, const Tile& tile) {
+                          const GroundLevels& ground, const Tile& tile, bool near_in_time) {
   const double s = grid.s;
   const double margin = o.image_margin_px + o.patch_radius;
   const Eigen::Vector2d lo = grid.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
@@ -650,11 +688,7 @@ TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camer
        {lo, Eigen::Vector2d(hi.x(), lo.y()), Eigen::Vector2d(lo.x(), hi.y()), hi}) {
     corners.emplace_back(c.x(), c.y(), ground.At(c.x(), c.y()));
   }
-  struct Candidate {
-    int view;
-    Eigen::Vector2d parallax;  // (camera xy − point xy) / (camera z − point z)
-  };
-  std::vector<Candidate> candidates;
+  std::vector<ViewCandidate> candidates;
   for (std::size_t v = 0; v < geometry.size(); ++v) {
     const ViewGeometry& g = geometry[v];
     const Eigen::Vector3d d = g.center - center;
@@ -668,11 +702,13 @@ TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camer
     if (inside) candidates.push_back({static_cast<int>(v), d.head<2>() / d.z()});
   }
   if (candidates.size() < 2) return {};
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-    const double na = a.parallax.squaredNorm(), nb = b.parallax.squaredNorm();
-    return na != nb ? na < nb : a.view < b.view;
-  });
-  std::vector<Candidate> chosen{candidates[0]};
+  std::sort(candidates.begin(), candidates.end(),
+            [](const ViewCandidate& a, const ViewCandidate& b) {
+              const double na = a.parallax.squaredNorm(), nb = b.parallax.squaredNorm();
+              return na != nb ? na < nb : a.view < b.view;
+            });
+  if (near_in_time) KeepViewsNearInTime(o, geometry, &candidates);
+  std::vector<ViewCandidate> chosen{candidates[0]};
   std::vector<char> used(candidates.size(), 0);
   used[0] = 1;
   for (std::size_t k = 1; k < candidates.size(); ++k) {
@@ -695,7 +731,7 @@ TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camer
     for (std::size_t k = 0; k < candidates.size(); ++k) {
       if (used[k]) continue;
       double nearest = 1e9;
-      for (const Candidate& c : chosen) {
+      for (const ViewCandidate& c : chosen) {
         nearest = std::min(nearest, (candidates[k].parallax - c.parallax).norm());
       }
       const double score =
@@ -709,7 +745,7 @@ TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camer
     used[best_k] = 1;
     chosen.push_back(candidates[best_k]);
   }
-  for (const Candidate& c : chosen) views.views.push_back(c.view);
+  for (const ViewCandidate& c : chosen) views.views.push_back(c.view);
   if (static_cast<int>(views.views.size()) - 1 < o.min_views) views = {};
   return views;
 }
@@ -722,15 +758,14 @@ std::vector<ViewImage> LoadTileImages(const Options& o, const geometry::PinholeR
                                       const HeightFieldStereo::ImageLoader& load,
                                       std::vector<Tile>* tiles, Summary* summary) {
   std::vector<char> needed(views.size(), 0), colour(views.size(), 0);
-  double view_sum = 0;
   for (const Tile& tile : *tiles) {
-    for (std::size_t k = 0; k < tile.views.views.size(); ++k) {
-      needed[tile.views.views[k]] = 1;
-      if (static_cast<int>(k) < tile.views.num_references) colour[tile.views.views[k]] = 1;
+    for (const TileViews* tv : {&tile.views, &tile.near_views}) {
+      for (std::size_t k = 0; k < tv->views.size(); ++k) {
+        needed[tv->views[k]] = 1;
+        if (static_cast<int>(k) < tv->num_references) colour[tv->views[k]] = 1;
+      }
     }
-    view_sum += static_cast<double>(tile.views.views.size());
   }
-  summary->mean_views_per_tile = tiles->empty() ? 0 : view_sum / static_cast<double>(tiles->size());
   std::vector<int> to_load;
   for (std::size_t v = 0; v < views.size(); ++v) {
     if (needed[v]) to_load.push_back(static_cast<int>(v));
@@ -756,18 +791,68 @@ std::vector<ViewImage> LoadTileImages(const Options& o, const geometry::PinholeR
     }
   }
   for (Tile& tile : *tiles) {
-    TileViews kept;
-    for (std::size_t k = 0; k < tile.views.views.size(); ++k) {
-      if (!images[tile.views.views[k]].ok) continue;
-      kept.views.push_back(tile.views.views[k]);
-      if (static_cast<int>(k) < tile.views.num_references) ++kept.num_references;
+    for (TileViews* tv : {&tile.views, &tile.near_views}) {
+      TileViews kept;
+      for (std::size_t k = 0; k < tv->views.size(); ++k) {
+        if (!images[tv->views[k]].ok) continue;
+        kept.views.push_back(tv->views[k]);
+        if (static_cast<int>(k) < tv->num_references) ++kept.num_references;
+      }
+      if (kept.num_references == 0 || static_cast<int>(kept.views.size()) - 1 < o.min_views) {
+        kept = {};
+      }
+      *tv = kept;
     }
-    if (kept.num_references == 0 || static_cast<int>(kept.views.size()) - 1 < o.min_views) {
-      kept = {};
-    }
-    tile.views = kept;
   }
   return images;
+}
+
+// Where a tile holds plants — at least near_time_min_green of its ground, as its first reference
+// sees it, is green (excess green ≥ top_surface_min_excess_green) — its views near the first
+// reference in time replace its views: leaves sway in the wind, and a view from another pass,
+// tens of seconds later, sees a leaf elsewhere; the match then fails, or finds the canopy below
+// (bench/RESULTS.md, "Leaves in the wind"). Bare soil keeps the views of every pass, which
+// measure it more precisely. Returns the number of tiles that changed.
+int ChooseViewsInTime(const Options& o, const geometry::PinholeRadTan& camera,
+                      const std::vector<ViewGeometry>& geometry,
+                      const std::vector<ViewImage>& images, const CellGrid& grid,
+                      const GroundLevels& ground, std::vector<Tile>* tiles) {
+  std::atomic<int> changed{0};
+  tbb::parallel_for(std::size_t{0}, tiles->size(), [&](std::size_t t) {
+    Tile& tile = (*tiles)[t];
+    if (tile.near_views.views.empty() || tile.views.views.empty() ||
+        tile.near_views.views == tile.views.views) {
+      return;
+    }
+    const int view = tile.near_views.views[0];
+    const ViewGeometry& g = geometry[view];
+    constexpr int kStride = 4;  // cells between the samples
+    int samples = 0, green = 0;
+    for (int j = kStride / 2; j < tile.ny; j += kStride) {
+      for (int i = kStride / 2; i < tile.nx; i += kStride) {
+        const Eigen::Vector2d xy =
+            grid.origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * grid.s;
+        Eigen::Vector2d pixel;
+        std::array<std::uint8_t, 3> colour;
+        if (!camera.Project(
+                g.camera_from_world *
+                    (Eigen::Vector3d(xy.x(), xy.y(), ground.At(xy.x(), xy.y())) - g.center),
+                &pixel) ||
+            !images[view].SampleRgb(static_cast<float>(pixel.x()), static_cast<float>(pixel.y()),
+                                    &colour)) {
+          continue;
+        }
+        ++samples;
+        green += ExcessGreen(colour) >= o.top_surface_min_excess_green;
+      }
+    }
+    if (samples > 0 && green >= o.near_time_min_green * samples) {
+      tile.views = tile.near_views;
+      ++changed;
+    }
+    tile.near_views = {};
+  });
+  return changed;
 }
 
 // What the sweeps found per cell of the grid (beside CellGrid::state; set for kept cells).
@@ -1403,7 +1488,10 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
   summary.num_tiles = static_cast<int>(tiles.size());
   const std::vector<ViewGeometry> geometry = MakeViewGeometry(views);
   tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
-    tiles[t].views = SelectTileViews(o, camera, geometry, grid, ground, tiles[t]);
+    tiles[t].views = SelectTileViews(o, camera, geometry, grid, ground, tiles[t], false);
+    if (o.near_time_s > 0) {
+      tiles[t].near_views = SelectTileViews(o, camera, geometry, grid, ground, tiles[t], true);
+    }
   });
 
   const Clock::time_point load_start = Clock::now();
@@ -1411,6 +1499,11 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
       camera, static_cast<int>(std::ceil(2 * std::max(0.0, o.highpass_sigma_px))) + 1);
   const std::vector<ViewImage> images =
       LoadTileImages(o, camera, rect, views, load, &tiles, &summary);
+  summary.num_tiles_near_in_time =
+      ChooseViewsInTime(o, camera, geometry, images, grid, ground, &tiles);
+  double view_sum = 0;
+  for (const Tile& tile : tiles) view_sum += static_cast<double>(tile.views.views.size());
+  summary.mean_views_per_tile = tiles.empty() ? 0 : view_sum / static_cast<double>(tiles.size());
   summary.load_seconds = SecondsSince(load_start);
 
   // The sweeps, tile by tile.

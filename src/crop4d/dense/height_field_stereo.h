@@ -40,7 +40,9 @@
 // from positions at least min_reference_separation_m apart (the second serves where the first is
 // occluded); then the other views greedily, each time the one farthest in "height parallax"
 // (where the patch moves in the image per metre of height) from those chosen, up to a useful
-// parallax, beyond which the more top-down (sharper) view wins.
+// parallax, beyond which the more top-down (sharper) view wins. Leaves sway in the wind, so
+// where a tile holds plants (green in its first reference), only images captured near that
+// reference in time are candidates (Options::near_time_s); bare soil keeps those of every pass.
 //
 // Written here because neither OpenCV nor any other packaged library has height-field
 // multi-view stereo (OpenCV has two-view rectified block matching only).
@@ -73,7 +75,8 @@ struct RgbImage {
 // selects are loaded).
 struct DenseView {
   geometry::Rigid3 world_from_camera;
-  std::string name;  // for messages (e.g. the image file)
+  std::string name;   // for messages (e.g. the image file)
+  double time_s = 0;  // capture time, s (any clock common to the views)
 };
 
 // Where to reconstruct: the cells inside `bounds` that are inside one of `boxes` or within
@@ -118,6 +121,14 @@ class HeightFieldStereo {
     int fine_patch_radius = 2;
     // Views per tile, the two references included.
     int max_views = 7;
+    // Leaves in the wind: where a tile holds plants (at least near_time_min_green of its ground,
+    // as its first reference sees it, is green: excess green ≥ top_surface_min_excess_green),
+    // its views are the images captured within near_time_s of its first reference (at least
+    // min_views + 2 of them, the nearest in time); elsewhere, images of any time (the views of
+    // other passes measure still soil better). 0: time plays no part. Measured in
+    // bench/RESULTS.md, "Leaves in the wind".
+    double near_time_s = 0.8;
+    double near_time_min_green = 0.05;
     // A view is used for a tile when its camera is within this distance of the tile's centre, m,
     double max_view_distance_m = 3.2;
     // ...and sees the tile's corners at least this far inside the image, px.
@@ -195,9 +206,10 @@ class HeightFieldStereo {
     std::int64_t num_isolated = 0;
     std::int64_t num_occluding = 0;  // hide more than max_blocked_rays points from their reference
     int num_tiles = 0;
-    int num_views = 0;          // given
-    int num_images_used = 0;    // loaded (selected by some tile)
-    int num_images_failed = 0;  // selected but unreadable
+    int num_tiles_near_in_time = 0;  // tiles with plants, matched in views near in time
+    int num_views = 0;               // given
+    int num_images_used = 0;         // loaded (selected by some tile)
+    int num_images_failed = 0;       // selected but unreadable
     double mean_views_per_tile = 0;
     double load_seconds = 0;
     double match_seconds = 0;

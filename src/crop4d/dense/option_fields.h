@@ -22,6 +22,8 @@ void VisitFields(HeightFieldStereo::Options& o, V&& visit) {
   visit("fine_step_m", o.fine_step_m);
   visit("fine_patch_radius", o.fine_patch_radius);
   visit("max_views", o.max_views);
+  visit("near_time_s", o.near_time_s);
+  visit("near_time_min_green", o.near_time_min_green);
   visit("max_view_distance_m", o.max_view_distance_m);
   visit("image_margin_px", o.image_margin_px);
   visit("min_reference_separation_m", o.min_reference_separation_m);

@@ -20,6 +20,8 @@ TEST(DenseOptions, CheckNamesTheWrongOption) {
                {"patch_radius", [](O& o) { o.patch_radius = 6; }},
                {"fine_step_m", [](O& o) { o.fine_step_m = o.fine_half_range_m; }},
                {"max_views", [](O& o) { o.max_views = 33; }},
+               {"near_time_s", [](O& o) { o.near_time_s = -0.5; }},
+               {"near_time_min_green", [](O& o) { o.near_time_min_green = 1.5; }},
                {"min_views", [](O& o) { o.min_views = o.max_views; }},
                {"min_score", [](O& o) { o.min_score = 1; }},
                {"min_neighbours", [](O& o) { o.min_neighbours = 9; }},

@@ -414,8 +414,8 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   const analysis::GroundFunction dtm_ground = [&](double x, double y) { return dtm.Height(x, y); };
   std::vector<std::size_t> plants_found;
   report.sites =
-      analysis::MeasureSeasonSites(sites, sessions, clouds, dtm_ground, area, options.canopy,
-                                   options.plants, options.plane, &plants_found);
+      analysis::MeasureSeasonSites(sites, sessions, clouds, dtm_ground, area, field.info().rows,
+                                   options.canopy, options.plants, options.plane, &plants_found);
   for (std::size_t k = 0; k < clouds.size(); ++k) report.sessions[k].plants = plants_found[k];
   LogLoweredTops(sessions, options, &report);
 

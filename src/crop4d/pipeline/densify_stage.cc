@@ -172,7 +172,7 @@ std::vector<dense::DenseView> ViewsOfPoses(const std::vector<io::StampedPose>& p
   for (const io::StampedPose& p : poses) {
     const auto it = image_of.find(p.t);
     if (it == image_of.end()) continue;
-    views.push_back({p.pose, images.Path(it->second)});
+    views.push_back({p.pose, images.Path(it->second), DurationSeconds(poses.front().t, p.t)});
     view_image->push_back(it->second);
   }
   if (views.empty()) {
@@ -223,6 +223,7 @@ json DenseSummaryJson(const DensifySessionReport& report, const std::string& sta
   summary["views"] = report.num_views;
   summary["points"] = s.num_points;
   summary["top_surface_points"] = s.num_top_surface;
+  summary["tiles_near_in_time"] = s.num_tiles_near_in_time;
   summary["cells"] = {{"region", s.num_cells},
                       {"with_views", s.num_cells_with_views},
                       {"low_texture", s.num_low_texture},

@@ -98,6 +98,9 @@ class DensifyStageTest : public ::testing::Test {
     o.show_progress = false;
     o.boxes = {box_};
     o.stereo.cell_m = 0.015;  // the 320×240 camera's pixels cover twice the demo camera's ground
+    // The strip is still (no wind): views of any time, the most informative there. The choice
+    // of views near in time is checked once below (and in dense/height_field_stereo_test.cc).
+    o.stereo.near_time_s = 0;
     return o;
   }
 
@@ -164,6 +167,18 @@ TEST_F(DensifyStageTest, WritesAnAccurateCloudAndSkipsWhenUpToDate) {
   io::WriteTum(poses_path, poses);
   EXPECT_FALSE(RunDensifyStage(field_, workspace_, Options())[0].skipped);
   EXPECT_TRUE(RunDensifyStage(field_, workspace_, Options())[0].skipped);
+  // The images' capture times reach the matcher: with the default views near in time, tiles
+  // with plants change their views, and the summary counts them.
+  DensifyStageOptions near = Options();
+  near.stereo.near_time_s = dense::HeightFieldStereo::Options{}.near_time_s;
+  const DensifySessionReport with_time = RunDensifyStage(field_, workspace_, near)[0];
+  EXPECT_FALSE(with_time.skipped);
+  EXPECT_GT(with_time.stereo.num_tiles_near_in_time, 0);
+  {
+    std::ifstream in(summary);
+    EXPECT_EQ(nlohmann::json::parse(in).value("tiles_near_in_time", -1),
+              with_time.stereo.num_tiles_near_in_time);
+  }
   DensifyStageOptions other = Options();
   other.stereo.min_score = 0.6;
   EXPECT_FALSE(RunDensifyStage(field_, workspace_, other)[0].skipped);

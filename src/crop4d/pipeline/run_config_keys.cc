@@ -379,6 +379,10 @@ void AddDensifyKeys(std::vector<Key>& k) {
                      "densify_options.margin_m", 0.0, 1000));
   k.push_back(Int("densify", "max_views", "views compared with the reference view per cell",
                   "densify_options.stereo.max_views", 1, 100));
+  k.push_back(Double("densify", "near_time_s",
+                     "tiles with plants are matched in images captured within this time of "
+                     "their reference (leaves sway in the wind; 0: any time)",
+                     "densify_options.stereo.near_time_s", 0.0, 1e6));
   k.push_back(Double("densify", "min_score", "aggregated ZNCC a cell needs",
                      "densify_options.stereo.min_score", -1.0, 1.0));
   k.push_back(
@@ -425,6 +429,9 @@ void AddAnalyzeKeys(std::vector<Key>& k) {
       Double("analyze", "plant_min_prominence_m",
              "touching plants are split where the lower top rises this much above the saddle",
              "analyze.plants.min_prominence_m", 0.0, 10));
+  k.push_back(Double("analyze", "plant_max_row_offset_m",
+                     "plants farther than this from every declared row count at no site (0: off)",
+                     "analyze.plants.max_row_offset_m", 0.0, 100));
   k.push_back(Double("analyze", "min_canopy_height_m",
                      "vegetation this far above the terrain is canopy",
                      "analyze.canopy.min_height_m", 0.0, 10));

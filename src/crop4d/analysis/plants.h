@@ -44,7 +44,7 @@ struct PlantDetectionOptions {
   // from every row's centre line is no plant of the crop — a weed, or noise on the soil between
   // the rows — and no site counts it (PlantsOnRows), metres; 0: every plant counts. Seeders
   // place the crop within a few centimetres of the line; the bound leaves room for a row
-  // declared a few centimetres off. Measured in bench/RESULTS.md, "Plants off the rows".
+  // declared a few centimetres off. Measured in bench/RESULTS.md, "Leaves in the wind".
   double max_row_offset_m = 0.15;
 
   OptionCheck Check() const;

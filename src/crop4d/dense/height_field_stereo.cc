@@ -669,14 +669,13 @@ void KeepViewsNearInTime(const Options& o, const std::vector<ViewGeometry>& geom
                     candidates->end());
 }
 
-// The views of a tile, from the poses alone: those that see the tile's ground corners (with a
-// margin), at most max_view_distance_m away (with `near_in_time`, only those captured near the
-// first reference in time: KeepViewsNearInTime). The references are the most top-down view and
-// the next most top-down one at least min_reference_separation_m from it; the others are chosen
-// greedily for parallax. No views when fewer than min_views besides a reference are found.
-TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camera,
-                          const std::vector<ViewGeometry>& geometry, const CellGrid& grid,
-                          const GroundLevels& ground, const Tile& tile, bool near_in_time) {
+// The views that could serve a tile, from the poses alone: those that see the tile's ground
+// corners (with a margin), at most max_view_distance_m away; the most top-down first.
+std::vector<ViewCandidate> FindViewCandidates(const Options& o,
+                                              const geometry::PinholeRadTan& camera,
+                                              const std::vector<ViewGeometry>& geometry,
+                                              const CellGrid& grid, const GroundLevels& ground,
+                                              const Tile& tile) {
   const double s = grid.s;
   const double margin = o.image_margin_px + o.patch_radius;
   const Eigen::Vector2d lo = grid.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
@@ -701,13 +700,21 @@ TileViews SelectTileViews(const Options& o, const geometry::PinholeRadTan& camer
     }
     if (inside) candidates.push_back({static_cast<int>(v), d.head<2>() / d.z()});
   }
-  if (candidates.size() < 2) return {};
   std::sort(candidates.begin(), candidates.end(),
             [](const ViewCandidate& a, const ViewCandidate& b) {
               const double na = a.parallax.squaredNorm(), nb = b.parallax.squaredNorm();
               return na != nb ? na < nb : a.view < b.view;
             });
-  if (near_in_time) KeepViewsNearInTime(o, geometry, &candidates);
+  return candidates;
+}
+
+// A tile's views among its candidates (FindViewCandidates): the references are the most
+// top-down view and the next most top-down one at least min_reference_separation_m from it; the
+// others are chosen greedily for parallax. No views when fewer than min_views besides a
+// reference are found.
+TileViews PickTileViews(const Options& o, const std::vector<ViewGeometry>& geometry,
+                        const std::vector<ViewCandidate>& candidates) {
+  if (candidates.size() < 2) return {};
   std::vector<ViewCandidate> chosen{candidates[0]};
   std::vector<char> used(candidates.size(), 0);
   used[0] = 1;
@@ -820,11 +827,10 @@ int ChooseViewsInTime(const Options& o, const geometry::PinholeRadTan& camera,
   std::atomic<int> changed{0};
   tbb::parallel_for(std::size_t{0}, tiles->size(), [&](std::size_t t) {
     Tile& tile = (*tiles)[t];
-    if (tile.near_views.views.empty() || tile.views.views.empty() ||
-        tile.near_views.views == tile.views.views) {
-      return;
-    }
-    const int view = tile.near_views.views[0];
+    TileViews near;
+    std::swap(near, tile.near_views);  // needed no more once chosen
+    if (near.views.empty() || tile.views.views.empty() || near.views == tile.views.views) return;
+    const int view = near.views[0];
     const ViewGeometry& g = geometry[view];
     constexpr int kStride = 4;  // cells between the samples
     int samples = 0, green = 0;
@@ -847,10 +853,9 @@ int ChooseViewsInTime(const Options& o, const geometry::PinholeRadTan& camera,
       }
     }
     if (samples > 0 && green >= o.near_time_min_green * samples) {
-      tile.views = tile.near_views;
+      tile.views = std::move(near);
       ++changed;
     }
-    tile.near_views = {};
   });
   return changed;
 }
@@ -1488,9 +1493,12 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
   summary.num_tiles = static_cast<int>(tiles.size());
   const std::vector<ViewGeometry> geometry = MakeViewGeometry(views);
   tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
-    tiles[t].views = SelectTileViews(o, camera, geometry, grid, ground, tiles[t], false);
+    std::vector<ViewCandidate> candidates =
+        FindViewCandidates(o, camera, geometry, grid, ground, tiles[t]);
+    tiles[t].views = PickTileViews(o, geometry, candidates);
     if (o.near_time_s > 0) {
-      tiles[t].near_views = SelectTileViews(o, camera, geometry, grid, ground, tiles[t], true);
+      KeepViewsNearInTime(o, geometry, &candidates);
+      tiles[t].near_views = PickTileViews(o, geometry, candidates);
     }
   });
 

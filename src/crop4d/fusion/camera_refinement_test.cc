@@ -11,17 +11,28 @@
 namespace crop4d::fusion {
 namespace {
 
+// The mount of the tests' camera on the body.
+geometry::Rigid3 TestMount() {
+  return geometry::Rigid3(geometry::ExpQuat(Eigen::Vector3d(0.1, -1.2, 0.3)),
+                          Eigen::Vector3d(0.4, 0.0, 1.5));
+}
+
+// `n` passes of `camera` at TestMount().
+std::vector<slam::RowOptimiser::Input> PassesOf(const geometry::PinholeRadTan& camera, int n) {
+  std::vector<slam::RowOptimiser::Input> passes(n);
+  for (slam::RowOptimiser::Input& pass : passes) {
+    pass.camera = &camera;
+    pass.body_from_camera = TestMount();
+  }
+  return passes;
+}
+
 TEST(CameraRefinement, PassesWithTheSameCalibrationShareOneCamera) {
   const geometry::PinholeRadTan camera = slam::testing::DistortedTestCamera();
   geometry::PinholeRadTan other_lens = camera;
   other_lens.k2 += 1e-9;
-  const geometry::Rigid3 mount(geometry::ExpQuat(Eigen::Vector3d(0.1, -1.2, 0.3)),
-                               Eigen::Vector3d(0.4, 0.0, 1.5));
-  std::vector<slam::RowOptimiser::Input> passes(5);
-  for (slam::RowOptimiser::Input& pass : passes) {
-    pass.camera = &camera;
-    pass.body_from_camera = mount;
-  }
+  const geometry::Rigid3 mount = TestMount();
+  std::vector<slam::RowOptimiser::Input> passes = PassesOf(camera, 5);
   passes[1].camera = &other_lens;
   passes[2].camera = nullptr;  // no camera: in no group
   passes[4].body_from_camera = geometry::Rigid3(mount.rotation(), Eigen::Vector3d(0.4, 0.0, 1.6));
@@ -39,13 +50,8 @@ TEST(CameraRefinement, ASecondSolveHoldsTheCamerasTheFirstRefined) {
   const geometry::PinholeRadTan camera = slam::testing::DistortedTestCamera();
   geometry::PinholeRadTan other = camera;
   other.fx += 5.0;
-  const geometry::Rigid3 mount(geometry::ExpQuat(Eigen::Vector3d(0.1, -1.2, 0.3)),
-                               Eigen::Vector3d(0.4, 0.0, 1.5));
-  std::vector<slam::RowOptimiser::Input> passes(3);
-  for (slam::RowOptimiser::Input& pass : passes) {
-    pass.camera = &camera;
-    pass.body_from_camera = mount;
-  }
+  const geometry::Rigid3 mount = TestMount();
+  std::vector<slam::RowOptimiser::Input> passes = PassesOf(camera, 3);
   passes[2].camera = &other;  // another camera, not refined
   // The first solve (passes 0 and 1 alone) refined the camera.
   RefinedCalibration refined;
@@ -94,8 +100,7 @@ TEST(CameraRefinement, ASecondSolveHoldsTheCamerasTheFirstRefined) {
 
 TEST(CameraRefinement, RayAnglesMeasureHowFarACalibrationTurnsTheRays) {
   const geometry::PinholeRadTan camera = slam::testing::DistortedTestCamera();
-  const geometry::Rigid3 mount(geometry::ExpQuat(Eigen::Vector3d(0.1, -1.2, 0.3)),
-                               Eigen::Vector3d(0.4, 0.0, 1.5));
+  const geometry::Rigid3 mount = TestMount();
   EXPECT_EQ(RayAngleRmsDeg(camera, mount, camera, mount), 0.0);
   // The mount turned by 0.5° about the optical axis's normal (camera x): every ray turns by
   // 0.5° times the sine of its angle to that axis, so a little less than 0.5° on average.

@@ -10,14 +10,16 @@ start=$(date +%s)
 # The simulation is deterministic: reuse the field when the simulator's source and the
 # configuration are the ones that made it (a change elsewhere in crop4d does not re-simulate).
 repo=$(cd "$(dirname "$0")/.." && pwd)
-stamp="$("$crop4d" --version; "$crop4d" simulate --print-config --preset demo;
+stamp="$("$crop4d" --version; "$crop4d" simulate --print-config --preset demo --depth;
          cat "$repo"/src/crop4d/sim/*.cc "$repo"/src/crop4d/sim/*.h "$repo"/src/crop4d/io/dataset_writer.cc | md5sum)"
 if [ -f "$field/field.yaml" ] && [ "$(cat "$demo_dir/.simulated" 2>/dev/null)" = "$stamp" ]; then
   echo "demo: reusing the simulated field in $field (delete $demo_dir to simulate again)"
 else
   rm -rf "$field" "$demo_dir/.simulated"
   mkdir -p "$demo_dir"
-  "$crop4d" simulate --preset demo --out "$field"
+  # The imperfect field (the simulator's default realism). Its true depth maps are written
+  # with the images, so the evaluation reads them instead of rendering each again.
+  "$crop4d" simulate --preset demo --depth --out "$field"
   printf '%s' "$stamp" > "$demo_dir/.simulated"
 fi
 

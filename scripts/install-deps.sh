@@ -9,6 +9,8 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config git clang libclang-rt-14-dev libfuzzer-14-dev
   # maths and optimisation
   libeigen3-dev libceres-dev libsuitesparse-dev
+  # the BLAS under SuiteSparse's Cholesky (CMakeLists.txt: BLA_VENDOR)
+  libopenblas-pthread-dev
   # vision
   libopencv-dev
   # geodesy and rasters

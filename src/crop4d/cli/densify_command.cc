@@ -104,8 +104,11 @@ RunFunction SetupDensify(CLI::App& app) {
          "Grid cell size, m; the 5x5 matching patch spans 5 cells and must fit on a top leaflet")
       ->capture_default_str();
   app.add_option("--max-canopy-height", o.stereo.max_canopy_height_m,
-                 "Highest plant top searched above the ground, m")
+                 "Highest plant top searched above the ground, m (the ceiling's upper bound)")
       ->capture_default_str();
+  app.add_flag("--fixed-ceiling{false}", o.adaptive_ceiling,
+               "Search up to --max-canopy-height in every session, not only up to the canopy "
+               "that the session's sparse cloud shows");
   app.add_option("--margin", o.margin_m, "Margin around the crop rows of field.yaml, m")
       ->capture_default_str();
   app.add_option("--box", args->boxes,

@@ -1,6 +1,6 @@
 // crop4d simulate: make a synthetic field (docs/simulator.md).
 //
-//   crop4d simulate --preset {tiny,demo,paper} [--realism {ideal,real}] [--config FILE.yaml]
+//   crop4d simulate --preset {tiny,demo,paper} [--realism {real,ideal}] [--config FILE.yaml]
 //                   [--seed N] [--depth] [--force] --out FIELD
 //   crop4d simulate --print-config [--preset P] [--config FILE.yaml]
 
@@ -24,7 +24,9 @@ RunFunction SetupSimulate(CLI::App& app) {
   struct Args {
     std::string preset = "demo";
     std::string config_file;
-    std::string realism;
+    // The field a user simulates has the imperfections of real rigs unless asked for the
+    // perfect world; sim::PresetConfig (the tests' presets) stays ideal.
+    std::string realism = "real";
     std::optional<std::uint64_t> seed;
     bool depth = false;
     bool print_config = false;
@@ -38,9 +40,12 @@ RunFunction SetupSimulate(CLI::App& app) {
       ->check(CLI::IsMember(sim::PresetNames()))
       ->capture_default_str();
   app.add_option("--realism", args->realism,
-                 "Set every imperfection of real rigs at once (the `realism` key): ideal (none, "
-                 "the presets' default) or real; applied to the preset before --config")
-      ->check(CLI::IsMember(sim::RealismLevels()));
+                 "Set every imperfection of real rigs at once (the `realism` key): real (soil "
+                 "change, wind, standstills, calibration and clock errors, image noise and "
+                 "blur, IMU and GPS faults) or ideal (none: the perfect world); applied to the "
+                 "preset before --config")
+      ->check(CLI::IsMember(sim::RealismLevels()))
+      ->capture_default_str();
   app.add_option("--config", args->config_file,
                  "YAML file whose keys override the preset's (same keys as --print-config)");
   app.add_option("--seed", args->seed, "Master seed (overrides the configuration's seed)");
@@ -56,7 +61,7 @@ RunFunction SetupSimulate(CLI::App& app) {
 
   return [args]() -> int {
     sim::SimConfig config = sim::PresetConfig(args->preset);
-    if (!args->realism.empty()) sim::ApplyRealism(args->realism, &config);
+    sim::ApplyRealism(args->realism, &config);
     if (!args->config_file.empty()) sim::LoadSimConfigFile(args->config_file, &config);
     if (args->seed) config.seed = *args->seed;
     if (args->depth) config.ground_truth.depth = true;

@@ -118,4 +118,48 @@ void GroundLevels::Range(const Eigen::AlignedBox2d& box, double* lo, double* hi)
   if (!std::isfinite(*lo)) *lo = *hi = At(box.center().x(), box.center().y());
 }
 
+OptionCheck CanopyCeilingOptions::Check() const {
+  OptionChecker c;
+  c.InRange("quantile", quantile, 0.0, 1.0)
+      .AtLeast("scale", scale, 1.0)
+      .AtLeast("margin_m", margin_m, 0.0)
+      .Greater("min_m", min_m, 0.0);
+  return c.Result();
+}
+
+CanopyCeiling SparseCanopyCeiling(const std::vector<Eigen::Vector3d>& points,
+                                  const GroundLevels& ground, const Eigen::AlignedBox2d& box,
+                                  const CanopyCeilingOptions& options, double max_m) {
+  CROP4D_CHECK_OPTIONS(options, "SparseCanopyCeiling");
+  CROP4D_CHECK(ground.valid());
+  std::vector<double> heights;
+  for (const Eigen::Vector3d& p : points) {
+    if (!p.allFinite() || !box.contains(p.head<2>())) continue;
+    heights.push_back(p.z() - ground.At(p.x(), p.y()));
+  }
+  CanopyCeiling c;
+  c.num_points = static_cast<int>(heights.size());
+  c.ceiling_m = max_m;
+  if (heights.empty()) return c;
+  const std::size_t k = std::min(
+      heights.size() - 1,
+      static_cast<std::size_t>(std::floor(options.quantile * static_cast<double>(heights.size()))));
+  std::nth_element(heights.begin(), heights.begin() + static_cast<std::ptrdiff_t>(k),
+                   heights.end());
+  c.quantile_height_m = heights[k];
+  c.ceiling_m = std::clamp(options.scale * std::max(c.quantile_height_m, 0.0) + options.margin_m,
+                           std::min(options.min_m, max_m), max_m);
+  return c;
+}
+
+std::int64_t PointsNearCeiling(const std::vector<Eigen::Vector3d>& points,
+                               const GroundLevels& ground, double ceiling_m, double band_m) {
+  CROP4D_CHECK(ground.valid());
+  std::int64_t n = 0;
+  for (const Eigen::Vector3d& p : points) {
+    if (p.allFinite() && p.z() - ground.At(p.x(), p.y()) >= ceiling_m - band_m) ++n;
+  }
+  return n;
+}
+
 }  // namespace crop4d::dense

@@ -603,7 +603,7 @@ CellGrid MakeCellGrid(double cell_m, const DenseRegion& region, std::int64_t* nu
 // A tile of at most tile_cells × tile_cells cells, matched as one: its cells (i0, j0) ..
 // (i0 + nx − 1, j0 + ny − 1) and the views that match them.
 struct Tile {
-  int i0, j0, nx, ny;
+  int i0 = 0, j0 = 0, nx = 0, ny = 0;
   TileViews views;
   // The views near the first reference in time alone (Options::near_time_s; empty when off);
   // they replace `views` where the tile holds plants (ChooseViewsInTime).
@@ -616,7 +616,11 @@ std::vector<Tile> MakeTiles(const CellGrid& grid, int tile_cells) {
   std::vector<Tile> tiles;
   for (int j0 = 0; j0 < grid.gy; j0 += T) {
     for (int i0 = 0; i0 < grid.gx; i0 += T) {
-      Tile tile{i0, j0, std::min(T, grid.gx - i0), std::min(T, grid.gy - j0), {}};
+      Tile tile;
+      tile.i0 = i0;
+      tile.j0 = j0;
+      tile.nx = std::min(T, grid.gx - i0);
+      tile.ny = std::min(T, grid.gy - j0);
       bool any = false;
       for (int j = j0; j < j0 + tile.ny && !any; ++j) {
         for (int i = i0; i < i0 + tile.nx && !any; ++i) {

@@ -57,4 +57,12 @@ void VisitFields(GroundLevels::Options& o, V&& visit) {
   visit("min_points", o.min_points);
 }
 
+template <class V>
+void VisitFields(CanopyCeilingOptions& o, V&& visit) {
+  visit("quantile", o.quantile);
+  visit("scale", o.scale);
+  visit("margin_m", o.margin_m);
+  visit("min_m", o.min_m);
+}
+
 }  // namespace crop4d::dense

@@ -34,6 +34,13 @@ TEST(DenseOptions, CheckNamesTheWrongOption) {
                                      {"quantile", [](G& o) { o.quantile = 1.5; }},
                                      {"min_points", [](G& o) { o.min_points = 0; }},
                                  });
+  using C = CanopyCeilingOptions;
+  ExpectCheckNamesOption<C>(C(), {
+                                     {"quantile", [](C& o) { o.quantile = 1.5; }},
+                                     {"scale", [](C& o) { o.scale = 0.5; }},
+                                     {"margin_m", [](C& o) { o.margin_m = -0.1; }},
+                                     {"min_m", [](C& o) { o.min_m = 0; }},
+                                 });
 }
 
 }  // namespace

@@ -209,6 +209,21 @@ dense::DenseRegion RegionToDensify(const io::Field& field, const io::PlyPointClo
   return region;
 }
 
+// Plants that reach the adaptive ceiling may have lost their tops to it: say so (never a
+// silently cut canopy). On the imperfect demo field no dense point of any session lies within
+// 2 cm of its ceiling; 0.05 % of a session's points is a leaf of about 10 × 10 cm.
+void WarnIfCeilingReached(const std::string& session, const dense::CanopyCeiling& ceiling,
+                          std::int64_t num_points) {
+  constexpr double kMaxShare = 0.0005;
+  if (num_points <= 0 || ceiling.dense_points_near <= kMaxShare * num_points) return;
+  spdlog::warn(
+      "densify {}: {} of {} dense points lie within 2 cm of the plant tops' search ceiling "
+      "({:.2f} m above the ground, from the sparse cloud): taller plants may have lost their "
+      "tops; densify again with a higher --max-canopy-height and --fixed-ceiling "
+      "(densify.adaptive_ceiling: false)",
+      session, ceiling.dense_points_near, num_points, ceiling.ceiling_m);
+}
+
 // The dense summary's content (before its output is recorded).
 json DenseSummaryJson(const DensifySessionReport& report, const std::string& stamp,
                       const json& options_json, const dense::DenseRegion& region,
@@ -224,6 +239,10 @@ json DenseSummaryJson(const DensifySessionReport& report, const std::string& sta
   summary["points"] = s.num_points;
   summary["top_surface_points"] = s.num_top_surface;
   summary["tiles_near_in_time"] = s.num_tiles_near_in_time;
+  summary["canopy_ceiling"] = {{"m", report.ceiling.ceiling_m},
+                               {"sparse_quantile_height_m", report.ceiling.quantile_height_m},
+                               {"sparse_points", report.ceiling.num_points},
+                               {"dense_points_near", report.ceiling.dense_points_near}};
   summary["cells"] = {{"region", s.num_cells},
                       {"with_views", s.num_cells_with_views},
                       {"low_texture", s.num_low_texture},
@@ -289,6 +308,18 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
 
   dense::HeightFieldStereo::Options stereo_options = options.stereo;
   stereo_options.show_progress = options.show_progress;
+  if (options.adaptive_ceiling) {
+    report.ceiling = dense::SparseCanopyCeiling(
+        sparse.points, ground, region.bounds, options.ceiling, options.stereo.max_canopy_height_m);
+    stereo_options.max_canopy_height_m = report.ceiling.ceiling_m;
+    spdlog::info(
+        "densify {}: plant tops searched up to {:.2f} m above the ground ({:.1f} % of the {} "
+        "sparse points lie below {:.3f} m; at most {:.2f} m)",
+        id, report.ceiling.ceiling_m, 100.0 * options.ceiling.quantile, report.ceiling.num_points,
+        report.ceiling.quantile_height_m, options.stereo.max_canopy_height_m);
+  } else {
+    report.ceiling.ceiling_m = options.stereo.max_canopy_height_m;
+  }
   const dense::HeightFieldStereo stereo(stereo_options);
   dense::HeightFieldStereo::Result result;
   arena->execute([&] {
@@ -308,6 +339,11 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
         region, ground);
   });
   report.stereo = result.summary;
+  if (options.adaptive_ceiling && report.ceiling.ceiling_m < options.stereo.max_canopy_height_m) {
+    report.ceiling.dense_points_near =
+        dense::PointsNearCeiling(result.cloud.points, ground, report.ceiling.ceiling_m, 0.02);
+    WarnIfCeilingReached(id, report.ceiling, result.summary.num_points);
+  }
 
   io::PlyWriteOptions ply;
   ply.comment =
@@ -340,6 +376,7 @@ std::string DensifyStageOptions::Check() const {
   // The nested options of the modules (docs/run.md, densify).
   if (const std::string why = stereo.Check(); !why.empty()) return "stereo." + why;
   if (const std::string why = ground.Check(); !why.empty()) return "ground." + why;
+  if (const std::string why = ceiling.Check(); !why.empty()) return "ceiling." + why;
   return {};
 }
 

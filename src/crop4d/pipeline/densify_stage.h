@@ -45,6 +45,10 @@ struct DensifyStageOptions {
   double radius_m = 0.6;
   dense::HeightFieldStereo::Options stereo;
   dense::GroundLevels::Options ground;
+  // Sweep each session only up to the canopy that its sparse cloud shows (dense::
+  // SparseCanopyCeiling), at most stereo.max_canopy_height_m; false: always up to it.
+  bool adaptive_ceiling = true;
+  dense::CanopyCeilingOptions ceiling;
   // Worker threads (0: all cores).
   int num_threads = 0;
   bool force = false;
@@ -62,6 +66,7 @@ struct DensifySessionReport {
   int num_views = 0;           // poses with an image in the session
   Eigen::AlignedBox2d region;  // the grid's bounds
   dense::HeightFieldStereo::Summary stereo;
+  dense::CanopyCeiling ceiling;  // the plant tops' search range (ceiling_m: the one swept)
   std::string ply_path;
   double seconds = 0;
 };

@@ -93,6 +93,17 @@ class DensifyStageTest : public ::testing::Test {
                                 {images.camera().camera, images.camera().body_from_sensor});
   }
 
+  // The tallest plant of the box on the strip's date, m above the ground.
+  double TallestPlant() const {
+    const sim::World& world = simulator_->world();
+    const Timestamp date = simulator_->config().SessionDates()[0];
+    double tallest = 0;
+    for (const sim::Plant& plant : world.plants()) {
+      if (box_.contains(plant.xy)) tallest = std::max(tallest, world.StateAt(plant, date).height_m);
+    }
+    return tallest;
+  }
+
   DensifyStageOptions Options() const {
     DensifyStageOptions o;
     o.show_progress = false;
@@ -149,7 +160,16 @@ TEST_F(DensifyStageTest, WritesAnAccurateCloudAndSkipsWhenUpToDate) {
     const nlohmann::json j = nlohmann::json::parse(in);
     EXPECT_FALSE(j.value("fingerprint", "").empty());
     EXPECT_EQ(j.value("points", std::int64_t{0}), first[0].stereo.num_points);
+    EXPECT_DOUBLE_EQ(j["canopy_ceiling"].value("m", 0.0), first[0].ceiling.ceiling_m);
   }
+  // This sparse cloud holds soil alone: the plant tops are searched up to the least ceiling
+  // (0.25 m), the strip's tallest plant (0.246 m) reaches the 2 cm below it, and the dense
+  // points there are counted (the stage warns). DensifyStageTest.
+  // SearchCeilingAboveThePlantsOfTheSparseCloud has plants in its sparse cloud.
+  EXPECT_GT(first[0].ceiling.num_points, 0);
+  EXPECT_DOUBLE_EQ(first[0].ceiling.ceiling_m, dense::CanopyCeilingOptions{}.min_m);
+  EXPECT_GT(TallestPlant(), first[0].ceiling.ceiling_m - 0.02);
+  EXPECT_GT(first[0].ceiling.dense_points_near, 0);
 
   // Unchanged: skipped; --force: densified again.
   const std::vector<DensifySessionReport> second = RunDensifyStage(field_, workspace_, Options());
@@ -200,6 +220,38 @@ TEST_F(DensifyStageTest, WritesAnAccurateCloudAndSkipsWhenUpToDate) {
     EXPECT_NE(std::string(e.what()).find("camera.json"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("crop4d fuse"), std::string::npos) << e.what();
   }
+}
+
+TEST_F(DensifyStageTest, SearchCeilingAboveThePlantsOfTheSparseCloud) {
+  if (!MakeField()) GTEST_SKIP() << "no headless OpenGL";
+  // A sparse cloud like the fused SIFT cloud: soil, and points on the leaves of every plant
+  // at 30-70 % of its height (SIFT rarely tracks the top leaf).
+  const sim::World& world = simulator_->world();
+  const Timestamp date = simulator_->config().SessionDates()[0];
+  io::PlyPointCloud sparse;
+  sparse.points = dense::testing::SoilCloud(world, box_);
+  for (const sim::Plant& plant : world.plants()) {
+    const sim::PlantState state = world.StateAt(plant, date);
+    if (!state.emerged) continue;
+    const double ground = world.TerrainHeight(plant.xy.x(), plant.xy.y());
+    for (int k = 0; k < 5; ++k) {
+      const double angle = 1.3 * k;
+      const Eigen::Vector2d xy = plant.xy + 0.5 * state.canopy_radius_m *
+                                                Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      sparse.points.emplace_back(xy.x(), xy.y(), ground + (0.3 + 0.1 * k) * state.height_m);
+    }
+  }
+  io::WritePly(workspace::Layout(workspace_).FusedSparse(session_).string(), sparse);
+  const DensifySessionReport adaptive = RunDensifyStage(field_, workspace_, Options())[0];
+  EXPECT_GT(adaptive.ceiling.ceiling_m, TallestPlant() + 0.05);
+  EXPECT_LT(adaptive.ceiling.ceiling_m, Options().stereo.max_canopy_height_m);
+  EXPECT_EQ(adaptive.ceiling.dense_points_near, 0);
+  // --fixed-ceiling: the whole range, and another fingerprint.
+  DensifyStageOptions fixed = Options();
+  fixed.adaptive_ceiling = false;
+  const DensifySessionReport whole = RunDensifyStage(field_, workspace_, fixed)[0];
+  EXPECT_FALSE(whole.skipped);
+  EXPECT_DOUBLE_EQ(whole.ceiling.ceiling_m, fixed.stereo.max_canopy_height_m);
 }
 
 TEST_F(DensifyStageTest, MissingFusedOutputSaysToRunFuse) {

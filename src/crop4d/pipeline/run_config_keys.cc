@@ -375,6 +375,10 @@ void AddDensifyKeys(std::vector<Key>& k) {
                      "densify_options.stereo.cell_m", 0.001, 1.0));
   k.push_back(Double("densify", "max_canopy_height_m", "heights swept above the ground",
                      "densify_options.stereo.max_canopy_height_m", 0.01, 100));
+  k.push_back(Bool("densify", "adaptive_ceiling",
+                   "sweep each session only up to the canopy its sparse cloud shows (at most "
+                   "max_canopy_height_m)",
+                   "densify_options.adaptive_ceiling"));
   k.push_back(Double("densify", "margin_m", "the crop rows widened by this much",
                      "densify_options.margin_m", 0.0, 1000));
   k.push_back(Int("densify", "max_views", "views compared with the reference view per cell",

@@ -53,7 +53,7 @@ TEST(RunConfigTest, KeysSetTheStageOptions) {
                                      "  neighbors: 6\n"
                                      "  max_reprojection_error_px: 4.5\n"
                                      "associate: {method: both, session_gap: 2}\n"
-                                     "fuse: {linear_solver: exact, matches_per_image_pair: 0}\n"
+                                     "fuse: {linear_solver: iterative, matches_per_image_pair: 0}\n"
                                      "densify: {cell_m: 0.01, max_views: 5}\n"
                                      "analyze: {canopy_top: crown-peaks, greenness: exgr, "
                                      "sites: my_sites.csv, max_shrink_m: -1, "
@@ -69,7 +69,7 @@ TEST(RunConfigTest, KeysSetTheStageOptions) {
   EXPECT_DOUBLE_EQ(c.slam.optimiser.max_reprojection_error_px, 4.5);
   EXPECT_EQ(c.associate.method, "both");
   EXPECT_EQ(c.associate.session_gap, 2);
-  EXPECT_FALSE(c.fuse.optimiser.row.iterative_schur);
+  EXPECT_TRUE(c.fuse.optimiser.row.iterative_schur);
   EXPECT_EQ(c.fuse.max_matches_per_image_pair, 0);
   EXPECT_DOUBLE_EQ(c.densify_options.stereo.cell_m, 0.01);
   EXPECT_EQ(c.densify_options.stereo.max_views, 5);

@@ -139,6 +139,8 @@ void VisitFields(DensifyStageOptions& o, V&& visit) {
   visit("radius_m", o.radius_m);
   visit("stereo", o.stereo);
   visit("ground", o.ground);
+  visit("adaptive_ceiling", o.adaptive_ceiling);
+  visit("ceiling", o.ceiling);
   visit("num_threads", o.num_threads, Role::kControl);
   visit("force", o.force, Role::kControl);
   visit("show_progress", o.show_progress, Role::kControl);

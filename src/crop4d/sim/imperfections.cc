@@ -1,6 +1,7 @@
 #include "crop4d/sim/imperfections.h"
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -144,10 +145,34 @@ double AutoExposureGain(const ImageEffectsOptions& o, std::uint64_t seed, double
   return 1.0 + o.auto_exposure_jitter * n;
 }
 
+PixelRays ComputePixelRays(const geometry::PinholeRadTan& camera) {
+  PixelRays table;
+  table.width = camera.width;
+  table.height = camera.height;
+  table.rays.assign(static_cast<std::size_t>(camera.width) * camera.height,
+                    Eigen::Vector3d::Zero());
+  tbb::parallel_for(0, camera.height, [&](int r) {
+    for (int c = 0; c < camera.width; ++c) {
+      Eigen::Vector3d ray;
+      if (camera.Unproject(Eigen::Vector2d(c, r), &ray)) {
+        table.rays[static_cast<std::size_t>(r) * camera.width + c] = ray;
+      }
+    }
+  });
+  return table;
+}
+
 cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::PinholeRadTan& camera,
                    const std::vector<geometry::Rigid3>& begin_rows,
                    const std::vector<geometry::Rigid3>& end_rows) {
+  return MotionBlur(bgr, depth, camera, ComputePixelRays(camera), begin_rows, end_rows);
+}
+
+cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::PinholeRadTan& camera,
+                   const PixelRays& rays, const std::vector<geometry::Rigid3>& begin_rows,
+                   const std::vector<geometry::Rigid3>& end_rows) {
   CROP4D_CHECK(bgr.size() == depth.size() && depth.type() == CV_32F);
+  CROP4D_CHECK(rays.width == bgr.cols && rays.height == bgr.rows);
   CROP4D_CHECK(begin_rows.size() == end_rows.size() &&
                (begin_rows.size() == 1 || static_cast<int>(begin_rows.size()) == bgr.rows));
   cv::Mat sharp;
@@ -158,14 +183,15 @@ cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::Pin
   for (int r = 0; r < sharp.rows; ++r) {
     const float* z = depth.ptr<float>(r);
     float* o = out.ptr<float>(r);
+    const Eigen::Vector3d* row_rays = rays.rays.data() + static_cast<std::size_t>(r) * rays.width;
     const size_t row = begin_rows.size() == 1 ? 0 : static_cast<size_t>(r);
     const geometry::Rigid3& begin_from_mid = begin_rows[row];
     const geometry::Rigid3& end_from_mid = end_rows[row];
     for (int c = 0; c < sharp.cols; ++c) {
       const Eigen::Vector2d pixel(c, r);
-      Eigen::Vector3d ray;
+      const Eigen::Vector3d& ray = row_rays[c];
       Eigen::Vector2d p0 = pixel, p1 = pixel;
-      if (camera.Unproject(pixel, &ray) && ray.z() > 1e-9) {
+      if (ray.z() > 1e-9) {
         const double d = std::isfinite(z[c]) && z[c] > 0.0f ? z[c] : kSkyDepth;
         const Eigen::Vector3d point = ray * (d / ray.z());
         Eigen::Vector2d q0, q1;

@@ -110,6 +110,21 @@ double AutoExposureGain(const ImageEffectsOptions& options, std::uint64_t seed, 
 cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::PinholeRadTan& camera,
                    const std::vector<geometry::Rigid3>& begin_from_mid,
                    const std::vector<geometry::Rigid3>& end_from_mid);
+
+// The viewing ray of every pixel of a camera, row-major (Unproject; z = 0 where it fails).
+// Undistorting is iterative and was most of MotionBlur's time: a session computes the table
+// once and blurs every image with it.
+struct PixelRays {
+  int width = 0;
+  int height = 0;
+  std::vector<Eigen::Vector3d> rays;
+};
+PixelRays ComputePixelRays(const geometry::PinholeRadTan& camera);
+
+// MotionBlur with the camera's ray table (ComputePixelRays(camera)): the same image.
+cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::PinholeRadTan& camera,
+                   const PixelRays& rays, const std::vector<geometry::Rigid3>& begin_from_mid,
+                   const std::vector<geometry::Rigid3>& end_from_mid);
 inline cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth,
                           const geometry::PinholeRadTan& camera,
                           const geometry::Rigid3& begin_from_mid,

@@ -160,6 +160,34 @@ double EdgeWidth(const cv::Mat& image, int r) {
   return last - first + 1;
 }
 
+TEST(ImperfectionsTest, PixelRaysProjectBackToTheirPixels) {
+  // A strongly distorted camera: every ray of the table projects back onto its pixel, and its
+  // z is positive (Unproject succeeded) across the whole image.
+  geometry::PinholeRadTan camera;
+  camera.width = 64;
+  camera.height = 48;
+  camera.fx = camera.fy = 40.0;
+  camera.cx = 31.5;
+  camera.cy = 23.5;
+  camera.k1 = -0.25;
+  camera.k2 = 0.05;
+  camera.p1 = 0.001;
+  const PixelRays table = ComputePixelRays(camera);
+  ASSERT_EQ(table.width, 64);
+  ASSERT_EQ(table.height, 48);
+  ASSERT_EQ(table.rays.size(), 64u * 48u);
+  for (int r = 0; r < camera.height; ++r) {
+    for (int c = 0; c < camera.width; ++c) {
+      const Eigen::Vector3d& ray = table.rays[static_cast<std::size_t>(r) * camera.width + c];
+      ASSERT_GT(ray.z(), 0.0) << c << "," << r;
+      Eigen::Vector2d back;
+      ASSERT_TRUE(camera.Project(ray, &back));
+      EXPECT_NEAR(back.x(), c, 1e-6);
+      EXPECT_NEAR(back.y(), r, 1e-6);
+    }
+  }
+}
+
 TEST(ImperfectionsTest, MotionBlurGrowsWithSpeedTimesExposure) {
   // A camera looking at a wall 2 m away moves sideways during the exposure: the edge on the
   // wall is smeared over fx · (speed · exposure) / depth pixels.
@@ -301,7 +329,9 @@ TEST(ImperfectionsTest, GpsFaultsHaveTheConfiguredRatesAndSizes) {
       float_x.push_back(f.extra.x());
       float_z.push_back(f.extra.z());
     }
-    if (!f.outlier && !f.is_float) EXPECT_TRUE(f.extra.isZero(0.0));
+    if (!f.outlier && !f.is_float) {
+      EXPECT_TRUE(f.extra.isZero(0.0));
+    }
   }
   const double n = faults.size();
   // Outliers: binomial, within 4 sigma.

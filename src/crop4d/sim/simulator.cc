@@ -540,6 +540,8 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
     fmt::memory_buffer exposure_csv;
     fmt::format_to(std::back_inserter(exposure_csv),
                    "#timestamp [ns],capture [ns],gain,exposure [s]\n");
+    const geometry::PinholeRadTan intrinsics = cfg.camera.Intrinsics();
+    const PixelRays rays = blur ? ComputePixelRays(intrinsics) : PixelRays();
     {
       Progress progress("render " + rec.info.id, rec.image_times.size(), "img");
       tbb::task_group group;
@@ -589,15 +591,14 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
         }
         const std::uint64_t noise_seed =
             HashCombine(cfg.seed, kTagImageNoise, static_cast<std::uint64_t>(i), f);
-        const geometry::PinholeRadTan intrinsics = cfg.camera.Intrinsics();
         auto encode = [frame, image_path, depth_path, &progress, &cfg, image_effects, blur,
-                       begin_from_mid, end_from_mid, gain, noise_seed, intrinsics]() {
+                       begin_from_mid, end_from_mid, gain, noise_seed, &intrinsics, &rays]() {
           if (image_effects) {
             const cv::Mat sharp = frame->first;
-            frame->first = ExposeAndQuantise(
-                blur ? MotionBlur(sharp, frame->second, intrinsics, begin_from_mid, end_from_mid)
-                     : sharp,
-                gain, cfg.image, noise_seed);
+            frame->first = ExposeAndQuantise(blur ? MotionBlur(sharp, frame->second, intrinsics,
+                                                               rays, begin_from_mid, end_from_mid)
+                                                  : sharp,
+                                             gain, cfg.image, noise_seed);
           }
           if (cfg.image.jpeg_quality > 0) {
             EncodeJpeg(frame->first, cfg.image.jpeg_quality, image_path);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <mutex>
 #include <stdexcept>
 #include <thread>
 
@@ -18,8 +19,24 @@
 #include "crop4d/slam/tilt_prior_factor.h"
 #include "crop4d/slam/time_offset_reprojection_factor.h"
 
+// OpenBLAS's thread count (CMakeLists.txt links SuiteSparse to OpenBLAS); weak, so that
+// another BLAS links too.
+extern "C" void openblas_set_num_threads(int num_threads) __attribute__((weak));
+
 namespace crop4d::slam {
 namespace {
+
+// One BLAS thread. OpenBLAS starts a thread per core whose idle threads spin; beside Ceres' and
+// oneTBB's own threads (and two test or stage processes side by side) they oversubscribe the
+// cores: a row-SLAM test took 12.8 s alone (4.4 s of system time) and 2.4x as long beside
+// another. One thread: 11.1 s (0.65 s); the demo's joint solve, which has the largest
+// supernodes, is 6 % slower (41.8 -> 44.5 s).
+void UseOneBlasThread() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (openblas_set_num_threads != nullptr) openblas_set_num_threads(1);
+  });
+}
 
 // True when the samples cover [t_i, t_j] with no two consecutive samples (including the last
 // one at or before t_i and the first at or after t_j) further apart than max_gap.
@@ -412,6 +429,7 @@ ceres::Solver::Summary RunSolver(const RowOptimiser::Options& options, ceres::Pr
     so.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   }
   ceres::Solver::Summary summary;
+  UseOneBlasThread();
   ceres::Solve(so, problem, &summary);
   if (spdlog::should_log(spdlog::level::trace)) {
     for (const ceres::IterationSummary& it : summary.iterations) {

@@ -108,6 +108,11 @@ RunFunction SetupFuse(CLI::App& app) {
                  "exact: sparse Cholesky of the Schur complement; iterative: conjugate gradients "
                  "(faster on many passes)")
       ->capture_default_str();
+  app.add_flag(
+      "--no-image-weighting",
+      [&o](std::int64_t) { o.optimiser.row.image_weighting.enabled = false; },
+      "Every image's keypoints weigh the same (default: images less sharp than their "
+      "neighbours, from blur or exposure, are down-weighted)");
   app.add_option("--max-iterations", o.optimiser.row.max_iterations,
                  "Levenberg–Marquardt iterations per solve")
       ->capture_default_str();

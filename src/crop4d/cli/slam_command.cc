@@ -171,6 +171,10 @@ RunFunction SetupSlam(CLI::App& app) {
   app.add_flag(
       "--no-standstill", [&o](std::int64_t) { o.standstills = false; },
       "Do not detect standstills (zero velocity, one pose while the rig stands still)");
+  app.add_flag(
+      "--no-image-weighting", [&o](std::int64_t) { o.optimiser.image_weighting.enabled = false; },
+      "Every image's keypoints weigh the same (default: images less sharp than their "
+      "neighbours, from blur or exposure, get a larger reprojection sigma)");
   app.add_flag("--force", o.force, "Recompute passes that are up to date");
   return [args] {
     args->options.optimiser.num_threads = args->options.front_end.num_threads;

@@ -123,7 +123,8 @@ OptionCheck CanopyCeilingOptions::Check() const {
   c.InRange("quantile", quantile, 0.0, 1.0)
       .AtLeast("scale", scale, 1.0)
       .AtLeast("margin_m", margin_m, 0.0)
-      .Greater("min_m", min_m, 0.0);
+      .Greater("min_m", min_m, 0.0)
+      .Greater("near_band_m", near_band_m, 0.0);
   return c.Result();
 }
 

@@ -78,6 +78,9 @@ struct CanopyCeilingOptions {
   double margin_m = 0.1;
   // The ceiling is at least this, m.
   double min_m = 0.25;
+  // Dense points within this of the ceiling are counted (CanopyCeiling::dense_points_near):
+  // plants that reach it, m.
+  double near_band_m = 0.02;
 
   OptionCheck Check() const;
 };
@@ -86,8 +89,8 @@ struct CanopyCeiling {
   double ceiling_m = 0;          // the search range's top above the ground levels, m
   double quantile_height_m = 0;  // the quantile of the points' heights, m
   int num_points = 0;            // points inside the box (0: the ceiling is max_m)
-  // Dense points within 2 cm of the ceiling (set by the caller after the sweep): many of them
-  // say that plants reach it and their tops may be cut.
+  // Dense points within near_band_m of the ceiling (set by the caller after the sweep): many of
+  // them say that plants reach it and their tops may be cut.
   std::int64_t dense_points_near = 0;
 };
 

@@ -63,6 +63,7 @@ void VisitFields(CanopyCeilingOptions& o, V&& visit) {
   visit("scale", o.scale);
   visit("margin_m", o.margin_m);
   visit("min_m", o.min_m);
+  visit("near_band_m", o.near_band_m);
 }
 
 }  // namespace crop4d::dense

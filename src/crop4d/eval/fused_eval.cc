@@ -212,10 +212,18 @@ CloudSetEval EvaluateCloudSet(const std::string& workspace, const std::string& f
               plants_path.string(), 0,
               fmt::format("no true plants for session '{}': file not found", c.session));
         }
+        // Weeds (weeds.csv, same columns; fields of `realism: real`) are no ground either:
+        // one that emerged between two sessions is a change of the surface, not a
+        // misregistration.
+        std::vector<PlantFootprint> plants = ReadPlantsCsv(plants_path.string());
+        const fs::path weeds_path = fs::path(field) / "ground_truth" / c.session / "weeds.csv";
+        if (fs::exists(weeds_path, ec)) {
+          const std::vector<PlantFootprint> weeds = ReadPlantsCsv(weeds_path.string());
+          plants.insert(plants.end(), weeds.begin(), weeds.end());
+        }
         SessionGround ground;
         ground.session = c.session;
-        ground.points = SelectGroundPoints(points, ReadPlantsCsv(plants_path.string()), terrain,
-                                           options.selection);
+        ground.points = SelectGroundPoints(points, plants, terrain, options.selection);
         s.ground_points = static_cast<std::int64_t>(ground.points.size());
         grounds.push_back(std::move(ground));
       } catch (const InputError& e) {

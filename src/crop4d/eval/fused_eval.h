@@ -8,6 +8,7 @@
 //   WS/sessions/<session>/rows/<pass>/landmarks.ply   row-SLAM landmarks (before fusion)
 //   FIELD/ground_truth/<session>/cam0_poses.tum   true world_from_camera at every image
 //   FIELD/ground_truth/<session>/plants.csv       true plants of the session's date
+//   FIELD/ground_truth/<session>/weeds.csv        its weeds, when the field has any
 //   FIELD/ground_truth/terrain.csv                true terrain heights on a grid
 //   WS/fused/<session>/camera.json, FIELD/ground_truth/calibration_truth.yaml
 //                                                 the fused calibration and the rig's truth

@@ -57,6 +57,7 @@ void WriteFeatureCache(const std::string& path, const FeatureCache& cache) {
     block.PutString(key, kMaxKeyLength, "FeatureCache: image key");
     block.Put<std::int32_t>(set.image_width);
     block.Put<std::int32_t>(set.image_height);
+    block.Put<float>(set.sharpness);
     block.Put<std::uint64_t>(set.size());
     block.reserve(block.size() + set.size() * kBytesPerFeature);
     for (const Keypoint& k : set.keypoints) {
@@ -122,12 +123,15 @@ FeatureCacheStatus ReadFeatureCache(const std::string& path, FeatureCache* cache
     FeatureSet set;
     std::uint64_t n = 0;
     if (!reader.Read(key.data(), key_length) || !reader.Get(&set.image_width) ||
-        !reader.Get(&set.image_height) || !reader.Get(&n)) {
+        !reader.Get(&set.image_height) || !reader.Get(&set.sharpness) || !reader.Get(&n)) {
       return Fail(FeatureCacheStatus::kTruncated, "ends inside " + where, detail, cache);
     }
     if (set.image_width < 0 || set.image_height < 0 || set.image_width > kMaxImageSide ||
         set.image_height > kMaxImageSide) {
       return Fail(FeatureCacheStatus::kCorrupt, where + ": impossible image size", detail, cache);
+    }
+    if (!(set.sharpness >= 0.0f) || !std::isfinite(set.sharpness)) {
+      return Fail(FeatureCacheStatus::kCorrupt, where + ": impossible sharpness", detail, cache);
     }
     if (n > reader.remaining() / kBytesPerFeature) {
       return Fail(FeatureCacheStatus::kTruncated,

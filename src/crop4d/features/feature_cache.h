@@ -13,7 +13,7 @@
 //   u64      image count
 //   per image:
 //     u32 key length, key bytes
-//     i32 width, i32 height, u64 feature count n
+//     i32 width, i32 height, f32 sharpness, u64 feature count n
 //     n × {f32 x, f32 y, f32 size, f32 angle, f32 response, i32 octave}
 //     n × 128 u8 descriptors
 //     n × 3 u8 RGB colours
@@ -32,7 +32,7 @@
 
 namespace crop4d::features {
 
-inline constexpr std::uint32_t kFeatureCacheVersion = 1;
+inline constexpr std::uint32_t kFeatureCacheVersion = 2;
 
 enum class FeatureCacheStatus {
   kOk,

@@ -21,6 +21,7 @@ FeatureSet RandomFeatureSet(int n, unsigned seed) {
   FeatureSet set;
   set.image_width = 640;
   set.image_height = 480;
+  set.sharpness = real(rng);
   for (int i = 0; i < n; ++i) {
     set.keypoints.push_back(
         {real(rng), real(rng), real(rng) / 50, real(rng) * 0.6f, real(rng) / 1e4f, byte(rng) << 8});

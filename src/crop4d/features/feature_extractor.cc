@@ -127,6 +127,28 @@ FeatureExtractor::FeatureExtractor(Options options) : options_(std::move(options
   CROP4D_CHECK_OPTIONS(options_, "FeatureExtractor::Options");
 }
 
+double ImageSharpness(const cv::Mat& gray) {
+  if (gray.empty()) return 0.0;
+  CROP4D_CHECK(gray.type() == CV_8UC1);
+  cv::Mat half, gx, gy;
+  cv::pyrDown(gray, half);
+  cv::Sobel(half, gx, CV_32F, 1, 0, 3, 0.125);  // 1/8: the Sobel kernel's weight, grey levels/px
+  cv::Sobel(half, gy, CV_32F, 0, 1, 3, 0.125);
+  // The mean structure tensor [xx xy; xy yy] and its smallest eigenvalue.
+  const double xx = cv::mean(gx.mul(gx))[0], yy = cv::mean(gy.mul(gy))[0];
+  const double xy = cv::mean(gx.mul(gy))[0];
+  const double half_trace = 0.5 * (xx + yy);
+  const double root = std::sqrt(0.25 * (xx - yy) * (xx - yy) + xy * xy);
+  return std::max(0.0, half_trace - root);
+}
+
+std::vector<double> SharpnessOf(const std::vector<FeatureSet>& sets) {
+  std::vector<double> sharpness;
+  sharpness.reserve(sets.size());
+  for (const FeatureSet& set : sets) sharpness.push_back(set.sharpness);
+  return sharpness;
+}
+
 FeatureSet FeatureExtractor::Extract(const cv::Mat& image) const {
   FeatureSet out;
   if (image.empty()) return out;
@@ -147,6 +169,8 @@ FeatureSet FeatureExtractor::Extract(const cv::Mat& image) const {
     cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
     cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
   }
+
+  out.sharpness = static_cast<float>(ImageSharpness(gray));
 
   // Optional downscaling; `scale` maps full-resolution pixels to extraction pixels.
   double scale = 1.0;

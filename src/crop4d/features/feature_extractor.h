@@ -42,6 +42,14 @@ struct Keypoint {
 struct FeatureSet {
   int image_width = 0;
   int image_height = 0;
+  // How precisely the image can localise a shift in its worst direction: the smallest
+  // eigenvalue of the mean structure tensor (the mean of ∇I ∇Iᵀ, grey levels² per pixel) of the
+  // grey image at half resolution (ImageSharpness). A keypoint's position is known to within a
+  // standard deviation ∝ 1/√(its patch's gradient energy in that direction) (the Cramér–Rao bound
+  // of image registration), so an image blurred by motion (along the motion) or darkened by the
+  // exposure localises its keypoints less precisely than its neighbours
+  // (slam/image_quality.h). 0: not measured.
+  float sharpness = 0;
   std::vector<Keypoint> keypoints;
   // Row-major size() × kDescriptorSize. OpenCV's SIFT descriptor is normalised to unit length,
   // clamped at 0.2, renormalised and scaled by 512 before it is saturated to 8 bits; storing the
@@ -62,6 +70,14 @@ struct FeatureSet {
   bool IsConsistent() const;
   bool operator==(const FeatureSet&) const = default;
 };
+
+// The smallest eigenvalue of the mean structure tensor of an 8-bit grey image after one Gaussian
+// pyramid step down (which keeps most of the pixel noise out of it): FeatureSet::sharpness, grey
+// levels² per pixel. 0 for an empty or flat image, and for one textured in one direction only.
+double ImageSharpness(const cv::Mat& gray);
+
+// The sharpness of each feature set, in order (slam::RowOptimiser::Input::image_sharpness).
+std::vector<double> SharpnessOf(const std::vector<FeatureSet>& sets);
 
 class FeatureExtractor {
  public:

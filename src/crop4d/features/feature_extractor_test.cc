@@ -187,6 +187,51 @@ TEST(FeatureExtractorTest, GridSpreadsTheBudgetOverTheImage) {
   EXPECT_EQ(FeatureExtractor(options).Extract(image).size(), all.size());
 }
 
+TEST(FeatureExtractorTest, SharpnessIsTheWorstDirectionsGradientEnergy) {
+  // Stripes: texture across one direction only, none along it.
+  cv::Mat stripes(240, 512, CV_8UC1);
+  for (int v = 0; v < stripes.rows; ++v) {
+    for (int u = 0; u < stripes.cols; ++u) {
+      stripes.at<std::uint8_t>(v, u) = static_cast<std::uint8_t>(128 + 60 * std::sin(0.3 * u));
+    }
+  }
+  EXPECT_LT(ImageSharpness(stripes), 1e-6);
+  EXPECT_EQ(ImageSharpness(cv::Mat(50, 50, CV_8UC1, cv::Scalar(90))), 0.0);
+  EXPECT_EQ(ImageSharpness(cv::Mat()), 0.0);
+  // Crossed stripes: the structure tensor is diagonal, its smaller entry the energy across the
+  // weaker stripes.
+  cv::Mat crossed(240, 512, CV_8UC1);
+  for (int v = 0; v < crossed.rows; ++v) {
+    for (int u = 0; u < crossed.cols; ++u) {
+      crossed.at<std::uint8_t>(v, u) =
+          static_cast<std::uint8_t>(128 + 60 * std::sin(0.3 * u) + 30 * std::sin(0.3 * v));
+    }
+  }
+  cv::Mat crossed_t;
+  cv::transpose(crossed, crossed_t);
+  const double s = ImageSharpness(crossed);
+  EXPECT_GT(s, 10.0);
+  EXPECT_NEAR(ImageSharpness(crossed_t), s, 0.05 * s);  // the direction does not matter
+
+  // The extractor records it; motion blur over 7 pixels, in any direction, and an exposure 30 %
+  // short lower it.
+  const cv::Mat& image = Scene().views[0];
+  const FeatureExtractor extractor(FeatureExtractor::Options{});
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  const FeatureSet sharp = extractor.Extract(image);
+  EXPECT_FLOAT_EQ(sharp.sharpness, static_cast<float>(ImageSharpness(gray)));
+  EXPECT_GT(sharp.sharpness, 10.0f);
+  for (const cv::Size kernel : {cv::Size(7, 1), cv::Size(1, 7)}) {
+    cv::Mat blurred;
+    cv::blur(image, blurred, kernel);
+    EXPECT_LT(extractor.Extract(blurred).sharpness, 0.75f * sharp.sharpness) << kernel;
+  }
+  cv::Mat dark;
+  image.convertTo(dark, -1, 0.7);
+  EXPECT_NEAR(extractor.Extract(dark).sharpness, 0.49f * sharp.sharpness, 0.05f * sharp.sharpness);
+}
+
 TEST(FeatureExtractorTest, EmptyAndFlatImagesGiveNoFeatures) {
   const FeatureExtractor extractor(FeatureExtractor::Options{});
   EXPECT_TRUE(extractor.Extract(cv::Mat()).empty());

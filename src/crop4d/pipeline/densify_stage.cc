@@ -211,17 +211,17 @@ dense::DenseRegion RegionToDensify(const io::Field& field, const io::PlyPointClo
 
 // Plants that reach the adaptive ceiling may have lost their tops to it: say so (never a
 // silently cut canopy). On the imperfect demo field no dense point of any session lies within
-// 2 cm of its ceiling; 0.05 % of a session's points is a leaf of about 10 × 10 cm.
+// the 2 cm band of its ceiling; 0.05 % of a session's points is a leaf of about 10 × 10 cm.
 void WarnIfCeilingReached(const std::string& session, const dense::CanopyCeiling& ceiling,
-                          std::int64_t num_points) {
+                          double near_band_m, std::int64_t num_points) {
   constexpr double kMaxShare = 0.0005;
   if (num_points <= 0 || ceiling.dense_points_near <= kMaxShare * num_points) return;
   spdlog::warn(
-      "densify {}: {} of {} dense points lie within 2 cm of the plant tops' search ceiling "
+      "densify {}: {} of {} dense points lie within {:.0f} cm of the plant tops' search ceiling "
       "({:.2f} m above the ground, from the sparse cloud): taller plants may have lost their "
       "tops; densify again with a higher --max-canopy-height and --fixed-ceiling "
       "(densify.adaptive_ceiling: false)",
-      session, ceiling.dense_points_near, num_points, ceiling.ceiling_m);
+      session, ceiling.dense_points_near, num_points, 100.0 * near_band_m, ceiling.ceiling_m);
 }
 
 // The dense summary's content (before its output is recorded).
@@ -340,9 +340,10 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
   });
   report.stereo = result.summary;
   if (options.adaptive_ceiling && report.ceiling.ceiling_m < options.stereo.max_canopy_height_m) {
-    report.ceiling.dense_points_near =
-        dense::PointsNearCeiling(result.cloud.points, ground, report.ceiling.ceiling_m, 0.02);
-    WarnIfCeilingReached(id, report.ceiling, result.summary.num_points);
+    report.ceiling.dense_points_near = dense::PointsNearCeiling(
+        result.cloud.points, ground, report.ceiling.ceiling_m, options.ceiling.near_band_m);
+    WarnIfCeilingReached(id, report.ceiling, options.ceiling.near_band_m,
+                         result.summary.num_points);
   }
 
   io::PlyWriteOptions ply;

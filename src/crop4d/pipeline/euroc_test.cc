@@ -7,18 +7,23 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "crop4d/core/progress.h"
 #include "crop4d/eval/trajectory_metrics.h"
+#include "crop4d/features/feature_extractor.h"
 #include "crop4d/io/euroc_import.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/season_run.h"
 #include "crop4d/pipeline/slam_stage.h"
+#include "crop4d/slam/image_quality.h"
 
 namespace crop4d::pipeline {
 namespace {
@@ -80,7 +85,42 @@ TEST(EurocTest, CameraAndImuWithoutGpsHoldStillOverAStandstill) {
   const std::vector<std::string> trust = summary.at("trust");
   EXPECT_NE(std::find(trust.begin(), trust.end(), "heading_by_convention"), trust.end());
   EXPECT_EQ(std::find(trust.begin(), trust.end(), "drift_without_gps"), trust.end());
+  // Real images of a still scene are equally good: the sensor's noise down-weights none.
+  EXPECT_EQ(summary.at("back_end").at("downweighted_images").get<int>(), 0);
+  EXPECT_LT(summary.at("back_end").at("max_image_sigma_scale").get<double>(), 1.1);
   fs::remove_all(dir);
+}
+
+// The sharpness of the real camera's images (slam/image_quality.h): steady over the standstill
+// under the sensor's noise, and a frame blurred as by motion over 7 pixels, in either direction,
+// stands out and is down-weighted.
+TEST(EurocTest, ARealFrameBlurredByMotionIsDownWeighted) {
+  if (!fs::exists(kEuroc + "/mav0/cam0/data.csv")) GTEST_SKIP() << "no " << kEuroc;
+  std::vector<fs::path> images;
+  for (const auto& entry : fs::directory_iterator(kEuroc + "/mav0/cam0/data")) {
+    images.push_back(entry.path());
+  }
+  std::sort(images.begin(), images.end());
+  ASSERT_EQ(images.size(), 95u);
+  std::vector<cv::Mat> frames;
+  std::vector<double> sharpness;
+  for (const fs::path& path : images) {
+    frames.push_back(cv::imread(path.string(), cv::IMREAD_GRAYSCALE));
+    ASSERT_FALSE(frames.back().empty()) << path;
+    sharpness.push_back(features::ImageSharpness(frames.back()));
+  }
+  const slam::ImageWeightOptions options;
+  for (double scale : slam::ImageSigmaScales(sharpness, options)) EXPECT_LT(scale, 1.05);
+  for (const cv::Size kernel : {cv::Size(7, 1), cv::Size(1, 7)}) {
+    std::vector<double> blurred = sharpness;
+    cv::Mat frame;
+    cv::blur(frames[47], frame, kernel);
+    blurred[47] = features::ImageSharpness(frame);
+    const std::vector<double> scales = slam::ImageSigmaScales(blurred, options);
+    EXPECT_GT(scales[47], 1.2) << kernel;
+    EXPECT_LT(scales[46], 1.05);
+    EXPECT_LT(scales[48], 1.05);
+  }
 }
 
 // `crop4d run` on the sequence, which is not a crop trial (one pass, no rows, no sites): every

@@ -252,6 +252,11 @@ void AddSlamKeys(std::vector<Key>& k) {
                      "sigmas, has a squared norm above this (chi-square, 3 dof; 21.1: 1e-4 "
                      "false rejections; 0: off, the Huber loss only)",
                      "slam.optimiser.gps_gate_chi2", 0, 1e6));
+  k.push_back(Bool("slam", "image_weighting",
+                   "images less sharp than their neighbours (motion blur, a darker exposure) get "
+                   "a larger reprojection sigma, sqrt(their neighbours' median sharpness / "
+                   "theirs), up to 3x",
+                   "slam.optimiser.image_weighting.enabled"));
   k.push_back(Bool("slam", "standstills",
                    "detect standstills (zero velocity, one pose while the rig stands still)",
                    "slam.standstills"));
@@ -337,6 +342,8 @@ void AddFuseKeys(std::vector<Key>& k) {
       [](RunConfig& c, const std::string& w) {
         FieldOf<bool>(c, "fuse.optimiser.row.iterative_schur") = w == "iterative";
       }));
+  k.push_back(Bool("fuse", "image_weighting", "as slam.image_weighting, in the joint problem",
+                   "fuse.optimiser.row.image_weighting.enabled"));
   k.push_back(AutoBool(
       "fuse", "estimate_time_offset",
       "refine each pass's camera-IMU time offset in the joint problem: auto (the passes whose "

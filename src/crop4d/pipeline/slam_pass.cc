@@ -156,6 +156,7 @@ slam::RowOptimiser::Options PassOptimiserOptions(const PassJob& job) {
 slam::RowOptimiser::Input PassInput(const PassJob& job, const PassInitialisation& init,
                                     const std::vector<bool>& still,
                                     const std::vector<slam::LandmarkTrack>& tracks,
+                                    const std::vector<features::FeatureSet>& features,
                                     std::vector<slam::LandmarkTrack> pair_tracks) {
   const SlamStageOptions& options = job.options;
   const SessionContext& ctx = job.ctx;
@@ -173,6 +174,7 @@ slam::RowOptimiser::Input PassInput(const PassJob& job, const PassInitialisation
     input.camera = &camera->sensor.camera;
     input.body_from_camera = camera->sensor.body_from_sensor;
     input.tracks = tracks;
+    input.image_sharpness = features::SharpnessOf(features);
   }
   if (const slam::ImuStream* imu = job.streams.imu) {
     input.imu_samples = &imu->samples;
@@ -287,8 +289,8 @@ PassOutcome RunPass(const PassJob& job, const std::string& fingerprint, const js
 
   // Back end.
   const slam::RowOptimiser optimiser(PassOptimiserOptions(job));
-  const slam::RowOptimiser::Input input =
-      PassInput(job, init, still, front_end.tracks, std::move(pair_tracks));
+  const slam::RowOptimiser::Input input = PassInput(
+      job, init, still, front_end.tracks, front_end.front.features, std::move(pair_tracks));
   RecordSensorGaps(job, &summary);
   const slam::RowOptimiser::Result result = optimiser.Solve(input);
   const slam::RowOptimiser::Summary& s = result.summary;

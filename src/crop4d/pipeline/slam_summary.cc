@@ -67,6 +67,10 @@ json BackEndJson(const slam::RowOptimiser::Summary& s) {
           {"observations", s.num_observations},
           {"rejected_observations", s.num_rejected_observations},
           {"reprojection_rms_px", s.reprojection_rms_px},
+          // Images whose keypoints were down-weighted for their sharpness (slam.image_weighting)
+          // and the largest factor on their reprojection sigma.
+          {"downweighted_images", s.num_downweighted_images},
+          {"max_image_sigma_scale", s.max_image_sigma_scale},
           {"initial_cost", s.initial_cost},
           {"final_cost", s.final_cost},
           {"iterations", s.iterations},

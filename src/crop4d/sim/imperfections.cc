@@ -219,6 +219,27 @@ cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth, const geometry::Pin
   return out;
 }
 
+const std::array<float, kNormalTableSize>& NormalQuantiles() {
+  // Φ⁻¹ by Newton's method on Φ(x) = erfc(−x/√2)/2 from x = 0; Φ is convex below 0 and concave
+  // above, so the iterates approach each root monotonically.
+  static const std::array<float, kNormalTableSize> table = [] {
+    std::array<float, kNormalTableSize> t{};
+    for (std::size_t k = 0; k < kNormalTableSize; ++k) {
+      const double p = (static_cast<double>(k) + 0.5) / kNormalTableSize;
+      double x = 0.0;
+      for (int iteration = 0; iteration < 100; ++iteration) {
+        const double f = 0.5 * std::erfc(-x / std::sqrt(2.0)) - p;
+        const double step = f / (std::exp(-0.5 * x * x) / std::sqrt(2.0 * M_PI));
+        x -= step;
+        if (std::abs(step) < 1e-12) break;
+      }
+      t[k] = static_cast<float>(x);
+    }
+    return t;
+  }();
+  return table;
+}
+
 cv::Mat ExposeAndQuantise(const cv::Mat& in, double gain, const ImageEffectsOptions& o,
                           std::uint64_t seed) {
   cv::Mat image;
@@ -227,16 +248,31 @@ cv::Mat ExposeAndQuantise(const cv::Mat& in, double gain, const ImageEffectsOpti
   cv::Mat out(image.size(), CV_8UC3);
   const double read_var = o.read_noise_dn * o.read_noise_dn;
   const bool noisy = o.electrons_per_dn > 0.0 || read_var > 0.0;
+  // Normal deviates from the quantile table, four per 64-bit draw: a sample of a 2^16-level
+  // discrete normal (exact to 4.3 σ) at a fraction of the cost of a polar-method deviate,
+  // which was a tenth of the simulator's time (a million per 640×480 image).
+  const std::array<float, kNormalTableSize>& normal = NormalQuantiles();
+  std::uint64_t bits = 0;
+  int left = 0;
+  const float shot_per_dn =
+      o.electrons_per_dn > 0.0 ? static_cast<float>(1.0 / o.electrons_per_dn) : 0.0f;
+  const float gain_f = static_cast<float>(gain), read_var_f = static_cast<float>(read_var);
   for (int r = 0; r < image.rows; ++r) {
     const float* src = image.ptr<float>(r);
     std::uint8_t* dst = out.ptr<std::uint8_t>(r);
     for (int i = 0; i < 3 * image.cols; ++i) {
-      double v = gain * src[i];
+      float v = gain_f * src[i];
       if (noisy) {
-        const double shot = o.electrons_per_dn > 0.0 ? std::max(v, 0.0) / o.electrons_per_dn : 0.0;
-        v += std::sqrt(shot + read_var) * random.Normal();
+        if (left == 0) {
+          bits = random.engine()();
+          left = 4;
+        }
+        const float deviate = normal[bits & (kNormalTableSize - 1)];
+        bits >>= 16;
+        --left;
+        v += std::sqrt(std::max(v, 0.0f) * shot_per_dn + read_var_f) * deviate;
       }
-      dst[i] = static_cast<std::uint8_t>(std::clamp(std::round(v), 0.0, 255.0));
+      dst[i] = static_cast<std::uint8_t>(std::clamp(std::round(v), 0.0f, 255.0f));
     }
   }
   return out;

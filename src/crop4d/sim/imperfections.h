@@ -12,6 +12,7 @@
 // switching one on does not change any other file of the field.
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <opencv2/core/mat.hpp>
 #include <string>
@@ -132,6 +133,11 @@ inline cv::Mat MotionBlur(const cv::Mat& bgr, const cv::Mat& depth,
   return MotionBlur(bgr, depth, camera, std::vector<geometry::Rigid3>{begin_from_mid},
                     std::vector<geometry::Rigid3>{end_from_mid});
 }
+
+// The standard normal's quantiles at the probabilities (k + ½) / kNormalTableSize: a uniformly
+// drawn entry is a normal deviate to 4.3 σ (the image noise's generator).
+inline constexpr std::size_t kNormalTableSize = std::size_t{1} << 16;
+const std::array<float, kNormalTableSize>& NormalQuantiles();
 
 // Gain, shot and read noise and 8-bit quantisation: out = round(gain · in + n) with
 // n ~ N(0, gain · in / electrons_per_dn + read_noise²). `in` CV_8UC3 or CV_32FC3; out CV_8UC3.

@@ -92,6 +92,25 @@ TEST(ImperfectionsTest, BadMagnitudesAreInputErrors) {
 
 // ---- Images ---------------------------------------------------------------------------------
 
+TEST(ImperfectionsTest, NormalQuantilesAreAStandardNormal) {
+  const auto& table = NormalQuantiles();
+  double sum = 0.0, sum_sq = 0.0;
+  for (std::size_t k = 0; k < table.size(); ++k) {
+    sum += table[k];
+    sum_sq += static_cast<double>(table[k]) * table[k];
+    if (k > 0) {
+      EXPECT_GT(table[k], table[k - 1]);
+    }
+    EXPECT_NEAR(table[k], -table[table.size() - 1 - k], 1e-5);
+  }
+  EXPECT_NEAR(sum / table.size(), 0.0, 1e-6);
+  EXPECT_NEAR(sum_sq / table.size(), 1.0, 1e-3);          // the tails beyond 4.3 σ are missing
+  EXPECT_NEAR(table[table.size() / 2], 1.9124e-5, 1e-8);  // Φ⁻¹(½ + 2⁻¹⁷)
+  EXPECT_NEAR(table.back(), 4.3249, 1e-4);                // Φ⁻¹(1 − 2⁻¹⁷)
+  // Φ(1) = 0.8413: the quantile at 84.13 % is 1.
+  EXPECT_NEAR(table[static_cast<std::size_t>(0.841345 * table.size())], 1.0, 1e-3);
+}
+
 TEST(ImperfectionsTest, ImageNoiseOnAFlatPatchHasTheModelledStdDev) {
   ImageEffectsOptions o;
   o.electrons_per_dn = 12.0;

@@ -403,4 +403,69 @@ void AppendPlantMesh(const World& world, const Plant& plant, Timestamp date,
   }
 }
 
+void AppendWeedMesh(const World& world, const Weed& weed, Timestamp date, PlantLod lod,
+                    PlantMesh* mesh) {
+  const PlantState state = world.WeedStateAt(weed, date);
+  if (!state.emerged) return;
+  const double R = state.canopy_radius_m, H = state.height_m;
+  const double growth =
+      state.canopy_radius_m / (weed.size_scale * world.options().weeds.final_radius_m);
+  Random random(weed.seed);
+  // Broadleaf weeds (pigweed, morning glory, sicklepod seedlings) are a lighter or bluer green
+  // than the crop, each a little different.
+  const Vector3f base_rgb(static_cast<float>(random.Uniform(0.24, 0.36)),
+                          static_cast<float>(random.Uniform(0.46, 0.58)),
+                          static_cast<float>(random.Uniform(0.10, 0.22)));
+  // Points are written in world coordinates relative to the rosette's centre on z = 0.
+  MeshWriter out(mesh, Vector3d(weed.xy.x(), weed.xy.y(), 0.0), 0.0);
+  // Stations along each leaf and the share of the leaves each level of detail keeps.
+  const int stations = lod == PlantLod::kFull ? 6 : lod == PlantLod::kMedium ? 4 : 3;
+  const int keep_every = lod == PlantLod::kFar ? 2 : lod == PlantLod::kDistant ? 4 : 1;
+
+  // Leaves from the oldest (outermost, flattest) to the youngest (innermost, upright); the
+  // youngest one reaches the height H, the oldest one the radius R.
+  const int leaves = 4 + static_cast<int>(std::lround(4.0 * growth));
+  for (int k = 0; k < leaves; ++k) {
+    Random leaf_random(HashCombine(weed.seed, static_cast<std::uint64_t>(k)));
+    const double age = 1.0 - static_cast<double>(k) / (leaves - 1);  // 1 oldest … 0 youngest
+    const double azimuth = weed.yaw_rad + k * 137.5 * kDeg + leaf_random.Normal(0.0, 12 * kDeg);
+    const double length = k == 0 ? R : R * (0.55 + 0.4 * age) * leaf_random.Uniform(0.85, 1.0);
+    const double rise =
+        k == leaves - 1 ? H : H * (0.35 + 0.5 * (1.0 - age)) * leaf_random.Uniform(0.85, 1.0);
+    const double width = 0.4 * length * leaf_random.Uniform(0.85, 1.15);
+    if (k != leaves - 1 && k != 0 && k % keep_every != 0) continue;
+    const Vector3d along(std::cos(azimuth), std::sin(azimuth), 0.0);
+    const Vector3d side(-along.y(), along.x(), 0.0);
+    const Vector3f rgb = base_rgb * static_cast<float>(leaf_random.Uniform(0.9, 1.1));
+    // Midrib: horizontal distance length·u, height rise·(2u − u²) above the local ground (rising,
+    // flattening at the tip); half width ∝ sin(πu)^0.7, so the leaf is pointed at both ends.
+    auto point = [&](double u, double across) {
+      const Vector3d p = length * u * along + across * side;
+      const double z = world.TerrainHeight(weed.xy.x() + p.x(), weed.xy.y() + p.y());
+      return Vector3d(p.x(), p.y(), z + 0.002 + rise * (2.0 * u - u * u));
+    };
+    std::uint32_t previous[3] = {0, 0, 0};
+    for (int i = 0; i < stations; ++i) {
+      const double u = static_cast<double>(i) / (stations - 1);
+      const double half_width = 0.5 * width * std::pow(std::sin(M_PI * u), 0.7);
+      const Vector3d mid = point(u, 0.0);
+      const Vector3d left = point(u, half_width), right = point(u, -half_width);
+      const Vector3d tangent =
+          point(std::min(1.0, u + 0.05), 0.0) - point(std::max(0.0, u - 0.05), 0.0);
+      Vector3d normal = tangent.cross(side);
+      if (normal.z() < 0.0) normal = -normal;
+      const std::uint32_t current[3] = {out.AddVertex(left, normal, rgb, true),
+                                        out.AddVertex(mid, normal, rgb, true),
+                                        out.AddVertex(right, normal, rgb, true)};
+      if (i > 0) {
+        for (int j = 0; j < 2; ++j) {
+          out.AddTriangle(previous[j], previous[j + 1], current[j + 1]);
+          out.AddTriangle(previous[j], current[j + 1], current[j]);
+        }
+      }
+      std::copy(current, current + 3, previous);
+    }
+  }
+}
+
 }  // namespace crop4d::sim

@@ -49,4 +49,12 @@ inline constexpr int kNumPlantLods = 5;
 void AppendPlantMesh(const World& world, const Plant& plant, Timestamp date,
                      std::uint64_t wind_seed, PlantLod lod, PlantMesh* mesh);
 
+// Appends the mesh of `weed` on `date` (nothing before it emerges): a low rosette of simple
+// ovate leaves rising from its centre, draped over the terrain, the inner ones steepest; its
+// highest point lies World::WeedStateAt(weed, date).height_m above the ground under it and its
+// leaves reach canopy_radius_m. Leaf blades sway in the wind like the crop's. The far levels
+// of detail keep fewer leaves with fewer facets.
+void AppendWeedMesh(const World& world, const Weed& weed, Timestamp date, PlantLod lod,
+                    PlantMesh* mesh);
+
 }  // namespace crop4d::sim

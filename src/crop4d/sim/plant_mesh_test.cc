@@ -40,7 +40,9 @@ TEST(PlantMeshTest, SizeFollowsTheGrowthModel) {
       // The rendered top is the plant's height (the ground truth of site heights).
       EXPECT_NEAR(e.top, state.height_m, 0.001) << days;
       EXPECT_LT(e.reach, 1.15 * state.canopy_radius_m + 0.02) << days;
-      if (days >= 70.0) EXPECT_GT(e.reach, 0.6 * state.canopy_radius_m) << days;
+      if (days >= 70.0) {
+        EXPECT_GT(e.reach, 0.6 * state.canopy_radius_m) << days;
+      }
     }
   }
 }
@@ -101,6 +103,57 @@ TEST(PlantMeshTest, LevelsOfDetailAndSessions) {
   // Not emerged: nothing.
   PlantMesh none;
   AppendPlantMesh(world, plant, 2 * kDay, 1, PlantLod::kFull, &none);
+  EXPECT_EQ(none.num_triangles(), 0);
+}
+
+TEST(PlantMeshTest, WeedsAreLowRosettesOnTheGround) {
+  WorldOptions options;
+  options.weeds.density_per_m2 = 2.0;
+  const World world(options);
+  ASSERT_GT(world.weeds().size(), 20u);
+  for (std::size_t i = 0; i < world.weeds().size(); i += 7) {
+    const Weed& weed = world.weeds()[i];
+    for (double days : {weed.emergence_days + 1.0, weed.emergence_days + 10.0, 120.0}) {
+      const Timestamp date = static_cast<Timestamp>(days * kDay);
+      const PlantState state = world.WeedStateAt(weed, date);
+      ASSERT_TRUE(state.emerged);
+      PlantMesh mesh;
+      AppendWeedMesh(world, weed, date, PlantLod::kFull, &mesh);
+      ASSERT_GT(mesh.num_triangles(), 20);
+      double top = 0.0, reach = 0.0;
+      for (const PlantVertex& v : mesh.vertices) {
+        const double ground = world.TerrainHeight(v.position[0], v.position[1]);
+        // Draped over the terrain: never below it; the top is the weed's height above the
+        // ground under it, the outer leaf reaches its radius.
+        EXPECT_GE(v.position[2], ground + 0.001);
+        top = std::max(top, v.position[2] - ground);
+        reach =
+            std::max(reach, std::hypot(v.position[0] - weed.xy.x(), v.position[1] - weed.xy.y()));
+        EXPECT_EQ(v.color[3], 255);  // leaf blades: they sway
+      }
+      EXPECT_NEAR(top, state.height_m + 0.002, 0.001) << days;
+      EXPECT_LE(reach, state.canopy_radius_m + 1e-4) << days;
+      EXPECT_GE(reach, 0.95 * state.canopy_radius_m) << days;
+    }
+  }
+  // Fewer triangles at every coarser level; nothing before emergence.
+  const Weed& weed = world.weeds()[0];
+  const Timestamp date = static_cast<Timestamp>((weed.emergence_days + 30.0) * kDay);
+  int previous = 1 << 30;
+  for (int lod = 0; lod < kNumPlantLods; ++lod) {
+    PlantMesh mesh;
+    AppendWeedMesh(world, weed, date, static_cast<PlantLod>(lod), &mesh);
+    EXPECT_GT(mesh.num_triangles(), 0);
+    EXPECT_LE(mesh.num_triangles(), previous);
+    if (lod <= static_cast<int>(PlantLod::kCoarse)) {
+      EXPECT_LT(mesh.num_triangles(), previous);
+    }
+    previous = mesh.num_triangles();
+    for (std::uint32_t index : mesh.indices) ASSERT_LT(index, mesh.vertices.size());
+  }
+  PlantMesh none;
+  AppendWeedMesh(world, weed, static_cast<Timestamp>((weed.emergence_days - 1.0) * kDay),
+                 PlantLod::kFull, &none);
   EXPECT_EQ(none.num_triangles(), 0);
 }
 

@@ -134,8 +134,9 @@ struct GpuMesh {
 };
 
 struct Chunk {
-  int row = 0;
-  int begin = 0, end = 0;    // plant indices
+  int row = 0;               // the row, or the weeds' strip
+  bool weeds = false;        // World::weeds() rather than World::plants()
+  int begin = 0, end = 0;    // plant (or weed) indices
   Eigen::AlignedBox3d box;   // bounds of the plants on the session's date
   Eigen::AlignedBox3d core;  // stems to half height: distances for the detail
   bool empty = true;         // no emerged plant
@@ -281,21 +282,26 @@ void Renderer::Impl::Init() {
   UploadTexture(foliage_texture, GenerateFoliageTexture(world.options().seed), true, true);
   glGenTextures(1, &soil_texture);
 
-  // Plant chunks: each row cut into pieces of kChunkLength.
-  const WorldOptions& wo = world.options();
-  const auto& plants = world.plants();
-  for (int row = 0; row < wo.num_rows; ++row) {
-    const auto [begin, end] = world.RowPlantRange(row);
-    int i = begin;
-    while (i < end) {
-      const double y_end = (std::floor(plants[i].xy.y() / kChunkLength) + 1.0) * kChunkLength;
+  // Chunks: the plants of each row and the weeds of each strip between rows (both sorted by y)
+  // cut into pieces of kChunkLength.
+  const auto cut = [this](const auto& items, std::pair<int, int> range, int row, bool weeds) {
+    int i = range.first;
+    while (i < range.second) {
+      const double y_end = (std::floor(items[i].xy.y() / kChunkLength) + 1.0) * kChunkLength;
       Chunk chunk;
       chunk.row = row;
+      chunk.weeds = weeds;
       chunk.begin = i;
-      while (i < end && plants[i].xy.y() < y_end) ++i;
+      while (i < range.second && items[i].xy.y() < y_end) ++i;
       chunk.end = i;
       chunks.push_back(std::move(chunk));
     }
+  };
+  const int num_rows = world.options().num_rows;
+  for (int row = 0; row < num_rows; ++row)
+    cut(world.plants(), world.RowPlantRange(row), row, false);
+  for (int strip = 0; strip <= num_rows; ++strip) {
+    cut(world.weeds(), world.WeedStripRange(strip), strip, true);
   }
 }
 
@@ -785,16 +791,17 @@ void Renderer::Impl::Session(const SessionConditions& c) {
     chunk.core.setEmpty();
     chunk.empty = true;
     for (int i = chunk.begin; i < chunk.end; ++i) {
-      const Plant& p = world.plants()[i];
-      const PlantState s = world.StateAt(p, c.date);
+      const Eigen::Vector2d& xy = chunk.weeds ? world.weeds()[i].xy : world.plants()[i].xy;
+      const PlantState s = chunk.weeds ? world.WeedStateAt(world.weeds()[i], c.date)
+                                       : world.StateAt(world.plants()[i], c.date);
       if (!s.emerged) continue;
       chunk.empty = false;
-      const double z = world.TerrainHeight(p.xy.x(), p.xy.y());
+      const double z = world.TerrainHeight(xy.x(), xy.y());
       const double r = 1.15 * s.canopy_radius_m + 0.05;
-      chunk.box.extend(Vector3d(p.xy.x() - r, p.xy.y() - r, z - 0.05));
-      chunk.box.extend(Vector3d(p.xy.x() + r, p.xy.y() + r, z + 1.3 * s.height_m + 0.05));
-      chunk.core.extend(Vector3d(p.xy.x(), p.xy.y(), z));
-      chunk.core.extend(Vector3d(p.xy.x(), p.xy.y(), z + 0.5 * s.height_m));
+      chunk.box.extend(Vector3d(xy.x() - r, xy.y() - r, z - 0.05));
+      chunk.box.extend(Vector3d(xy.x() + r, xy.y() + r, z + 1.3 * s.height_m + 0.05));
+      chunk.core.extend(Vector3d(xy.x(), xy.y(), z));
+      chunk.core.extend(Vector3d(xy.x(), xy.y(), z + 0.5 * s.height_m));
     }
   }
   mesh_bytes = 0;
@@ -807,7 +814,11 @@ GpuMesh& Renderer::Impl::Mesh(Chunk& chunk, PlantLod lod) {
   if (mesh.built) return mesh;
   PlantMesh data;
   for (int i = chunk.begin; i < chunk.end; ++i) {
-    AppendPlantMesh(world, world.plants()[i], session.date, session.wind_seed, lod, &data);
+    if (chunk.weeds) {
+      AppendWeedMesh(world, world.weeds()[i], session.date, lod, &data);
+    } else {
+      AppendPlantMesh(world, world.plants()[i], session.date, session.wind_seed, lod, &data);
+    }
   }
   glGenVertexArrays(1, &mesh.vao);
   glBindVertexArray(mesh.vao);

@@ -242,6 +242,70 @@ TEST_F(RendererTest, PlantsAreGreenAndSkyHasNoDepth) {
   EXPECT_LT(bare_green, total / 200);
 }
 
+TEST_F(RendererTest, WeedsStandOnTheSoilWhereTheWorldPutsThem) {
+  WorldOptions weedy_options = SmallField();
+  weedy_options.weeds.density_per_m2 = 4.0;
+  const World weedy(weedy_options);
+  const RenderOptions options = SmallOptions();
+  MAKE_RENDERER(clean_renderer, world_, options);
+  MAKE_RENDERER(weedy_renderer, weedy, options);
+  const SessionConditions session = Session(40.0);
+  clean_renderer->SetSession(session);
+  weedy_renderer->SetSession(session);
+  cv::Mat clean_bgr, clean_depth, weedy_bgr, weedy_depth;
+  clean_renderer->Render(Pose(), &clean_bgr, &clean_depth);
+  weedy_renderer->Render(Pose(), &weedy_bgr, &weedy_depth);
+
+  // The pixels whose depth came nearer show a weed that has emerged: they lie in the image box
+  // of one (its circle of leaves on the ground and its top, projected; 2 px wider for the
+  // depth map's interpolation). Across a depth edge the depth map takes the nearest pixel of
+  // its remap, so a few pixels beside a weed may move slightly farther.
+  const geometry::Rigid3 camera_from_world = Pose().Inverse();
+  const geometry::PinholeRadTan& camera = options.camera;
+  std::vector<cv::Rect2d> boxes;
+  for (const Weed& weed : weedy.weeds()) {
+    const PlantState state = weedy.WeedStateAt(weed, session.date);
+    if (!state.emerged) continue;
+    double u0 = 1e9, v0 = 1e9, u1 = -1e9, v1 = -1e9;
+    for (int k = 0; k <= 16; ++k) {
+      const double a = 2.0 * M_PI * k / 16;
+      Eigen::Vector2d xy =
+          weed.xy + state.canopy_radius_m * Eigen::Vector2d(std::cos(a), std::sin(a));
+      double z = weedy.TerrainHeight(xy.x(), xy.y());
+      if (k == 16) {
+        xy = weed.xy;
+        z += state.height_m;
+      }
+      Eigen::Vector2d pixel;
+      if (!camera.Project(camera_from_world * Eigen::Vector3d(xy.x(), xy.y(), z), &pixel)) continue;
+      u0 = std::min(u0, pixel.x());
+      v0 = std::min(v0, pixel.y());
+      u1 = std::max(u1, pixel.x());
+      v1 = std::max(v1, pixel.y());
+    }
+    if (u1 >= u0) boxes.emplace_back(u0 - 2.0, v0 - 2.0, u1 - u0 + 4.0, v1 - v0 + 4.0);
+  }
+  int changed = 0, nearer = 0, on_weed = 0;
+  for (int v = 0; v < clean_depth.rows; ++v) {
+    for (int u = 0; u < clean_depth.cols; ++u) {
+      const float dc = clean_depth.at<float>(v, u), dw = weedy_depth.at<float>(v, u);
+      if (std::abs(dc - dw) < 0.005f) continue;
+      ++changed;
+      if (dw > dc) continue;
+      ++nearer;
+      for (const cv::Rect2d& box : boxes) {
+        if (box.contains(cv::Point2d(u, v))) {
+          ++on_weed;
+          break;
+        }
+      }
+    }
+  }
+  EXPECT_GT(nearer, 100);
+  EXPECT_GE(nearer, 0.85 * changed);
+  EXPECT_GE(on_weed, 0.98 * nearer);
+}
+
 TEST_F(RendererTest, PlantsCastShadowsOnTheSoil) {
   RenderOptions options = SmallOptions();
   MAKE_RENDERER(with_shadows, world_, options);

@@ -47,6 +47,10 @@ const std::vector<Section>& Sections() {
       {"growth",
        "Plant growth: logistic height and canopy radius in days after sowing "
        "(peanut-like defaults)."},
+      {"weeds",
+       "Weeds on the soil between the rows (the rows themselves are kept clean): low rosettes "
+       "that emerge through the season and grow; the crop's truth (plants.csv, sites) leaves "
+       "them out, ground_truth/<session>/weeds.csv lists them."},
       {"sessions", ""},  // printed separately
       {"recording", "When the sessions are recorded, and the light."},
       {"camera", "The camera (cam0): image, intrinsics, distortion, rate and mounting."},
@@ -121,6 +125,21 @@ std::vector<Key> Keys(SimConfig& c) {
        "steepness of the logistic radius curve, 1/day"},
       {"growth", "plant_variation", &w.plant_variation,
        "per-plant relative std-dev of size and timing"},
+      {"weeds", "density_per_m2", &w.weeds.density_per_m2,
+       "weeds per m2 of the soil between the rows once all have emerged (0 = none)"},
+      {"weeds", "row_clearance_m", &w.weeds.row_clearance_m,
+       "no weed closer than this to a row's centre line, m"},
+      {"weeds", "first_emergence_days", &w.weeds.first_emergence_days,
+       "days after sowing when the first weeds emerge"},
+      {"weeds", "emergence_span_days", &w.weeds.emergence_span_days,
+       "emergence dates spread uniformly over this many days"},
+      {"weeds", "final_height_m", &w.weeds.final_height_m, "height of a full-grown weed, m"},
+      {"weeds", "final_radius_m", &w.weeds.final_radius_m,
+       "horizontal reach of a full-grown weed's leaves, m"},
+      {"weeds", "half_size_days", &w.weeds.half_size_days,
+       "days from emergence to half the final size"},
+      {"weeds", "size_variation", &w.weeds.size_variation,
+       "per-weed relative std-dev of the final size"},
       {"recording", "start_utc_h", &c.recording.start_utc_h,
        "start of each session, hours after midnight UTC"},
       {"recording", "start_jitter_h", &c.recording.start_jitter_h,
@@ -518,6 +537,16 @@ void SimConfig::Check() const {
   Require(Positive(w.height_midpoint_days), "growth.height_midpoint_days", "must be positive");
   Require(Positive(w.height_rate_per_day), "growth.height_rate_per_day", "must be positive");
   Require(Positive(w.radius_midpoint_days), "growth.radius_midpoint_days", "must be positive");
+  Require(In(w.weeds.density_per_m2, 0.0, 100.0), "weeds.density_per_m2", "must be in [0, 100]");
+  Require(In(w.weeds.row_clearance_m, 0.0, 0.5 * w.row_spacing_m) &&
+              w.weeds.row_clearance_m < 0.5 * w.row_spacing_m,
+          "weeds.row_clearance_m", "must be >= 0 and less than half of rows.spacing_m");
+  Require(NonNegative(w.weeds.first_emergence_days), "weeds.first_emergence_days", "must be >= 0");
+  Require(NonNegative(w.weeds.emergence_span_days), "weeds.emergence_span_days", "must be >= 0");
+  Require(In(w.weeds.final_height_m, 0.001, 2.0), "weeds.final_height_m", "must be in [0.001, 2]");
+  Require(In(w.weeds.final_radius_m, 0.001, 1.0), "weeds.final_radius_m", "must be in [0.001, 1]");
+  Require(Positive(w.weeds.half_size_days), "weeds.half_size_days", "must be positive");
+  Require(In(w.weeds.size_variation, 0.0, 0.49), "weeds.size_variation", "must be in [0, 0.49]");
   Require(Positive(w.radius_rate_per_day), "growth.radius_rate_per_day", "must be positive");
   Require(In(w.plant_variation, 0.0, 0.5), "growth.plant_variation", "must be in [0, 0.5]");
 
@@ -682,6 +711,7 @@ void ApplyRealism(const std::string& level, SimConfig* c) {
   c->imu.misalignment_sigma_rad = defaults.imu.misalignment_sigma_rad;
   c->gps0.faults = c->gps1.faults = GpsFaultOptions();
   c->soil_change = defaults.soil_change;
+  c->world.weeds = defaults.world.weeds;
   c->recording.wind_sway_m = defaults.recording.wind_sway_m;
   c->recording.wind_period_s = defaults.recording.wind_period_s;
   c->drive.standstill_start_s = defaults.drive.standstill_start_s;
@@ -696,6 +726,11 @@ void ApplyRealism(const std::string& level, SimConfig* c) {
   c->soil_change.fraction = 0.2;
   c->soil_change.patch_m = 0.15;
   c->soil_change.drying = 0.02;
+
+  // Weeds emerge between the rows from ten days after sowing over seven weeks: two per m² of
+  // inter-row soil in the end, rosettes up to about 8 cm high and 10 cm across (a field with
+  // pre-emergence herbicide; untreated fields have tens per m²).
+  c->world.weeds.density_per_m2 = 2.0;
 
   // A breeze: leaves move by up to a centimetre between frames.
   c->recording.wind_sway_m = 0.01;

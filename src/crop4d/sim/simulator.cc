@@ -760,6 +760,17 @@ Simulator::Summary Simulator::Write(const std::string& out_dir) {
       }
       WriteBuffer(Join(session_truth, "plants.csv"), b);
     }
+    if (!world_->weeds().empty()) {
+      fmt::memory_buffer b;
+      fmt::format_to(std::back_inserter(b), "id,strip,x,y,height_m,canopy_radius_m\n");
+      for (const Weed& weed : world_->weeds()) {
+        const PlantState state = world_->WeedStateAt(weed, rec.conditions.date);
+        if (!state.emerged) continue;
+        fmt::format_to(std::back_inserter(b), "{},{},{:.4f},{:.4f},{:.4f},{:.4f}\n", weed.id,
+                       weed.strip, weed.xy.x(), weed.xy.y(), state.height_m, state.canopy_radius_m);
+      }
+      WriteBuffer(Join(session_truth, "weeds.csv"), b);
+    }
     ++summary.sessions;
   }
 

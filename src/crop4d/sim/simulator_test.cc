@@ -262,6 +262,7 @@ class SimulatorWriteTest : public testing::Test {
         "gps0: {outlier_probability: 0, outlier_sigma_m: 3, float_rate_per_min: 0, "
         "float_duration_s: 4, dropout_rate_per_min: 0, dropout_duration_s: 9}\n"
         "soil_change: {fraction_per_session: 0, patch_m: 0.5, drying_per_session: 0}\n"
+        "weeds: {density_per_m2: 0, row_clearance_m: 0.3, first_emergence_days: 3}\n"
         "calibration_error: {focal_px: 0, principal_point_px: 0, "
         "radial_distortion: 0, tangential_distortion: 0, lever_arm_m: 0, "
         "rotation_deg: 0, camera_time_offset_s: 0, camera_clock_drift_ppm: 0}\n",
@@ -399,6 +400,27 @@ TEST_F(SimulatorWriteTest, TheRealWorldWritesItsErrorsAndTheirTruth) {
         cam.body_from_sensor.rotation().angularDistance(true_cam.body_from_sensor.rotation()) *
             180.0 / M_PI,
         real.calibration_error.rotation_deg, 1e-6);
+    // Weeds between the rows, listed with the emerged ones only, clear of the rows' bands.
+    std::istringstream weeds(ReadFile(t / "weeds.csv"));
+    std::string weed_line;
+    std::getline(weeds, weed_line);
+    EXPECT_EQ(weed_line, "id,strip,x,y,height_m,canopy_radius_m");
+    int weed_rows = 0;
+    while (std::getline(weeds, weed_line)) {
+      int id = 0, strip = 0;
+      double x = 0, y = 0, height = 0, radius = 0;
+      ASSERT_EQ(std::sscanf(weed_line.c_str(), "%d,%d,%lf,%lf,%lf,%lf", &id, &strip, &x, &y,
+                            &height, &radius),
+                6);
+      EXPECT_GT(height, 0.0);
+      EXPECT_GT(radius, 0.0);
+      for (int row = 0; row < real.world.num_rows; ++row) {
+        EXPECT_GE(std::abs(x - row * real.world.row_spacing_m),
+                  real.world.weeds.row_clearance_m - 1e-4);
+      }
+      ++weed_rows;
+    }
+    EXPECT_GT(weed_rows, 0);
     const io::GpsSensor gps = io::ReadGpsSensorYaml((s / "gps0/sensor.yaml").string());
     EXPECT_NEAR((gps.antenna_in_body - real.gps0.antenna_in_body).norm(),
                 real.calibration_error.lever_arm_m, 1e-6);

@@ -85,6 +85,26 @@ void WorldOptions::Check() const {
           "height_rate_per_day and radius_rate_per_day must be > 0");
   Require(plant_variation >= 0.0 && plant_variation < 0.5,
           "plant_variation must be in [0, 0.5), got " + std::to_string(plant_variation));
+  weeds.Check();
+  Require(2.0 * weeds.row_clearance_m < row_spacing_m || weeds.density_per_m2 == 0.0,
+          "weeds.row_clearance_m must be less than half of row_spacing_m");
+}
+
+void WeedOptions::Check() const {
+  Require(density_per_m2 >= 0.0 && density_per_m2 <= 100.0,
+          "weeds.density_per_m2 must be in [0, 100], got " + std::to_string(density_per_m2));
+  Require(row_clearance_m >= 0.0,
+          "weeds.row_clearance_m must be >= 0, got " + std::to_string(row_clearance_m));
+  Require(first_emergence_days >= 0.0 && emergence_span_days >= 0.0,
+          "weeds.first_emergence_days and weeds.emergence_span_days must be >= 0");
+  Require(final_height_m > 0.0 && final_height_m <= 2.0,
+          "weeds.final_height_m must be in (0, 2], got " + std::to_string(final_height_m));
+  Require(final_radius_m > 0.0 && final_radius_m <= 1.0,
+          "weeds.final_radius_m must be in (0, 1], got " + std::to_string(final_radius_m));
+  Require(half_size_days > 0.0,
+          "weeds.half_size_days must be > 0, got " + std::to_string(half_size_days));
+  Require(size_variation >= 0.0 && size_variation < 0.5,
+          "weeds.size_variation must be in [0, 0.5), got " + std::to_string(size_variation));
 }
 
 World::World(const WorldOptions& options) : options_(options) {
@@ -153,6 +173,43 @@ World::World(const WorldOptions& options) : options_(options) {
   for (int i = 0; i < static_cast<int>(plants_.size()); ++i) {
     plants_[i].id = i;
     plants_[i].seed = HashCombine(o.seed, 0x5eedu, static_cast<std::uint64_t>(i));
+  }
+  PlaceWeeds();
+}
+
+void World::PlaceWeeds() {
+  // Strip k of soil lies left of row k, between the clear bands of rows k − 1 and k; strips 0
+  // and num_rows reach to the edge of the cultivated area, half a spacing beyond the outer
+  // rows. density × area weeds per strip (rounded at random, so the mean is exact), uniform
+  // over it.
+  const WorldOptions& o = options_;
+  const WeedOptions& w = o.weeds;
+  const double half = 0.5 * o.row_spacing_m;
+  Random random(HashCombine(o.seed, 0x3eedu));
+  for (int strip = 0; strip <= o.num_rows; ++strip) {
+    strip_begin_.push_back(static_cast<int>(weeds_.size()));
+    const double lo = strip == 0 ? -half : RowX(strip - 1) + w.row_clearance_m;
+    const double hi =
+        strip == o.num_rows ? RowX(strip - 1) + half : RowX(strip) - w.row_clearance_m;
+    if (w.density_per_m2 <= 0.0 || hi <= lo) continue;
+    const int count = static_cast<int>(
+        std::floor(w.density_per_m2 * (hi - lo) * o.row_length_m + random.Uniform()));
+    for (int i = 0; i < count; ++i) {
+      Weed weed;
+      weed.strip = strip;
+      weed.xy = Eigen::Vector2d(random.Uniform(lo, hi), random.Uniform(0.0, o.row_length_m));
+      weed.emergence_days = w.first_emergence_days + random.Uniform(0.0, w.emergence_span_days);
+      weed.size_scale = std::clamp(1.0 + w.size_variation * random.Normal(), 0.3, 2.0);
+      weed.yaw_rad = random.Uniform(0.0, 2.0 * M_PI);
+      weeds_.push_back(weed);
+    }
+    std::sort(weeds_.begin() + strip_begin_.back(), weeds_.end(),
+              [](const Weed& a, const Weed& b) { return a.xy.y() < b.xy.y(); });
+  }
+  strip_begin_.push_back(static_cast<int>(weeds_.size()));
+  for (int i = 0; i < static_cast<int>(weeds_.size()); ++i) {
+    weeds_[i].id = i;
+    weeds_[i].seed = HashCombine(o.seed, 0x3eedu, static_cast<std::uint64_t>(i));
   }
 }
 
@@ -244,6 +301,26 @@ PlantState World::StateAt(const Plant& plant, Timestamp date) const {
   state.height_m *= plant.height_scale;
   state.canopy_radius_m *= plant.radius_scale;
   return state;
+}
+
+PlantState World::WeedStateAt(const Weed& weed, Timestamp date) const {
+  // Logistic in the days since emergence: a fifth of the final size at emergence, half after
+  // half_size_days.
+  const WeedOptions& w = options_.weeds;
+  PlantState state;
+  const double days = DaysAfterSowing(date) - weed.emergence_days;
+  if (days < 0.0) return state;
+  const double rate = std::log(4.0) / w.half_size_days;  // L(0) = 1/5, L(half) = 1/2
+  const double fraction = 1.0 / (1.0 + std::exp(-rate * (days - w.half_size_days)));
+  state.emerged = true;
+  state.height_m = weed.size_scale * w.final_height_m * fraction;
+  state.canopy_radius_m = weed.size_scale * w.final_radius_m * fraction;
+  return state;
+}
+
+std::pair<int, int> World::WeedStripRange(int strip) const {
+  CROP4D_CHECK(strip >= 0 && strip <= options_.num_rows);
+  return {strip_begin_[strip], strip_begin_[strip + 1]};
 }
 
 std::pair<int, int> World::RowPlantRange(int row) const {

@@ -19,6 +19,23 @@
 
 namespace crop4d::sim {
 
+// Weeds on the soil between the rows: low broadleaf rosettes that emerge one after another
+// through the season and grow to a small final size (a field kept clean in the rows by
+// cultivation and herbicide; the inter-row soil is not). None with the defaults.
+struct WeedOptions {
+  double density_per_m2 = 0.0;         // weeds per m² of inter-row soil once all have emerged
+  double row_clearance_m = 0.2;        // no weed closer than this to a row's centre line
+  double first_emergence_days = 10.0;  // days after sowing when the first weeds emerge
+  double emergence_span_days = 50.0;   // emergence dates spread uniformly over this span
+  double final_height_m = 0.08;        // top of a full-grown weed above the ground
+  double final_radius_m = 0.10;        // horizontal reach of its leaves
+  double half_size_days = 10.0;        // days from emergence to half the final size
+  double size_variation = 0.3;         // per-weed relative std-dev of the final size
+
+  // Throws InputError naming the bad value.
+  void Check() const;
+};
+
 struct WorldOptions {
   // Layout.
   int num_rows = 4;                   // parallel crop rows
@@ -46,6 +63,7 @@ struct WorldOptions {
   double radius_midpoint_days = 55.0;
   double radius_rate_per_day = 0.08;
   double plant_variation = 0.12;  // per-plant relative std-dev of size and timing
+  WeedOptions weeds;
   std::uint64_t seed = 1;
 
   // Throws InputError naming the bad value.
@@ -61,6 +79,18 @@ struct Plant {
   double delay_days = 0.0;                       // shifts the growth curve
   double yaw_rad = 0.0;                          // orientation of the plant
   std::uint64_t seed = 0;                        // for its procedural geometry
+};
+
+// A weed between the rows. Weeds come from their own random stream: adding them changes no
+// crop plant.
+struct Weed {
+  int id = 0;
+  int strip = 0;  // the soil left of row `strip` (num_rows: right of the last row)
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // centre of the rosette on the ground
+  double emergence_days = 0.0;                   // days after sowing when it emerges
+  double size_scale = 1.0;                       // multiplies the final height and radius
+  double yaw_rad = 0.0;
+  std::uint64_t seed = 0;  // for its procedural geometry
 };
 
 // A plant on one date.
@@ -108,6 +138,12 @@ class World {
 
   PlantState StateAt(const Plant& plant, Timestamp date) const;
 
+  // Weeds, sorted by strip and then by y; WeedStripRange gives one strip's [first, second).
+  const std::vector<Weed>& weeds() const { return weeds_; }
+  std::pair<int, int> WeedStripRange(int strip) const;
+  // Height (top of the rosette above the ground) and radius of a weed on a date.
+  PlantState WeedStateAt(const Weed& weed, Timestamp date) const;
+
   // Days since `options().sowing_date` (fractional).
   double DaysAfterSowing(Timestamp date) const;
   // Height and canopy radius of a nominal plant (scales 1, no delay) `days` after sowing.
@@ -123,12 +159,16 @@ class World {
   double TrueCanopyHeight(const Eigen::Vector2d& center, double radius_m, Timestamp date) const;
 
  private:
+  // Draws the weeds of options_.weeds (from their own random stream).
+  void PlaceWeeds();
   // Height and its gradient (dh/dx, dh/dy).
   double TerrainHeightAndGradient(double x, double y, Eigen::Vector2d* gradient) const;
 
   WorldOptions options_;
   std::vector<Plant> plants_;
   std::vector<int> row_begin_;  // index of the first plant of each row, plus the end
+  std::vector<Weed> weeds_;
+  std::vector<int> strip_begin_;  // index of the first weed of each strip, plus the end
   // Undulation: directions, wavelengths and phases of the relief waves (from the seed).
   struct Wave {
     Eigen::Vector2d k = Eigen::Vector2d::Zero();  // wave vector (rad/m)

@@ -166,12 +166,86 @@ TEST(WorldTest, TrueCanopyHeightIsMeanOfNearbyPlants) {
   EXPECT_EQ(world.TrueCanopyHeight(Eigen::Vector2d(-50, -50), 1.0, date), 0.0);
 }
 
+TEST(WorldTest, WeedsGrowOnTheSoilBetweenTheRowsOnly) {
+  WorldOptions options = LongRows();
+  options.weeds.density_per_m2 = 3.0;
+  const World world(options);
+  const WeedOptions& w = options.weeds;
+  const double s = options.row_spacing_m;
+  const auto& weeds = world.weeds();
+  // density × area, each strip's count rounded up or down.
+  const double area =
+      options.row_length_m * (options.num_rows * s - 2 * options.num_rows * w.row_clearance_m);
+  EXPECT_NEAR(static_cast<double>(weeds.size()), w.density_per_m2 * area, options.num_rows + 1.0);
+  int seen = 0;
+  for (int strip = 0; strip <= options.num_rows; ++strip) {
+    const auto [begin, end] = world.WeedStripRange(strip);
+    EXPECT_EQ(begin, seen);
+    seen = end;
+    for (int i = begin; i < end; ++i) {
+      const Weed& weed = weeds[i];
+      EXPECT_EQ(weed.id, i);
+      EXPECT_EQ(weed.strip, strip);
+      if (i > begin) {
+        EXPECT_LE(weeds[i - 1].xy.y(), weed.xy.y());
+      }
+      // Clear of every row's band, within the cultivated area and along the rows.
+      for (int row = 0; row < options.num_rows; ++row) {
+        EXPECT_GE(std::abs(weed.xy.x() - world.RowX(row)), w.row_clearance_m);
+      }
+      EXPECT_GE(weed.xy.x(), -0.5 * s);
+      EXPECT_LE(weed.xy.x(), world.RowX(options.num_rows - 1) + 0.5 * s);
+      EXPECT_GE(weed.xy.y(), 0.0);
+      EXPECT_LE(weed.xy.y(), options.row_length_m);
+      EXPECT_GE(weed.emergence_days, w.first_emergence_days);
+      EXPECT_LE(weed.emergence_days, w.first_emergence_days + w.emergence_span_days);
+    }
+  }
+  EXPECT_EQ(seen, static_cast<int>(weeds.size()));
+
+  // Growth: nothing before emergence, a fifth of the final size at it, half after
+  // half_size_days, then towards the final size; never shrinking.
+  const Weed& weed = weeds[weeds.size() / 2];
+  const auto at = [&](double days) {
+    return world.WeedStateAt(weed, options.sowing_date + static_cast<Timestamp>(days * kDay));
+  };
+  const double final_height = weed.size_scale * w.final_height_m;
+  EXPECT_FALSE(at(weed.emergence_days - 0.01).emerged);
+  EXPECT_NEAR(at(weed.emergence_days + 1e-6).height_m, 0.2 * final_height, 1e-6);
+  EXPECT_NEAR(at(weed.emergence_days + w.half_size_days).height_m, 0.5 * final_height, 1e-6);
+  EXPECT_NEAR(at(weed.emergence_days + 80.0).canopy_radius_m, weed.size_scale * w.final_radius_m,
+              1e-3);
+  for (double d = 0.0; d < 60.0; d += 1.0) {
+    EXPECT_LE(at(weed.emergence_days + d).height_m, at(weed.emergence_days + d + 1.0).height_m);
+  }
+
+  // Weeds draw from their own stream: the crop is the same as in a field without them, and
+  // the truth of the sites leaves them out.
+  const World clean(LongRows());
+  ASSERT_TRUE(clean.weeds().empty());
+  ASSERT_EQ(clean.plants().size(), world.plants().size());
+  for (std::size_t i = 0; i < clean.plants().size(); ++i) {
+    EXPECT_EQ(clean.plants()[i].xy, world.plants()[i].xy);
+    EXPECT_EQ(clean.plants()[i].seed, world.plants()[i].seed);
+  }
+  const Timestamp late = options.sowing_date + 90 * kDay;
+  const Eigen::Vector2d between(0.5 * s, 30.0);
+  EXPECT_EQ(world.TrueCanopyHeight(between, 0.4, late), clean.TrueCanopyHeight(between, 0.4, late));
+}
+
 TEST(WorldTest, BadOptionsThrow) {
   WorldOptions options;
   options.num_rows = 0;
   EXPECT_THROW(World{options}, InputError);
   options = WorldOptions{};
   options.final_height_m = 0.01;
+  EXPECT_THROW(options.Check(), InputError);
+  options = WorldOptions{};
+  options.weeds.density_per_m2 = -1.0;
+  EXPECT_THROW(options.Check(), InputError);
+  options = WorldOptions{};
+  options.weeds.density_per_m2 = 1.0;
+  options.weeds.row_clearance_m = 0.5;  // the rows' bands would cover the soil between them
   EXPECT_THROW(options.Check(), InputError);
 }
 

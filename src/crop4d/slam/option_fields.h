@@ -9,6 +9,7 @@
 #include "crop4d/core/option_fields.h"
 #include "crop4d/slam/camera_height_scale.h"
 #include "crop4d/slam/gp_prior.h"
+#include "crop4d/slam/image_quality.h"
 #include "crop4d/slam/imu_preintegration.h"
 #include "crop4d/slam/initialisation.h"
 #include "crop4d/slam/row_optimiser.h"
@@ -138,6 +139,7 @@ void VisitFields(RowOptimiser::Options& o, V&& visit) {
   visit("level_prior_sigma_rad", o.level_prior_sigma_rad);
   visit("max_imu_gap_s", o.max_imu_gap_s);
   visit("standstill", o.standstill);
+  visit("image_weighting", o.image_weighting);
   visit("max_iterations", o.max_iterations);
   visit("iterative_schur", o.iterative_schur);
   visit("max_linear_iterations", o.max_linear_iterations);
@@ -147,6 +149,13 @@ void VisitFields(RowOptimiser::Options& o, V&& visit) {
   visit("estimate_time_offset", o.estimate_time_offset);
   visit("time_offset_prior_sigma_s", o.time_offset_prior_sigma_s);
   visit("max_abs_time_offset_s", o.max_abs_time_offset_s);
+}
+
+template <class V>
+void VisitFields(ImageWeightOptions& o, V&& visit) {
+  visit("enabled", o.enabled);
+  visit("window", o.window);
+  visit("max_sigma_scale", o.max_sigma_scale);
 }
 
 template <class V>

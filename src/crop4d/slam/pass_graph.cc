@@ -88,6 +88,9 @@ PassGraph::PassGraph(const RowOptimiser::Options& options, const RowOptimiser::I
   }
   reprojection_loss_ = std::make_unique<ceres::HuberLoss>(options.reprojection_loss_scale);
   gps_loss_ = std::make_unique<ceres::HuberLoss>(options.gps_loss_scale);
+  if (input.image_sharpness.size() == input.initial_states.size()) {
+    image_sigma_scales_ = ImageSigmaScales(input.image_sharpness, options.image_weighting);
+  }
 }
 
 // (Re)integrates the IMU between consecutive states at each state's current bias estimate.
@@ -322,10 +325,11 @@ std::int64_t PassGraph::AddLandmarks(ceres::Problem* problem,
 void PassGraph::AddObservation(ceres::Problem* problem, std::size_t state,
                                const Eigen::Vector2d& pixel, double* point_world) const {
   StateBlocks& b = blocks_[state];
+  const double sigma_px = options_.reprojection_sigma_px * ImageSigmaScale(state);
   if (!uses_time_offset() && calibration_ == nullptr) {
-    problem->AddResidualBlock(ReprojectionFactor::Create(*input_.camera, input_.body_from_camera,
-                                                         pixel, options_.reprojection_sigma_px),
-                              reprojection_loss_.get(), b.pose, point_world);
+    problem->AddResidualBlock(
+        ReprojectionFactor::Create(*input_.camera, input_.body_from_camera, pixel, sigma_px),
+        reprojection_loss_.get(), b.pose, point_world);
     return;
   }
   if (!problem->HasParameterBlock(&time_offset_s_)) {
@@ -348,17 +352,16 @@ void PassGraph::AddObservation(ceres::Problem* problem, std::size_t state,
   motion.vel_world = Eigen::Map<const Eigen::Vector3d>(b.vel);
   motion.rate_body = Eigen::Map<const Eigen::Vector3d>(b.rate);
   if (calibration_ != nullptr) {
-    problem->AddResidualBlock(
-        new CalibratedReprojectionFactor(*input_.camera, input_.body_from_camera, pixel,
-                                         options_.reprojection_sigma_px, motion),
-        reprojection_loss_.get(), b.pose, point_world, &time_offset_s_, calibration_->intrinsics,
-        calibration_->rotation, calibration_->lever_arm);
+    problem->AddResidualBlock(new CalibratedReprojectionFactor(
+                                  *input_.camera, input_.body_from_camera, pixel, sigma_px, motion),
+                              reprojection_loss_.get(), b.pose, point_world, &time_offset_s_,
+                              calibration_->intrinsics, calibration_->rotation,
+                              calibration_->lever_arm);
     return;
   }
-  problem->AddResidualBlock(
-      TimeOffsetReprojectionFactor::Create(*input_.camera, input_.body_from_camera, pixel,
-                                           options_.reprojection_sigma_px, motion),
-      reprojection_loss_.get(), b.pose, point_world, &time_offset_s_);
+  problem->AddResidualBlock(TimeOffsetReprojectionFactor::Create(
+                                *input_.camera, input_.body_from_camera, pixel, sigma_px, motion),
+                            reprojection_loss_.get(), b.pose, point_world, &time_offset_s_);
 }
 
 geometry::Rigid3 PassGraph::BodyAtCapture(std::size_t k) const {

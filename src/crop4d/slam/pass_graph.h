@@ -98,6 +98,11 @@ class PassGraph {
   std::vector<geometry::Rigid3> CapturePoses() const;
   // The robust loss of the reprojection factors (owned by the graph).
   ceres::LossFunction* reprojection_loss() const { return reprojection_loss_.get(); }
+  // The factor on the reprojection sigma of state k's image (Options::image_weighting of
+  // Input::image_sharpness; 1 without sharpness).
+  double ImageSigmaScale(std::size_t k) const {
+    return k < image_sigma_scales_.size() ? image_sigma_scales_[k] : 1.0;
+  }
 
  private:
   // Calls f(i, measurement, dt, s, index) for every GPS fix inside the states' span that the
@@ -115,6 +120,7 @@ class PassGraph {
   // Per Input::gps_fixes entry: dropped by GateGps.
   std::vector<bool> gps_rejected_;
   std::unique_ptr<ceres::LossFunction> reprojection_loss_, gps_loss_;
+  std::vector<double> image_sigma_scales_;  // per state, or empty
   mutable PoseManifold pose_manifold_;
   // Ceres writes the estimate here (a parameter block, as the state blocks are).
   mutable double time_offset_s_ = 0.0;

@@ -150,7 +150,8 @@ OptionCheck RowOptimiser::Options::Check() const {
   nested.Nested("triangulation", triangulation.Check())
       .Nested("gp", gp.Check())
       .Nested("camera_height", camera_height.Check())
-      .Nested("standstill", standstill.Check());
+      .Nested("standstill", standstill.Check())
+      .Nested("image_weighting", image_weighting.Check());
   return nested.Result();
 }
 
@@ -175,6 +176,11 @@ RowOptimiser::Result RowOptimiser::Solve(const Input& input) const {
   blocks.reserve(n);
   for (const RowState& s : input.initial_states) blocks.push_back(ToBlocks(s));
   PassGraph builder(options_, input, blocks);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double scale = builder.ImageSigmaScale(k);
+    summary.num_downweighted_images += scale > 1.1;
+    summary.max_image_sigma_scale = std::max(summary.max_image_sigma_scale, scale);
+  }
   builder.Preintegrate(&summary);
   if (summary.num_imu_gaps > 0) {
     spdlog::warn(

@@ -33,6 +33,7 @@
 #include "crop4d/geometry/rigid.h"
 #include "crop4d/slam/camera_height_scale.h"
 #include "crop4d/slam/gp_prior.h"
+#include "crop4d/slam/image_quality.h"
 #include "crop4d/slam/imu_preintegration.h"
 #include "crop4d/slam/initialisation.h"
 #include "crop4d/slam/session_streams.h"
@@ -105,6 +106,9 @@ class RowOptimiser {
     double max_imu_gap_s = 0.1;
     // The constraints of a standstill (its sigma_* fields; detection is the caller's).
     StandstillOptions standstill;
+    // Images less sharp than their neighbours (blur, exposure) get a larger reprojection sigma
+    // (Input::image_sharpness; image_quality.h).
+    ImageWeightOptions image_weighting;
     // Ceres iterations per phase and threads (0: all cores).
     int max_iterations = 50;
     // The linear solver with landmarks: the exact Schur complement factorised by sparse Cholesky
@@ -166,6 +170,10 @@ class RowOptimiser {
     // prior that it does (Options::level_prior_sigma_rad): nothing else fixes a straight pass's
     // rotation about its line of travel. Ignored with IMU samples (gravity observes the tilt).
     std::optional<Eigen::Vector3d> level_up_body;
+    // Per state (empty, or one per state: the image of state k): the sharpness of its image
+    // (features::FeatureSet::sharpness; 0: not measured). Options::image_weighting turns it into
+    // a factor on the reprojection sigma of the image's observations (image_quality.h).
+    std::vector<double> image_sharpness;
     // Per interval between consecutive states (empty, or one entry per interval): true when the
     // rig stands still over it (standstill.h).
     std::vector<bool> still_intervals;
@@ -225,6 +233,10 @@ class RowOptimiser {
     double gps_normalised_rms_horizontal = 0;
     // RMS reprojection error of the kept observations after the final solve, px.
     double reprojection_rms_px = 0;
+    // Images whose reprojection sigma was raised by more than 10 % for their sharpness
+    // (Options::image_weighting), and the largest factor.
+    int num_downweighted_images = 0;
+    double max_image_sigma_scale = 1.0;
     // Wall-clock seconds.
     double inertial_seconds = 0;
     double triangulation_seconds = 0;

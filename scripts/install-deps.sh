@@ -27,6 +27,8 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev chromium
   # gdalinfo, gdal_translate and GDAL's COG validator (python3-gdal) for the raster tests
   gdal-bin
+  # the Slurm executor's test and scripts/local-slurm.sh (a one-node cluster; docs/cluster.md)
+  slurm-wlm munge
   # headless OpenGL 3.3 through EGL (Mesa llvmpipe, surfaceless platform)
   libegl-dev libgl-dev libegl-mesa0 libgl1-mesa-dri libgbm1
 )

@@ -43,5 +43,7 @@ RunFunction SetupRun(CLI::App& app);
 RunFunction SetupExport(CLI::App& app);
 RunFunction SetupReport(CLI::App& app);
 RunFunction SetupView(CLI::App& app);
+RunFunction SetupTask(CLI::App& app);
+RunFunction SetupStatus(CLI::App& app);
 
 }  // namespace crop4d::cli

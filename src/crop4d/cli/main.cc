@@ -21,6 +21,12 @@ constexpr Command kCommands[] = {
      "The whole season in one command: validate, slam, associate, fuse, densify, analyze, eval, "
      "report (resumable)",
      crop4d::cli::SetupRun},
+    {"status",
+     "Where a workspace's run stands: the stages, and a cluster run's units queued, running, "
+     "done and failed",
+     crop4d::cli::SetupStatus},
+    {"task", "One step of a cluster run, as its Slurm jobs run it (docs/cluster.md)",
+     crop4d::cli::SetupTask},
     {"validate", "Check a field folder: every session, sensor, file and line",
      crop4d::cli::SetupValidate},
     {"simulate", "Make a synthetic field: rendered images, IMU, GPS and ground truth",

@@ -2,6 +2,7 @@
 // analyze, eval (with ground truth), report — resumable and incremental
 // (pipeline/season_run.h, docs/run.md).
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <cstdio>
@@ -11,6 +12,7 @@
 
 #include "crop4d/cli/command.h"
 #include "crop4d/core/error.h"
+#include "crop4d/pipeline/cluster_run.h"
 #include "crop4d/pipeline/season_run.h"
 
 namespace crop4d::cli {
@@ -27,7 +29,19 @@ struct RunArgs {
   bool force = false;
   bool wait = false;
   bool print_config = false;
+  std::string executor = "local";
+  pipeline::SlurmOptions slurm;
 };
+
+// Submits the season to Slurm (pipeline/cluster_run.h) and says how to follow it.
+int SubmitToSlurm(const RunArgs& args, const pipeline::RunOptions& options) {
+  const pipeline::ClusterSubmission submission =
+      pipeline::SubmitSeason(args.field, args.workspace, options, args.slurm);
+  std::printf("submitted to Slurm: jobs %s (plan %s)\nfollow it with: crop4d status %s [--wait]\n",
+              fmt::format("{}", fmt::join(submission.job_ids, ", ")).c_str(),
+              submission.plan_path.c_str(), args.workspace.c_str());
+  return 0;
+}
 
 int RunRun(const RunArgs& args) {
   pipeline::RunOptions options;
@@ -50,6 +64,7 @@ int RunRun(const RunArgs& args) {
   }
   options.force = args.force;
   options.wait_for_workspace = args.wait;
+  if (args.executor == "slurm") return SubmitToSlurm(args, options);
   const pipeline::RunResult result = pipeline::RunSeason(args.field, args.workspace, options);
   std::fputs(("\n" + pipeline::FormatRunSummary(result)).c_str(), stdout);
   std::fflush(stdout);
@@ -71,7 +86,8 @@ RunFunction SetupRun(CLI::App& app) {
       "WS/run_log.jsonl, WS/crop4d.log and WS/report.html. Exit code 0 when every stage ran, 1 "
       "when a stage failed, 2 for bad input.\n\nExamples:\n  crop4d run demo/field "
       "--workspace demo/workspace\n  crop4d run --print-config > season.yaml   # edit, then:\n"
-      "  crop4d run field --workspace ws --config season.yaml --threads 2");
+      "  crop4d run field --workspace ws --config season.yaml --threads 2\n"
+      "  crop4d run field --workspace /shared/ws --executor slurm --partition batch");
   app.add_option("field", args->field, "Field folder (docs/format.md)")
       ->check(CLI::ExistingDirectory);
   app.add_option("-w,--workspace", args->workspace, "Workspace folder (created if missing)");
@@ -91,6 +107,25 @@ RunFunction SetupRun(CLI::App& app) {
   app.add_flag("--wait", args->wait,
                "When another crop4d process is writing into the workspace, wait until it ends "
                "(default: exit with code 2, naming it)");
+  app.add_option("--executor", args->executor,
+                 "Where the work runs: local (this process) or slurm (job arrays on a Slurm "
+                 "cluster, the workspace on a shared file system; docs/cluster.md)")
+      ->check(CLI::IsMember({"local", "slurm"}));
+  app.add_option("--partition", args->slurm.partition,
+                 "slurm: the partition (default: the cluster's default)");
+  app.add_option("--cpus-per-task", args->slurm.cpus_per_task,
+                 "slurm: cores per task, its worker threads")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--attempts", args->slurm.max_attempts,
+                 "slurm: submissions of a work unit before it is reported as failed (1: no retry)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--sbatch-arg", args->slurm.sbatch_args,
+                 "slurm: one more sbatch option for every job, e.g. --sbatch-arg=--time=02:00:00 "
+                 "(repeatable)")
+      ->allow_extra_args(false);
+  app.add_option("--crop4d", args->slurm.crop4d,
+                 "slurm: the crop4d binary the jobs run, on the shared file system (default: "
+                 "this one)");
   app.add_flag("--print-config", args->print_config,
                "Print the effective configuration (defaults, the file, the options above) as "
                "YAML and exit");

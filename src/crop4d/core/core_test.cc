@@ -1,6 +1,10 @@
 #include <gtest/gtest.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -10,6 +14,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/resource_usage.h"
 #include "crop4d/core/timestamp.h"
 
 namespace crop4d {
@@ -122,6 +127,25 @@ TEST(LogFile, EveryLineIsOnDiskAsSoonAsItIsLogged) {
   EXPECT_NE(text.str().find("[debug] second line\n"), std::string::npos) << text.str();
   RemoveLogSink(sink);
   std::filesystem::remove(path);
+}
+
+TEST(ResourceUsage, CpuTimeGrowsWithWorkAndThePeakMemoryRestarts) {
+  const double cpu0 = ProcessCpuSeconds();
+  volatile double sink = 0;
+  const auto start = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(200)) sink += 1.0;
+  EXPECT_GT(ProcessCpuSeconds() - cpu0, 0.1);
+
+  // 256 MB touched, then returned to the kernel: the peak holds them until it is restarted.
+  const std::size_t bytes = 256u << 20;
+  void* block = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(block, MAP_FAILED);
+  std::memset(block, 1, bytes);
+  const double peak = PeakResidentMemoryMb();
+  ::munmap(block, bytes);
+  EXPECT_GT(peak, 256 * 1.048);
+  ASSERT_TRUE(ResetPeakResidentMemory());
+  EXPECT_LT(PeakResidentMemoryMb(), peak - 200);
 }
 
 }  // namespace crop4d

@@ -62,13 +62,18 @@ bool Flock(int fd, int operation, const std::string& path) {
 }  // namespace
 
 WorkspaceLock::WorkspaceLock(const std::filesystem::path& lock_file, const std::string& command,
-                             IfBusy if_busy) {
+                             IfBusy if_busy, Sharing sharing)
+    : exclusive_(sharing == Sharing::kExclusive) {
   const std::string path = lock_file.string();
   fd_ = OpenLockFile(path);
+  const int mode = exclusive_ ? LOCK_EX : LOCK_SH;
   try {
-    if (!Flock(fd_, LOCK_EX | LOCK_NB, path)) {
+    if (!Flock(fd_, mode | LOCK_NB, path)) {
       const std::string holder = ReadHolderLine(fd_);
-      const std::string who = holder.empty() ? "another crop4d process" : holder;
+      // Shared holders write no line: an empty file while the lock is held means them.
+      const std::string who =
+          holder.empty() ? "another crop4d process (or the tasks of a cluster run: crop4d status)"
+                         : holder;
       if (if_busy == IfBusy::kFail) {
         throw InputError(path, 0,
                          fmt::format("the workspace is in use by {}; run this again when it has "
@@ -76,8 +81,9 @@ WorkspaceLock::WorkspaceLock(const std::filesystem::path& lock_file, const std::
                                      who));
       }
       spdlog::warn("the workspace is in use by {}: waiting until it ends", who);
-      Flock(fd_, LOCK_EX, path);
+      Flock(fd_, mode, path);
     }
+    if (!exclusive_) return;
     const std::string line = HolderLine(command) + "\n";
     if (::ftruncate(fd_, 0) != 0 ||
         ::pwrite(fd_, line.data(), line.size(), 0) != static_cast<ssize_t>(line.size())) {
@@ -91,6 +97,10 @@ WorkspaceLock::WorkspaceLock(const std::filesystem::path& lock_file, const std::
 
 WorkspaceLock::~WorkspaceLock() {
   if (fd_ < 0) return;
+  if (!exclusive_) {
+    ::close(fd_);
+    return;
+  }
   // Emptied first: a holder line in an unlocked file would name a process that has ended.
   if (::ftruncate(fd_, 0) != 0) {
     spdlog::debug("could not empty the workspace lock file: {}", std::strerror(errno));

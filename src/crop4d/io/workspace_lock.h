@@ -16,6 +16,10 @@ class WorkspaceLock {
  public:
   // What a second process does while another one holds the lock.
   enum class IfBusy { kFail, kWait };
+  // kExclusive: one process alone (a local run, a stage command). kShared: the tasks of a
+  // cluster run (pipeline/cluster_run.h), which write disjoint files side by side; they keep
+  // exclusive holders out and are kept out by them. Shared holders leave the holder line alone.
+  enum class Sharing { kExclusive, kShared };
 
   // Takes the lock held in `lock_file` (created when missing, in an existing folder) for
   // `command` (e.g. "crop4d run"). While held, the file's first line names the holder:
@@ -23,7 +27,7 @@ class WorkspaceLock {
   // the holder when another process holds it. kWait: logs once who holds it and blocks until it
   // is released. Throws InputError when the lock file cannot be created.
   WorkspaceLock(const std::filesystem::path& lock_file, const std::string& command,
-                IfBusy if_busy = IfBusy::kFail);
+                IfBusy if_busy = IfBusy::kFail, Sharing sharing = Sharing::kExclusive);
   // Releases the lock (the file stays: removing it would race with a process waiting on it).
   ~WorkspaceLock();
   WorkspaceLock(const WorkspaceLock&) = delete;
@@ -31,6 +35,7 @@ class WorkspaceLock {
 
  private:
   int fd_ = -1;
+  bool exclusive_ = true;
 };
 
 }  // namespace crop4d::io

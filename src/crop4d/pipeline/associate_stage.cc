@@ -396,7 +396,14 @@ std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,
       return p.a.session != options.session && p.b.session != options.session;
     });
   }
+  if (!options.pair.empty()) {
+    std::erase_if(pairs, [&](const PassPair& p) { return PassPairName(p) != options.pair; });
+  }
   return pairs;
+}
+
+std::string PassPairName(const PassPair& pair) {
+  return fs::path(association::AssociationFileName(pair.a, pair.b)).stem().string();
 }
 
 std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
@@ -411,6 +418,9 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
     }
   }
   const std::vector<PassPair> pairs = ScheduleAssociations(field_folder, workspace, options);
+  if (pairs.empty() && !options.pair.empty()) {
+    throw InputError(workspace, 0, "no pass pair '" + options.pair + "' in this workspace");
+  }
   if (pairs.empty()) {
     throw InputError(workspace, 0,
                      "no pair of row passes to associate (run `crop4d slam` on the field first; "

@@ -52,6 +52,10 @@ struct AssociateStageOptions {
   std::string method = "robust";
   // Only pairs with a pass of this session (empty: all).
   std::string session;
+  // Only this pass pair, named as its files are without the extension
+  // ("<session a>_<pass a>__<session b>_<pass b>", PassPairName; empty: every pair): one work
+  // unit of the Slurm executor (pipeline/cluster_run.h).
+  std::string pair;
   // Which neighbours: other rows of the same session, and the same row in other sessions up to
   // `session_gap` sessions later (1: the next session).
   bool same_session = true;
@@ -123,6 +127,9 @@ struct PassPairReport : workspace::AssociationCounts {
   std::string method;
   bool skipped = false;  // up to date
 };
+
+// A pair's name: its association files' name without the extension.
+std::string PassPairName(const PassPair& pair);
 
 // The pass pairs of a workspace's sessions (in field order) under `options`.
 std::vector<PassPair> ScheduleAssociations(const std::string& field_folder,

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <fstream>
@@ -20,8 +21,16 @@ namespace {
 using json = nlohmann::json;
 
 json ToJson(const StageRecord& s) {
-  return json{{"name", s.name},        {"status", s.status},   {"seconds", s.seconds},
-              {"done", s.done},        {"skipped", s.skipped}, {"failed", s.failed},
+  // NaN (unknown) is written as null.
+  auto number = [](double v) { return std::isfinite(v) ? json(v) : json(nullptr); };
+  return json{{"name", s.name},
+              {"status", s.status},
+              {"seconds", s.seconds},
+              {"cpu_seconds", number(s.cpu_seconds)},
+              {"peak_rss_mb", number(s.peak_rss_mb)},
+              {"done", s.done},
+              {"skipped", s.skipped},
+              {"failed", s.failed},
               {"messages", s.messages}};
 }
 
@@ -79,6 +88,12 @@ RunRecord ReadRunRecord(const std::string& path) {
       stage.name = s.at("name");
       stage.status = s.at("status");
       stage.seconds = s.value("seconds", 0.0);
+      // Absent in records of earlier versions; null when it was unknown.
+      auto number = [&](const char* key) {
+        return s.contains(key) && s[key].is_number() ? s[key].get<double>() : std::nan("");
+      };
+      stage.cpu_seconds = number("cpu_seconds");
+      stage.peak_rss_mb = number("peak_rss_mb");
       stage.done = s.value("done", 0);
       stage.skipped = s.value("skipped", 0);
       stage.failed = s.value("failed", 0);

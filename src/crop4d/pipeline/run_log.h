@@ -37,6 +37,11 @@ struct StageRecord {
   // without measurement sites).
   std::string status = "not run";
   double seconds = 0.0;
+  // CPU seconds (user + system, every thread) and the peak resident memory, MB, of the process
+  // during the stage (core/resource_usage.h; NaN where unknown). A cluster run's merged record
+  // gives the sum of its units' CPU and the largest unit's peak.
+  double cpu_seconds = 0.0;
+  double peak_rss_mb = 0.0;
   int done = 0;
   int skipped = 0;  // up to date
   int failed = 0;

@@ -6,15 +6,18 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <optional>
 #include <set>
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
+#include "crop4d/core/resource_usage.h"
 #include "crop4d/core/stopwatch.h"
 #include "crop4d/core/version.h"
 #include "crop4d/io/atomic_file.h"
@@ -24,6 +27,7 @@
 #include "crop4d/pipeline/season_run_eval.h"
 #include "crop4d/report/html_report.h"
 #include "crop4d/workspace/layout.h"
+#include "crop4d/workspace/pass_list.h"
 #include "crop4d/workspace/stage_files.h"
 
 namespace crop4d::pipeline {
@@ -47,24 +51,18 @@ class ScopedLogFile {
 // The state of one run: the record, the log and the stage being run.
 class SeasonRun {
  public:
+  // The whole season, recorded in WS/run.json and WS/run_log.jsonl.
   SeasonRun(std::string field, std::string workspace, const RunOptions& options)
-      : field_(std::move(field)),
-        ws_(std::move(workspace)),
-        layout_(ws_),
-        options_(options),
-        config_(options.config),
-        log_(layout_.RunLog().string()),
-        record_path_(layout_.RunRecord().string()) {
-    record_.crop4d_version = kVersion;
-    record_.field = field_;
-    record_.workspace = ws_;
-    record_.started = IsoTimeNow();
-    record_.threads = config_.threads;
-    for (const char* name : kRunStages) {
-      record_.stages.emplace_back();
-      record_.stages.back().name = name;
-    }
-    collector_ = MessageCollector::Install();
+      : SeasonRun(std::move(field), std::move(workspace), options,
+                  workspace::Layout(workspace).RunRecord().string(),
+                  workspace::Layout(workspace).RunLog().string(),
+                  {std::begin(kRunStages), std::end(kRunStages)}) {}
+  // One work unit, recorded in its own files.
+  SeasonRun(std::string field, std::string workspace, const RunOptions& options,
+            const WorkUnit& unit, const std::string& record_path, const std::string& log_path)
+      : SeasonRun(std::move(field), std::move(workspace), options, record_path, log_path,
+                  {unit.stage}) {
+    unit_ = unit;
   }
   ~SeasonRun() {
     collector_->Remove();
@@ -72,8 +70,33 @@ class SeasonRun {
   }
 
   RunResult Run();
+  RunResult RunUnit();
 
  private:
+  SeasonRun(std::string field, std::string workspace, const RunOptions& options,
+            std::string record_path, const std::string& log_path,
+            const std::vector<std::string>& stages)
+      : field_(std::move(field)),
+        ws_(std::move(workspace)),
+        layout_(ws_),
+        options_(options),
+        config_(options.config),
+        log_(log_path),
+        record_path_(std::move(record_path)) {
+    record_.crop4d_version = kVersion;
+    record_.field = field_;
+    record_.workspace = ws_;
+    record_.started = IsoTimeNow();
+    record_.threads = config_.threads;
+    for (const std::string& name : stages) {
+      record_.stages.emplace_back();
+      record_.stages.back().name = name;
+    }
+    collector_ = MessageCollector::Install();
+  }
+  // The thread limit of the configuration (held until this object ends), and the stages'
+  // thread counts from it.
+  void ApplyThreads();
   // Runs one stage: times it, catches what it throws (the stage fails, the run goes on),
   // collects the messages logged meanwhile, and writes WS/run.json.
   void Stage(const std::string& name, const std::function<void(StageRecord&)>& body);
@@ -83,6 +106,7 @@ class SeasonRun {
             const std::string& reason);
 
   void Validate(StageRecord& stage);
+  void Passes(StageRecord& stage);
   void Slam(StageRecord& stage);
   void Associate(StageRecord& stage);
   void Fuse(StageRecord& stage);
@@ -104,6 +128,9 @@ class SeasonRun {
   RunRecord record_;
   std::shared_ptr<MessageCollector> collector_;
   int stage_index_ = 0;
+  // Set when this object runs one work unit (RunWorkUnit) rather than the season.
+  std::optional<WorkUnit> unit_;
+  std::optional<tbb::global_control> threads_;
 };
 
 void SeasonRun::Item(StageRecord& stage, const std::string& session, const std::string& item,
@@ -129,11 +156,19 @@ void SeasonRun::Skip(const std::string& stage, const std::string& session, const
 void SeasonRun::Stage(const std::string& name, const std::function<void(StageRecord&)>& body) {
   ++stage_index_;
   StageRecord& stage = *record_.Stage(name);
-  Progress::SetGlobalPrefix(fmt::format("[{}/{} {}] ", stage_index_, std::size(kRunStages), name));
-  spdlog::info("== {} ({}/{})", name, stage_index_, std::size(kRunStages));
+  if (unit_) {
+    Progress::SetGlobalPrefix(fmt::format("[{}] ", unit_->Name()));
+    spdlog::info("== {}", unit_->Name());
+  } else {
+    Progress::SetGlobalPrefix(
+        fmt::format("[{}/{} {}] ", stage_index_, std::size(kRunStages), name));
+    spdlog::info("== {} ({}/{})", name, stage_index_, std::size(kRunStages));
+  }
   log_.Add(name, "", "start");
   collector_->Take(0);  // messages of earlier stages are theirs
   const auto start = std::chrono::steady_clock::now();
+  const double cpu_start = ProcessCpuSeconds();
+  const bool peak_restarted = ResetPeakResidentMemory();
   try {
     body(stage);
     if (stage.status == "not run") {
@@ -144,6 +179,8 @@ void SeasonRun::Stage(const std::string& name, const std::function<void(StageRec
     Skip(name, "", "", e.what());
   }
   stage.seconds = SecondsSince(start);
+  stage.cpu_seconds = ProcessCpuSeconds() - cpu_start;
+  stage.peak_rss_mb = peak_restarted ? PeakResidentMemoryMb() : std::nan("");
   stage.messages = collector_->Take(StageRecord::kMaxMessages);
   log_.Add(name, "", "end", stage.seconds, stage.status);
   WriteRunRecord(record_path_, record_);
@@ -208,6 +245,7 @@ void SeasonRun::Slam(StageRecord& stage) {
   for (const std::string& id : sessions_) {
     SlamStageOptions o = config_.slam;
     o.session = id;
+    if (unit_) o.pass = unit_->item;
     o.force = options_.force;
     o.show_progress = options_.show_progress;
     std::vector<PassReport> reports;
@@ -231,6 +269,28 @@ void SeasonRun::Slam(StageRecord& stage) {
   }
 }
 
+void SeasonRun::Passes(StageRecord& stage) {
+  for (const std::string& id : sessions_) {
+    SlamStageOptions o = config_.slam;
+    o.session = id;
+    o.passes_only = true;
+    o.show_progress = options_.show_progress;
+    const auto start = std::chrono::steady_clock::now();
+    try {
+      RunSlamStage(field_, ws_, o);
+    } catch (const std::exception& e) {
+      Item(stage, id, "", kActionFailed, SecondsSince(start), e.what());
+      continue;
+    }
+    const std::size_t n = workspace::ReadPassList(ws_, id).size();
+    if (n == 0) {
+      Item(stage, id, "", kActionFailed, SecondsSince(start), "no row pass found");
+    } else {
+      Item(stage, id, "", kActionDone, SecondsSince(start));
+    }
+  }
+}
+
 std::vector<std::string> SeasonRun::SessionsWithPasses() const {
   std::vector<std::string> out;
   for (const std::string& id : sessions_) {
@@ -245,6 +305,7 @@ std::vector<std::string> SeasonRun::SessionsWithPasses() const {
 
 void SeasonRun::Associate(StageRecord& stage) {
   AssociateStageOptions o = config_.associate;
+  if (unit_) o.pair = unit_->item;
   o.force = options_.force;
   o.show_progress = options_.show_progress;
   o.num_threads = config_.threads;
@@ -378,6 +439,44 @@ void SeasonRun::Report(StageRecord& stage) {
   Item(stage, "", fs::path(result.path).filename().string(), kActionDone, SecondsSince(start));
 }
 
+void SeasonRun::ApplyThreads() {
+  if (config_.threads > 0) {
+    threads_.emplace(tbb::global_control::max_allowed_parallelism, config_.threads);
+  }
+  config_.slam.front_end.num_threads = config_.threads;
+  config_.slam.optimiser.num_threads = config_.threads;
+}
+
+RunResult SeasonRun::RunUnit() {
+  const io::Field field(field_);  // throws InputError for an unreadable field.yaml
+  sessions_ = field.session_ids();
+  if (!unit_->session.empty()) {
+    if (std::find(sessions_.begin(), sessions_.end(), unit_->session) == sessions_.end()) {
+      throw InputError(field_, 0, "no session '" + unit_->session + "' in this field");
+    }
+    sessions_ = {unit_->session};
+  }
+  ApplyThreads();
+  const std::map<std::string, std::function<void(StageRecord&)>> bodies = {
+      {"validate", [this](StageRecord& s) { Validate(s); }},
+      {"passes", [this](StageRecord& s) { Passes(s); }},
+      {"slam", [this](StageRecord& s) { Slam(s); }},
+      {"associate", [this](StageRecord& s) { Associate(s); }},
+      {"fuse", [this](StageRecord& s) { Fuse(s); }},
+      {"densify", [this](StageRecord& s) { Densify(s); }},
+      {"analyze", [this](StageRecord& s) { Analyze(s); }},
+      {"eval", [this](StageRecord& s) { Eval(s); }},
+      {"report", [this](StageRecord& s) { Report(s); }},
+  };
+  const auto body = bodies.find(unit_->stage);
+  if (body == bodies.end()) throw InputError("work unit", 0, "no stage '" + unit_->stage + "'");
+  Stage(unit_->stage, body->second);
+  record_.complete = !record_.AnyStageFailed();
+  record_.finished = IsoTimeNow();
+  WriteRunRecord(record_path_, record_);
+  return {record_, record_path_};
+}
+
 RunResult SeasonRun::Run() {
   const io::Field field(field_);  // throws InputError for an unreadable field.yaml
   sessions_ = field.session_ids();
@@ -391,12 +490,7 @@ RunResult SeasonRun::Run() {
                field_, sessions_.size(), ws_, options_.config_source);
   WriteRunRecord(record_path_, record_);
 
-  std::optional<tbb::global_control> threads;
-  if (config_.threads > 0) {
-    threads.emplace(tbb::global_control::max_allowed_parallelism, config_.threads);
-  }
-  config_.slam.front_end.num_threads = config_.threads;
-  config_.slam.optimiser.num_threads = config_.threads;
+  ApplyThreads();
 
   Stage("validate", [this](StageRecord& s) { Validate(s); });
   Stage("slam", [this](StageRecord& s) { Slam(s); });
@@ -429,6 +523,62 @@ RunResult SeasonRun::Run() {
 }
 
 }  // namespace
+
+std::string WorkUnit::Name() const {
+  std::string name = stage;
+  if (!session.empty()) name += " " + session + (item.empty() ? "" : "/" + item);
+  if (session.empty() && !item.empty()) name += " " + item;
+  return name;
+}
+
+std::vector<WorkUnit> ListWorkUnits(const std::string& field_folder, const std::string& workspace,
+                                    const RunConfig& config, const std::string& stage) {
+  const io::Field field(field_folder);
+  const workspace::Layout layout(workspace);
+  std::vector<WorkUnit> units;
+  if (stage == "passes") {
+    for (const std::string& id : field.session_ids()) {
+      if (io::NameProblem(id).empty()) units.push_back({stage, id, ""});
+    }
+  } else if (stage == "slam") {
+    for (const std::string& id : field.session_ids()) {
+      if (!fs::exists(layout.PassList(id))) continue;
+      for (const slam::RowPass& pass : workspace::ReadPassList(workspace, id)) {
+        units.push_back({stage, id, pass.id});
+      }
+    }
+  } else if (stage == "associate") {
+    for (const PassPair& pair : ScheduleAssociations(field_folder, workspace, config.associate)) {
+      units.push_back({stage, "", PassPairName(pair)});
+    }
+  } else if (stage == "densify") {
+    if (!config.densify) return {};
+    for (const std::string& id : field.session_ids()) {
+      if (fs::exists(layout.FusedPoses(id))) units.push_back({stage, id, ""});
+    }
+  } else if (stage == "report") {
+    if (config.report) units.push_back({stage, "", ""});
+  } else if (stage == "eval") {
+    const bool has_truth = fs::is_directory(fs::path(field_folder) / "ground_truth");
+    if (config.eval == "always" || (config.eval == "auto" && has_truth)) {
+      units.push_back({stage, "", ""});
+    }
+  } else if (stage == "validate" || stage == "fuse" || stage == "analyze") {
+    units.push_back({stage, "", ""});
+  } else {
+    throw InputError("work unit", 0, "no stage '" + stage + "'");
+  }
+  return units;
+}
+
+RunResult RunWorkUnit(const std::string& field_folder, const std::string& workspace,
+                      const RunOptions& options, const WorkUnit& unit,
+                      const std::string& record_path, const std::string& log_path) {
+  std::string message;
+  if (!options.config.Check(&message)) throw InputError(options.config_source, 0, message);
+  SeasonRun run(field_folder, workspace, options, unit, record_path, log_path);
+  return run.RunUnit();
+}
 
 RunResult RunSeason(const std::string& field_folder, const std::string& workspace,
                     const RunOptions& options) {

@@ -31,6 +31,21 @@ namespace crop4d::pipeline {
 inline constexpr const char* kRunStages[] = {"validate", "slam",    "associate", "fuse",
                                              "densify",  "analyze", "eval",      "report"};
 
+// The stages as the Slurm executor runs them, as work units (pipeline/cluster_run.h): the slam
+// stage in two steps, "passes" (a session cut into its passes, one unit per session) and "slam"
+// (one unit per pass).
+inline constexpr const char* kUnitStages[] = {"validate", "passes",  "slam", "associate", "fuse",
+                                              "densify",  "analyze", "eval", "report"};
+
+// One work unit of a stage: what one task of a cluster run does, with the local run's code.
+struct WorkUnit {
+  std::string stage;    // one of kUnitStages
+  std::string session;  // passes, slam, densify: the session; empty for the others
+  std::string item;     // slam: the pass id; associate: the pair (PassPairName); else empty
+  // "stage", "stage session", "stage session/item" or "stage item": for logs and status.
+  std::string Name() const;
+};
+
 struct RunOptions {
   RunConfig config;
   // Where the configuration came from, for the log ("defaults" or a file).
@@ -58,6 +73,23 @@ struct RunResult {
 // the result.
 RunResult RunSeason(const std::string& field_folder, const std::string& workspace,
                     const RunOptions& options);
+
+// The work units of `stage` (one of kUnitStages) as the workspace stands: validate, fuse,
+// analyze, eval and report are one unit; passes one per session of the field whose name the
+// outputs can hold; slam one per pass that "passes" cut (WS/sessions/<id>/passes list); associate
+// one per scheduled pair; densify one per session with fused poses; the stages the configuration
+// turns off (densify, eval, report) and associate without a pair have none.
+std::vector<WorkUnit> ListWorkUnits(const std::string& field_folder, const std::string& workspace,
+                                    const RunConfig& config, const std::string& stage);
+
+// Runs one work unit with the local run's code, restricted to the unit. It takes no lock (the
+// caller holds the workspace's lock shared) and writes neither WS/run.json nor WS/crop4d.yaml:
+// the record of its one stage goes to `record_path` (a run.json holding that stage alone) and
+// its run-log events to `log_path`. Throws InputError for an unreadable field or an unknown
+// stage; a unit that fails is recorded (status "failed" or "partial").
+RunResult RunWorkUnit(const std::string& field_folder, const std::string& workspace,
+                      const RunOptions& options, const WorkUnit& unit,
+                      const std::string& record_path, const std::string& log_path);
 
 // A short summary for the terminal: a line per stage (status, time, counts), what was skipped,
 // the headline figures of WS/eval/metrics.json when present (trajectory error, cross-session

@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <optional>
 
@@ -47,16 +49,23 @@ std::string EvalHeadlines(const workspace::Layout& layout) {
 
 std::string FormatRunSummary(const RunResult& result) {
   const RunRecord& r = result.record;
-  std::string out = fmt::format("{:<10} {:<11} {:>9} {:>6} {:>11} {:>7}\n", "stage", "status",
-                                "time [s]", "done", "up to date", "failed");
-  double total = 0;
+  std::string out =
+      fmt::format("{:<10} {:<11} {:>9} {:>8} {:>9} {:>6} {:>11} {:>7}\n", "stage", "status",
+                  "time [s]", "CPU [s]", "peak [MB]", "done", "up to date", "failed");
+  double total = 0, total_cpu = 0, peak = 0;
+  auto number = [](double v, int decimals) {
+    return std::isfinite(v) ? fmt::format("{:.{}f}", v, decimals) : std::string("-");
+  };
   for (const StageRecord& s : r.stages) {
     total += s.seconds;
-    out += fmt::format("{:<10} {:<11} {:>9.1f} {:>6} {:>11} {:>7}\n", s.name, s.status, s.seconds,
-                       s.done, s.skipped, s.failed);
+    if (std::isfinite(s.cpu_seconds)) total_cpu += s.cpu_seconds;
+    if (std::isfinite(s.peak_rss_mb)) peak = std::max(peak, s.peak_rss_mb);
+    out += fmt::format("{:<10} {:<11} {:>9.1f} {:>8} {:>9} {:>6} {:>11} {:>7}\n", s.name, s.status,
+                       s.seconds, number(s.cpu_seconds, 1), number(s.peak_rss_mb, 0), s.done,
+                       s.skipped, s.failed);
   }
-  out += fmt::format("{:<10} {:<11} {:>9.1f}\n", "total", r.complete ? "complete" : "incomplete",
-                     total);
+  out += fmt::format("{:<10} {:<11} {:>9.1f} {:>8.1f} {:>9.0f}\n", "total",
+                     r.complete ? "complete" : "incomplete", total, total_cpu, peak);
   if (!r.skipped.empty()) {
     out += fmt::format("\nskipped or degraded ({}):\n", r.skipped.size());
     for (const SkippedItem& s : r.skipped) {

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -27,6 +28,7 @@
 #include <vector>
 
 #include "crop4d/io/test_helpers.h"
+#include "crop4d/pipeline/cluster_run.h"
 #include "crop4d/pipeline/run_log.h"
 #include "crop4d/sim/cached_field_test_util.h"
 #include "crop4d/sim/sim_config.h"
@@ -702,6 +704,174 @@ TEST_F(SeasonRunTest, ASessionNamedWithASpaceRunsThroughEveryStage) {
   const json metrics = json::parse(Slurp(ws / "eval" / "metrics.json"));
   EXPECT_EQ(metrics["fused"]["overall"]["num_evaluated"].get<int>(), 1);
   EXPECT_NE(Slurp(ws / "report.html").find(id), std::string::npos);
+}
+
+// The dispatch between two stages of a cluster run (pipeline/cluster_run.h), with an sbatch that
+// only records what it is asked: units killed while running are submitted again, units whose
+// submissions are used up are reported as failed, and without a solved pass the run stops
+// after slam, as the local run does.
+TEST_F(SeasonRunTest, TheClusterDispatchRetriesKilledUnitsAndReportsThoseOutOfAttempts) {
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 2);
+  const fs::path sbatch = dir_ / "sbatch";
+  std::ofstream(sbatch) << "#!/bin/sh\n"
+                           "n=$(cat \"$0.count\" 2>/dev/null || echo 100)\n"
+                           "n=$((n + 1)); echo $n > \"$0.count\"\n"
+                           "echo \"$@\" >> \"$0.log\"\n"
+                           "echo \"$n\"\n";
+  fs::permissions(sbatch, fs::perms::owner_all);
+  SlurmOptions slurm;
+  slurm.sbatch = sbatch.string();
+  slurm.max_attempts = 2;
+  slurm.crop4d = Crop4dBinary();
+  RunOptions options;
+  options.config.eval = "never";
+  const fs::path ws = dir_ / "ws";
+  const ClusterSubmission submission = SubmitSeason(field.string(), ws.string(), options, slurm);
+  ASSERT_EQ(submission.job_ids, (std::vector<std::string>{"101", "102"}));
+  std::string log = Slurp(dir_ / "sbatch.log");
+  EXPECT_NE(log.find("--array=0-0"), std::string::npos) << log;
+  EXPECT_NE(log.find("--dependency=afterany:101"), std::string::npos) << log;
+  EXPECT_NE(log.find("task dispatch --workspace " + ws.string() + " --stage passes"),
+            std::string::npos)
+      << log;
+
+  // The validation runs (in this process, as its job would), then the passes are submitted.
+  ASSERT_EQ(RunClusterTask(ws.string(), "validate", 0), 0);
+  EXPECT_EQ(DispatchStage(ws.string(), "passes"), (std::vector<std::string>{"103", "104"}));
+  const fs::path passes = ws / "cluster" / "passes";
+  auto set_state = [&](int i, const std::string& state, int submissions) {
+    json t = json::parse(Slurp(passes / ("task-" + std::to_string(i) + ".json")));
+    t["state"] = state;
+    t["submissions"] = submissions;
+    std::ofstream(passes / ("task-" + std::to_string(i) + ".json")) << t.dump();
+  };
+  // Unit 0 was killed while running; unit 1 never started and has no submission left.
+  set_state(0, "running", 1);
+  set_state(1, "waiting", 2);
+  EXPECT_EQ(DispatchStage(ws.string(), "slam"), (std::vector<std::string>{"105", "106"}));
+  log = Slurp(dir_ / "sbatch.log");
+  // Unit 0 alone, again, after the first array of the passes.
+  const std::size_t again = log.rfind("--job-name=crop4d-passes ");
+  ASSERT_NE(again, std::string::npos) << log;
+  EXPECT_NE(log.find("--job-name=crop4d-passes "), again) << log;
+  EXPECT_NE(log.find("--array=0-0 ", again), std::string::npos) << log;
+  ClusterStatus status = ReadClusterStatus(ws.string());
+  ASSERT_EQ(status.stages[1].stage, "passes");
+  EXPECT_EQ(status.stages[1].tasks[0].state, "failed");
+  EXPECT_FALSE(status.stages[1].tasks[0].gave_up);
+  EXPECT_EQ(status.stages[1].tasks[0].submissions, 2);
+  EXPECT_TRUE(status.stages[1].tasks[1].gave_up);
+  EXPECT_NE(status.stages[1].tasks[1].message.find("never started"), std::string::npos);
+  EXPECT_FALSE(status.finished);
+
+  // Unit 0 killed again: given up too; no session has a pass, so the run stops after slam.
+  set_state(0, "running", 2);
+  EXPECT_TRUE(DispatchStage(ws.string(), "slam").empty());
+  status = ReadClusterStatus(ws.string());
+  EXPECT_TRUE(status.finished);
+  EXPECT_TRUE(status.stopped);
+  EXPECT_FALSE(status.Complete());
+  const std::string table = FormatClusterStatus(status);
+  EXPECT_NE(table.find("stopped"), std::string::npos) << table;
+  EXPECT_NE(table.find("killed while running"), std::string::npos) << table;
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_FALSE(record.complete);
+  EXPECT_EQ(record.skipped.size(), 2u);
+  RunRecord copy = record;
+  EXPECT_EQ(copy.Stage("validate")->status, "done");
+  EXPECT_EQ(copy.Stage("passes")->status, "failed");
+  EXPECT_EQ(copy.Stage("fuse")->status, "not run");
+}
+
+// The tiny field through the Slurm executor (pipeline/cluster_run.h) on a one-node cluster
+// (scripts/local-slurm.sh; root and Debian's slurm-wlm, which scripts/install-deps.sh installs):
+// with one thread per task its products are those of the local run to the byte, and a task
+// killed while it runs (scancel) is run again with the same result.
+class SlurmRunTest : public SeasonRunTest {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "the one-node Slurm cluster needs root";
+    if (std::system("command -v sbatch >/dev/null && command -v slurmd >/dev/null") != 0) {
+      GTEST_SKIP() << "Slurm is not installed (scripts/install-deps.sh)";
+    }
+    SeasonRunTest::SetUp();
+    const std::string script = std::string(CROP4D_SOURCE_DIR) + "/scripts/local-slurm.sh";
+    started_cluster_ = std::system((script + " status >/dev/null 2>&1").c_str()) != 0;
+    ASSERT_EQ(std::system((script + " start >/dev/null").c_str()), 0) << "no cluster: " << script;
+    ::setenv("SLURM_CONF", "/tmp/crop4d-slurm/slurm.conf", 1);
+  }
+  void TearDown() override {
+    if (started_cluster_) {
+      const std::string script = std::string(CROP4D_SOURCE_DIR) + "/scripts/local-slurm.sh";
+      EXPECT_EQ(std::system((script + " stop >/dev/null").c_str()), 0);
+    }
+    if (!dir_.empty()) SeasonRunTest::TearDown();
+  }
+  bool started_cluster_ = false;
+};
+
+// The products of a workspace without the cluster run's own records.
+std::map<std::string, std::string> ProductsOutsideCluster(const fs::path& ws) {
+  std::map<std::string, std::string> products = Products(ws);
+  std::erase_if(products, [](const auto& p) { return p.first.rfind("cluster/", 0) == 0; });
+  return products;
+}
+
+TEST_F(SlurmRunTest, TheTinyFieldGivesTheLocalRunsOutputsAndAKilledTaskRunsAgain) {
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 2);
+  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
+  ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / "local", extra), dir_ / "local.log"), 0)
+      << Slurp(dir_ / "local.log");
+
+  const fs::path ws = dir_ / "cluster";
+  std::vector<std::string> cluster = extra;
+  cluster.insert(cluster.end(), {"--executor", "slurm", "--cpus-per-task", "1"});
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, cluster), dir_ / "cluster.log"), 0)
+      << Slurp(dir_ / "cluster.log");
+
+  // The first slam task seen running is cancelled.
+  std::string killed_task, killed_job;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes(10);
+  while (killed_job.empty() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    const json plan = json::parse(Slurp(ws / "cluster" / "season.json"), nullptr, false);
+    ASSERT_FALSE(plan.is_object() && plan.value("finished", false))
+        << "the run finished before a slam task was seen running";
+    if (!fs::is_directory(ws / "cluster" / "slam")) continue;
+    for (const auto& entry : fs::directory_iterator(ws / "cluster" / "slam")) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("task-", 0) != 0 || name.find(".run.") != std::string::npos ||
+          entry.path().extension() != ".json") {
+        continue;
+      }
+      const json state = json::parse(Slurp(entry.path()), nullptr, false);
+      if (state.is_object() && state.value("state", "") == "running") {
+        killed_task = name;
+        killed_job = state.value("job", "");
+        break;
+      }
+    }
+  }
+  ASSERT_FALSE(killed_job.empty()) << "no slam task was seen running";
+  ASSERT_EQ(std::system(("scancel " + killed_job).c_str()), 0) << killed_job;
+
+  ASSERT_EQ(RunToEnd({"status", ws.string(), "--wait", "--poll", "0.5"}, dir_ / "status.log"), 0)
+      << Slurp(dir_ / "status.log");
+  const json state = json::parse(Slurp(ws / "cluster" / "slam" / killed_task));
+  EXPECT_EQ(state["state"], "done") << killed_task;
+  EXPECT_EQ(state["attempts"].get<int>(), 2) << killed_task << " of job " << killed_job;
+
+  const auto expected = Products(dir_ / "local");
+  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
+  EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  RunRecord copy = record;
+  ASSERT_NE(copy.Stage("slam"), nullptr);
+  EXPECT_EQ(copy.Stage("slam")->status, "done");
+  EXPECT_EQ(copy.Stage("densify")->done, 2);
 }
 
 }  // namespace

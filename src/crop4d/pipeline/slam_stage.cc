@@ -191,6 +191,7 @@ std::vector<PassReport> RunSlamStage(const std::string& field_folder, const std:
     workspace::WritePassList(layout.PassList(id).string(), passes);
     spdlog::info("session {}: {} passes, sensors {}", id, passes.size(),
                  slam::ToString(ctx.sensors));
+    if (options.passes_only) continue;
     json options_json = SlamOptionsJson(options, ctx.sensors);
     // The height in effect, so that a change of the option or of sensor.yaml
     // solves again.

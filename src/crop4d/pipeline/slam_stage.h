@@ -50,6 +50,9 @@ struct SlamStageOptions {
   std::string session;
   // Only this pass: a pass id ("row03", "all") or a row index ("3"); empty: every pass.
   std::string pass;
+  // Cut the selected sessions into passes (WS/sessions/<id>/passes list) and solve none: the
+  // Slurm executor's first step of a session, whose passes are then solved one per task.
+  bool passes_only = false;
   // The sensor set; unset: cam+imu+rtk when the session has an RTK receiver, cam+imu+gps when it
   // has only a standard one, cam+imu without GPS, imu+rtk without a camera.
   std::optional<slam::SensorSet> sensors;

@@ -54,6 +54,7 @@ void VisitFields(SlamStageOptions& o, V&& visit) {
   using fields::Role;
   visit("session", o.session, Role::kControl);
   visit("pass", o.pass, Role::kControl);
+  visit("passes_only", o.passes_only, Role::kControl);
   visit("sensors", o.sensors);
   visit("camera", o.camera);
   visit("imu", o.imu);
@@ -87,6 +88,7 @@ void VisitFields(AssociateStageOptions& o, V&& visit) {
   visit("method", o.method);
   // Which pass pairs are matched, not how: a pair's associations do not depend on them.
   visit("session", o.session, Role::kControl);
+  visit("pair", o.pair, Role::kControl);
   visit("same_session", o.same_session, Role::kControl);
   visit("cross_session", o.cross_session, Role::kControl);
   visit("session_gap", o.session_gap, Role::kControl);

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "crop4d/core/error.h"
 #include "crop4d/slam/camera_height_scale.h"
 #include "crop4d/slam/gps_factor.h"
 #include "crop4d/slam/motion_constraint_factor.h"
@@ -88,7 +89,10 @@ PassGraph::PassGraph(const RowOptimiser::Options& options, const RowOptimiser::I
   }
   reprojection_loss_ = std::make_unique<ceres::HuberLoss>(options.reprojection_loss_scale);
   gps_loss_ = std::make_unique<ceres::HuberLoss>(options.gps_loss_scale);
-  if (input.image_sharpness.size() == input.initial_states.size()) {
+  CROP4D_CHECK_MSG(
+      input.image_sharpness.empty() || input.image_sharpness.size() == input.initial_states.size(),
+      "image_sharpness: one value per state, or none");
+  if (!input.image_sharpness.empty()) {
     image_sigma_scales_ = ImageSigmaScales(input.image_sharpness, options.image_weighting);
   }
 }

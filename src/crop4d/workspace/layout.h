@@ -37,6 +37,9 @@ class Layout {
   std::filesystem::path RunLog() const { return root_ / "run_log.jsonl"; }
   std::filesystem::path Report() const { return root_ / "report.html"; }
   std::filesystem::path Lock() const { return root_ / ".crop4d.lock"; }
+  // A cluster run's plan and task states (owned by pipeline/cluster_run.h, which names the
+  // files inside).
+  std::filesystem::path ClusterDir() const { return root_ / "cluster"; }
 
   // Row SLAM (owned by the slam stage).
   std::filesystem::path SessionsDir() const { return root_ / "sessions"; }

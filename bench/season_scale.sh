@@ -117,4 +117,34 @@ for r in rows:
     print(f"| {name} | {nr} × {nl} m, {ns} | {images} | {passes} | {pairs} | {float(wall):.0f} | "
           f"{stage(0)} | {stage(1)} | {stage(2)} | {stage(3)} | {stage(4)} | "
           f"{per(v[0], images)} | {per(v[3], pairs)} | {per(v[6], passes)} | {per(v[9], images)} |")
+
+# Growth: each stage's wall time against its work, fitted as t = a * n^b over the points
+# (b = 1: linear), and the paper's season extrapolated from it (Dong et al. 2017: 21 rows x
+# 150 m, 23 sessions, about 16 000 images per session; about 3 pass pairs per pass).
+import math
+paper = {"images": 23 * 16000, "passes": 23 * 21, "pairs": 23 * 21 * 3}
+fits = {}
+for i, (stage, unit) in enumerate([("slam", "images"), ("associate", "pairs"),
+                                   ("fuse", "passes"), ("densify", "images")]):
+    pts = [(float({"images": r[4], "passes": r[5], "pairs": r[6]}[unit]), float(r[8 + 3 * i]))
+           for r in rows]
+    pts = [(n, t) for n, t in pts if n > 0 and t > 0]
+    if len(set(n for n, _ in pts)) < 2:
+        continue
+    xs, ys = [math.log(n) for n, _ in pts], [math.log(t) for _, t in pts]
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    b = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sum((x - mx) ** 2 for x in xs)
+    a = math.exp(my - b * mx)
+    fits[stage] = (unit, a, b, a * paper[unit] ** b)
+if fits:
+    print()
+    print("extrapolated with the fitted growth; per-image costs as measured at 640x480 (the paper's "
+          "images are 1280x960: densify's matching grows with the pixels)")
+    print()
+    print("| stage | work unit | exponent b (t = a n^b) | paper season, one 2-core machine | on 10 machines |")
+    print("|---|---|---|---|---|")
+    for stage, (unit, a, b, t) in fits.items():
+        # Units of a stage run side by side on a cluster; the joint fuse problem does not.
+        t10 = t if stage == "fuse" else t / 10
+        print(f"| {stage} | {unit} | {b:.2f} | {t / 3600:.1f} h | {t10 / 3600:.1f} h |")
 EOF

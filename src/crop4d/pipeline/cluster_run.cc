@@ -241,7 +241,14 @@ std::string Sbatch(const Plan& plan, const std::string& name, const std::string&
   for (const std::string& a : plan.slurm.sbatch_args) argv.push_back(a);
   argv.push_back(ClusterFiles(plan.workspace).Script().string());
   for (const std::string& a : command) argv.push_back(a);
-  const ProcessOutput out = RunProcess(argv);
+  ProcessOutput out;
+  try {
+    out = RunProcess(argv);
+  } catch (const InputError& e) {
+    throw InputError(
+        plan.slurm.sbatch, 0,
+        std::string(e.what()) + " (is this a machine with the Slurm client? Debian: slurm-client)");
+  }
   std::string id = out.output.substr(0, out.output.find_first_of(";\n"));
   const bool numeric = !id.empty() && std::all_of(id.begin(), id.end(), ::isdigit);
   if (out.exit_code != 0 || !numeric) {

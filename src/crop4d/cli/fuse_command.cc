@@ -67,10 +67,12 @@ RunFunction SetupFuse(CLI::App& app) {
   auto args = std::make_shared<FuseArgs>();
   pipeline::FuseStageOptions& o = args->options;
   app.description(
-      "Joint 4D optimisation (docs/cli.md#fuse, docs/fusion.md): one Ceres problem over every "
-      "row pass of every session — each pass's IMU, GP prior and GPS factors plus the cross "
-      "matches of `crop4d associate` as shared landmarks — initialised from row SLAM, with "
-      "robust losses and rejection of inconsistent matches. Writes WS/fused/<session>/poses.tum "
+      "Joint 4D optimisation (docs/cli.md#fuse, docs/fusion.md): the season's row passes in "
+      "Ceres problems — each pass's IMU, GP prior and GPS factors plus the cross matches of "
+      "`crop4d associate` as shared landmarks — initialised from row SLAM, with robust losses "
+      "and rejection of inconsistent matches; session by session in date order (a new "
+      "session is solved with the one before it, the one before that held), or the whole "
+      "season in one problem with --full. Writes WS/fused/<session>/poses.tum "
       "and sparse.ply, WS/fused/landmarks.ply, a COLMAP text model in WS/fused/colmap/ and "
       "WS/fused/summary.json; skipped when its inputs have not changed.\n\nExample:\n  crop4d "
       "fuse demo/field --workspace demo/workspace");
@@ -81,6 +83,15 @@ RunFunction SetupFuse(CLI::App& app) {
       ->required()
       ->check(CLI::ExistingDirectory);
   app.add_option("--method", o.method, "Associations to use: robust or naive")
+      ->capture_default_str();
+  app.add_flag("--full", o.full,
+               "One joint problem over every pass of every session (rebuilt whenever a session is "
+               "added; memory grows with the season). Default: session by session, each step "
+               "optimising the new session with the --window-sessions before it");
+  app.add_option("--window-sessions", o.window_sessions,
+                 "Sessions before the new one that each step of the incremental fuse optimises "
+                 "again (the one before them is held)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--matches-per-image-pair", o.max_matches_per_image_pair,
                  "Cross matches of one image pair used at most (the best, spread over the image; "

@@ -30,6 +30,7 @@ struct RunArgs {
   bool wait = false;
   bool print_config = false;
   std::string executor = "local";
+  int jobs = 1;
   pipeline::SlurmOptions slurm;
 };
 
@@ -65,7 +66,9 @@ int RunRun(const RunArgs& args) {
   options.force = args.force;
   options.wait_for_workspace = args.wait;
   if (args.executor == "slurm") return SubmitToSlurm(args, options);
-  const pipeline::RunResult result = pipeline::RunSeason(args.field, args.workspace, options);
+  const pipeline::RunResult result =
+      args.jobs > 1 ? pipeline::RunSeasonInParallel(args.field, args.workspace, options, args.jobs)
+                    : pipeline::RunSeason(args.field, args.workspace, options);
   std::fputs(("\n" + pipeline::FormatRunSummary(result)).c_str(), stdout);
   std::fflush(stdout);
   return result.any_stage_failed() || !result.complete() ? 1 : 0;
@@ -111,6 +114,11 @@ RunFunction SetupRun(CLI::App& app) {
                  "Where the work runs: local (this process) or slurm (job arrays on a Slurm "
                  "cluster, the workspace on a shared file system; docs/cluster.md)")
       ->check(CLI::IsMember({"local", "slurm"}));
+  app.add_option("--jobs", args->jobs,
+                 "local: work units run side by side, as processes sharing the --threads "
+                 "(passes, pass pairs, sessions; docs/run.md#parallelism-and-progress)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--partition", args->slurm.partition,
                  "slurm: the partition (default: the cluster's default)");
   app.add_option("--cpus-per-task", args->slurm.cpus_per_task,

@@ -20,6 +20,7 @@ struct TaskArgs {
   std::string stage;
   int offset = 0;
   std::optional<int> index;
+  int threads = 0;
 };
 
 // The unit a task runs: --index, else the offset plus the job array's task id.
@@ -39,7 +40,7 @@ int RunTask(const TaskArgs& args) {
     pipeline::DispatchStage(args.workspace, args.stage);
     return 0;
   }
-  return pipeline::RunClusterTask(args.workspace, args.stage, UnitIndex(args));
+  return pipeline::RunClusterTask(args.workspace, args.stage, UnitIndex(args), args.threads);
 }
 
 }  // namespace
@@ -67,6 +68,8 @@ RunFunction SetupTask(CLI::App& app) {
       ->check(CLI::IsMember(stages));
   app.add_option("--offset", args->offset,
                  "run: added to SLURM_ARRAY_TASK_ID (stages of more units than an array holds)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--threads", args->threads, "run: worker threads (0: the plan's cores per task)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--index", args->index, "run: the unit's index (instead of the array task id)")
       ->check(CLI::NonNegativeNumber);

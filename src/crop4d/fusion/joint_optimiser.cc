@@ -281,7 +281,7 @@ std::vector<bool> CamerasToRefine(const CalibrationRefinementOptions& options,
     for (const int p : cameras[c].passes) {
       if (refine[c] && !fixed_passes.empty() && fixed_passes[p]) {
         spdlog::info(
-            "joint problem: the calibration of a camera with held passes stays as written");
+            "joint problem: the calibration of a camera with held passes is held as given");
         refine[c] = false;
       }
     }

@@ -20,6 +20,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <thread>
 
 #include "crop4d/core/error.h"
 #include "crop4d/core/stopwatch.h"
@@ -69,6 +70,10 @@ struct Plan {
   bool finished = false;
   bool stopped = false;
   SlurmOptions slurm;
+  // Run here instead of on Slurm (crop4d run --jobs): this many tasks at once, and the threads
+  // of the machine they share (RunSeasonInParallel).
+  int local_jobs = 0;
+  int local_threads = 0;
 };
 
 json ToJson(const Plan& p) {
@@ -84,7 +89,9 @@ json ToJson(const Plan& p) {
           {"cpus_per_task", p.slurm.cpus_per_task},
           {"max_attempts", p.slurm.max_attempts},
           {"crop4d", p.slurm.crop4d},
-          {"sbatch", p.slurm.sbatch}};
+          {"sbatch", p.slurm.sbatch},
+          {"local_jobs", p.local_jobs},
+          {"local_threads", p.local_threads}};
 }
 
 json ReadJson(const fs::path& path) {
@@ -123,6 +130,8 @@ Plan ReadPlan(const std::string& workspace) {
     p.slurm.max_attempts = j.at("max_attempts");
     p.slurm.crop4d = j.at("crop4d");
     p.slurm.sbatch = j.at("sbatch");
+    p.local_jobs = j.value("local_jobs", 0);
+    p.local_threads = j.value("local_threads", 0);
   } catch (const json::exception& e) {
     throw InputError(path.string(), 0, std::string("malformed plan: ") + e.what());
   }
@@ -268,6 +277,69 @@ std::string Sbatch(const Plan& plan, const std::string& name, const std::string&
   return id;
 }
 
+// Runs units `ids` of `stage` on this machine (a local plan), `crop4d task run` processes of the
+// plan's binary, at most plan.local_jobs at once; returns when all have ended. The machine's
+// threads are shared among the tasks that run together: a stage of fewer units than jobs gives
+// each more (fuse, analyze: all of them).
+void RunUnitsHere(const Plan& plan, const std::string& stage, const std::vector<int>& ids) {
+  const ClusterFiles files(plan.workspace);
+  const int together = std::min<int>(plan.local_jobs, static_cast<int>(ids.size()));
+  const int threads = std::max(1, plan.local_threads / std::max(1, together));
+  std::map<pid_t, int> running;  // child -> unit
+  std::size_t next = 0;
+  const auto start_next = [&] {
+    const int i = ids[next++];
+    const std::vector<std::string> argv = {plan.slurm.crop4d,
+                                           "task",
+                                           "run",
+                                           "--workspace",
+                                           plan.workspace,
+                                           "--stage",
+                                           stage,
+                                           "--index",
+                                           std::to_string(i),
+                                           "--threads",
+                                           std::to_string(threads)};
+    const std::string log = (files.StageDir(stage) / fmt::format("local-{}.out", i)).string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(),
+                                     O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    pid_t pid = 0;
+    const int rc = ::posix_spawn(&pid, argv[0].c_str(), &actions, nullptr, args.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) {
+      throw InputError(argv[0], 0, fmt::format("cannot run it: {}", std::strerror(rc)));
+    }
+    running[pid] = i;
+  };
+  spdlog::info("{}: {} unit(s), {} at once, {} thread(s) each", stage, ids.size(), together,
+               threads);
+  while (next < ids.size() || !running.empty()) {
+    while (next < ids.size() && static_cast<int>(running.size()) < plan.local_jobs) start_next();
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, 0);
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      throw InputError("crop4d run --jobs", 0,
+                       fmt::format("waiting for the tasks: {}", std::strerror(errno)));
+    }
+    const auto it = running.find(pid);
+    if (it == running.end()) continue;  // not one of the tasks
+    // A task that threw says so in its state; one that was killed is concluded by the dispatch.
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+      spdlog::warn("{} unit {} ended with {}", stage, it->second,
+                   WIFEXITED(status) ? fmt::format("exit code {}", WEXITSTATUS(status))
+                                     : fmt::format("signal {}", WTERMSIG(status)));
+    }
+    running.erase(it);
+  }
+}
+
 // Submits units `ids` of `stage` as arrays of at most kArrayChunk task ids; returns the jobs.
 std::vector<std::string> SubmitUnits(const Plan& plan, const std::string& stage,
                                      const std::vector<int>& ids,
@@ -280,6 +352,10 @@ std::vector<std::string> SubmitUnits(const Plan& plan, const std::string& stage,
     TaskState t = ReadTask(files, stage, i);
     ++t.submissions;
     WriteJson(files.Task(stage, i), ToJson(t));
+  }
+  if (plan.local_jobs > 0) {
+    RunUnitsHere(plan, stage, ids);
+    return {"local"};
   }
   std::vector<std::string> jobs;
   const fs::path out = files.StageDir(stage) / "slurm-%A_%a.out";
@@ -299,6 +375,17 @@ std::string SubmitDispatch(const Plan& plan, const std::string& stage,
       plan, "crop4d-dispatch-" + stage, "", 1, dependencies,
       ClusterFiles(plan.workspace).dir / ("dispatch-" + stage + "-%j.out"),
       {plan.slurm.crop4d, "task", "dispatch", "--workspace", plan.workspace, "--stage", stage});
+}
+
+// The dispatch of `stage` after `jobs`: submitted to Slurm, or for a local plan handed to the
+// loop of RunSeasonInParallel through `local_next`.
+std::string ChainDispatch(const Plan& plan, const std::string& stage,
+                          const std::vector<std::string>& jobs, std::string* local_next) {
+  if (plan.local_jobs > 0) {
+    *local_next = stage;
+    return "local";
+  }
+  return SubmitDispatch(plan, stage, jobs);
 }
 
 int StageIndex(const std::string& stage) {
@@ -458,10 +545,12 @@ std::optional<std::vector<std::string>> QueuedJobs(const std::string& workspace)
 void WritePlan(const Plan& plan, const RunConfig& config) {
   const workspace::Layout layout(plan.workspace);
   const ClusterFiles files(plan.workspace);
-  const io::WorkspaceLock lock(layout.Lock(), "crop4d run --executor slurm");
+  const io::WorkspaceLock lock(
+      layout.Lock(), plan.local_jobs > 0 ? "crop4d run --jobs" : "crop4d run --executor slurm");
   if (fs::exists(files.Plan())) {
     const Plan previous = ReadPlan(plan.workspace);
-    if (!previous.finished) {
+    // An unfinished local run has no queue: its processes ended with it.
+    if (!previous.finished && previous.local_jobs == 0) {
       const std::optional<std::vector<std::string>> queued = QueuedJobs(plan.workspace);
       if (!queued) {
         throw InputError(plan.workspace, 0,
@@ -487,6 +576,28 @@ void WritePlan(const Plan& plan, const RunConfig& config) {
   fs::permissions(files.Script(), fs::perms::owner_exec | fs::perms::group_exec,
                   fs::perm_options::add);
   WriteJson(files.Plan(), ToJson(plan));
+}
+
+// A new plan of the season: checks the configuration and the field (an unreadable one fails
+// here, not in a task) and creates the workspace folder.
+Plan NewPlan(const std::string& field_folder, const std::string& workspace,
+             const RunOptions& options) {
+  std::string message;
+  if (!options.config.Check(&message)) throw InputError(options.config_source, 0, message);
+  const io::Field field(field_folder);
+  if (field.session_ids().empty()) throw InputError(field_folder, 0, "the field has no session");
+  std::error_code ec;
+  fs::create_directories(workspace, ec);
+  if (ec || !fs::is_directory(workspace)) {
+    throw InputError(workspace, 0, "cannot create the workspace folder: " + ec.message());
+  }
+  Plan plan;
+  plan.field = fs::absolute(field_folder).lexically_normal().string();
+  plan.workspace = fs::absolute(workspace).lexically_normal().string();
+  plan.config_source = options.config_source;
+  plan.submitted = IsoTimeNow();
+  plan.force = options.force;
+  return plan;
 }
 
 }  // namespace
@@ -519,21 +630,7 @@ bool ClusterStatus::Complete() const {
 ClusterSubmission SubmitSeason(const std::string& field_folder, const std::string& workspace,
                                const RunOptions& options, const SlurmOptions& slurm) {
   if (const std::string why = slurm.Check(); !why.empty()) throw InputError("slurm." + why);
-  std::string message;
-  if (!options.config.Check(&message)) throw InputError(options.config_source, 0, message);
-  const io::Field field(field_folder);  // an unreadable field fails here, not on the cluster
-  if (field.session_ids().empty()) throw InputError(field_folder, 0, "the field has no session");
-  std::error_code ec;
-  fs::create_directories(workspace, ec);
-  if (ec || !fs::is_directory(workspace)) {
-    throw InputError(workspace, 0, "cannot create the workspace folder: " + ec.message());
-  }
-  Plan plan;
-  plan.field = fs::absolute(field_folder).lexically_normal().string();
-  plan.workspace = fs::absolute(workspace).lexically_normal().string();
-  plan.config_source = options.config_source;
-  plan.submitted = IsoTimeNow();
-  plan.force = options.force;
+  Plan plan = NewPlan(field_folder, workspace, options);
   plan.slurm = slurm;
   if (plan.slurm.crop4d.empty()) plan.slurm.crop4d = ThisBinary();
   plan.slurm.crop4d = fs::absolute(plan.slurm.crop4d).string();
@@ -546,7 +643,12 @@ ClusterSubmission SubmitSeason(const std::string& field_folder, const std::strin
   return submission;
 }
 
-std::vector<std::string> DispatchStage(const std::string& workspace, const std::string& stage) {
+namespace {
+
+// DispatchStage; for a local plan, the units run before it returns and the stage to dispatch
+// next goes to `local_next` (empty: the run has ended).
+std::vector<std::string> Dispatch(const std::string& workspace, const std::string& stage,
+                                  std::string* local_next) {
   Plan plan = ReadPlan(workspace);
   const ClusterFiles files(plan.workspace);
   const io::WorkspaceLock lock(workspace::Layout(plan.workspace).Lock(), "crop4d task dispatch",
@@ -567,7 +669,7 @@ std::vector<std::string> DispatchStage(const std::string& workspace, const std::
     if (!again.empty()) {
       spdlog::info("{}: {} unit(s) to run again", previous, again.size());
       std::vector<std::string> jobs = SubmitUnits(plan, previous, again, {});
-      jobs.push_back(SubmitDispatch(plan, stage, jobs));
+      jobs.push_back(ChainDispatch(plan, stage, jobs, local_next));
       WriteMergedRecord(plan);
       return jobs;
     }
@@ -599,7 +701,7 @@ std::vector<std::string> DispatchStage(const std::string& workspace, const std::
     std::vector<std::string> jobs = SubmitUnits(plan, name, ids, {});
     const std::string next =
         index + 1 < static_cast<int>(std::size(kUnitStages)) ? kUnitStages[index + 1] : "end";
-    jobs.push_back(SubmitDispatch(plan, next, jobs));
+    jobs.push_back(ChainDispatch(plan, next, jobs, local_next));
     WriteMergedRecord(plan);
     return jobs;
   }
@@ -610,7 +712,41 @@ std::vector<std::string> DispatchStage(const std::string& workspace, const std::
   return {};
 }
 
-int RunClusterTask(const std::string& workspace, const std::string& stage, int index) {
+}  // namespace
+
+std::vector<std::string> DispatchStage(const std::string& workspace, const std::string& stage) {
+  std::string local_next;
+  return Dispatch(workspace, stage, &local_next);
+}
+
+RunResult RunSeasonInParallel(const std::string& field_folder, const std::string& workspace,
+                              const RunOptions& options, int jobs) {
+  if (jobs < 1) throw InputError("--jobs", 0, "must be >= 1");
+  Plan plan = NewPlan(field_folder, workspace, options);
+  plan.slurm.crop4d = ThisBinary();
+  plan.local_jobs = jobs;
+  plan.local_threads = options.config.threads > 0
+                           ? options.config.threads
+                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  plan.slurm.cpus_per_task = std::max(1, plan.local_threads / jobs);
+  WritePlan(plan, options.config);
+  // Held shared for the whole run: another crop4d run waits or refuses, as with a local run.
+  const io::WorkspaceLock lock(workspace::Layout(plan.workspace).Lock(), "crop4d run --jobs",
+                               options.wait_for_workspace ? io::WorkspaceLock::IfBusy::kWait
+                                                          : io::WorkspaceLock::IfBusy::kFail,
+                               io::WorkspaceLock::Sharing::kShared);
+  spdlog::info("crop4d {} run: field {}, workspace {}, {} units at once", kVersion, plan.field,
+               plan.workspace, jobs);
+  for (std::string stage = kUnitStages[0]; !stage.empty();) {
+    std::string next;
+    Dispatch(plan.workspace, stage, &next);
+    stage = next;
+  }
+  const std::string record_path = workspace::Layout(plan.workspace).RunRecord().string();
+  return {ReadRunRecord(record_path), record_path};
+}
+
+int RunClusterTask(const std::string& workspace, const std::string& stage, int index, int threads) {
   const Plan plan = ReadPlan(workspace);
   const ClusterFiles files(plan.workspace);
   const std::vector<WorkUnit> units = ReadUnits(files, stage);
@@ -640,7 +776,7 @@ int RunClusterTask(const std::string& workspace, const std::string& stage, int i
                                  io::WorkspaceLock::Sharing::kShared);
     RunOptions options;
     options.config = ReadRunConfig(workspace::Layout(plan.workspace).Config().string());
-    options.config.threads = plan.slurm.cpus_per_task;
+    options.config.threads = threads > 0 ? threads : plan.slurm.cpus_per_task;
     options.config_source = plan.config_source;
     options.force = plan.force;
     options.show_progress = false;
@@ -669,7 +805,8 @@ ClusterStatus ReadClusterStatus(const std::string& workspace) {
   status.finished = plan.finished;
   status.stopped = plan.stopped;
   status.max_attempts = plan.slurm.max_attempts;
-  if (!plan.finished) {
+  // A local run (crop4d run --jobs) has no queue to ask.
+  if (!plan.finished && plan.local_jobs == 0) {
     if (const auto queued = QueuedJobs(plan.workspace)) status.in_queue = !queued->empty();
   }
   for (const char* stage : kUnitStages) {

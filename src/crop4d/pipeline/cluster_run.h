@@ -74,9 +74,21 @@ ClusterSubmission SubmitSeason(const std::string& field_folder, const std::strin
 // stage) as described above. Returns the ids of the jobs it submitted (none at the end).
 std::vector<std::string> DispatchStage(const std::string& workspace, const std::string& stage);
 
-// `crop4d task run`: unit `index` of `stage`. Returns the process exit code: 0 when the unit ran
-// (its items may have failed: its record says so), 1 when it threw (its state says why).
-int RunClusterTask(const std::string& workspace, const std::string& stage, int index);
+// `crop4d task run`: unit `index` of `stage`, with `threads` worker threads (0: the plan's
+// cpus_per_task). Returns the process exit code: 0 when the unit ran (its items may have failed:
+// its record says so), 1 when it threw (its state says why).
+int RunClusterTask(const std::string& workspace, const std::string& stage, int index,
+                   int threads = 0);
+
+// `crop4d run --jobs N`: the season's work units on this machine, the cluster executor's plan,
+// tasks, retries and records without Slurm — each stage's units run as `crop4d task run`
+// processes, at most `jobs` at once, sharing the machine's threads (options.config.threads, 0:
+// every core): passes, pass pairs and sessions side by side; the next stage's units are listed
+// when a stage has ended. Holds the workspace's lock shared while it runs (another run waits or
+// refuses, as with the local executor). Returns the merged record (WS/run.json). Throws
+// InputError as SubmitSeason does.
+RunResult RunSeasonInParallel(const std::string& field_folder, const std::string& workspace,
+                              const RunOptions& options, int jobs);
 
 // A unit's state as its task file records it.
 struct TaskState {

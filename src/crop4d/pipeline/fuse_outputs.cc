@@ -209,6 +209,112 @@ json CamerasJson(const std::vector<fusion::RefinedCalibration>& calibrations,
 
 }  // namespace
 
+json JointSummaryJson(const fusion::JointOptimiser::Summary& s) {
+  return {{"passes", s.num_passes},
+          {"states", s.num_states},
+          {"landmarks_given", s.num_landmarks_given},
+          {"landmarks", s.num_landmarks},
+          {"shared_landmarks", s.num_shared_landmarks},
+          {"observations", s.num_observations},
+          {"cross_observations", s.num_cross_observations},
+          {"rejected_observations", s.num_rejected_observations},
+          {"rejected_cross_observations", s.num_rejected_cross_observations},
+          {"initial_cost", s.initial_cost},
+          {"final_cost", s.final_cost},
+          {"iterations", s.iterations},
+          {"reprojection_rms_px", s.reprojection_rms_px},
+          {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
+          {"ground_ties", s.num_ground_ties},
+          {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
+          {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
+          {"gps_rejected", s.num_gps_rejected},
+          {"cameras_refined", s.num_cameras_refined},
+          {"passes_aligned", s.num_passes_aligned},
+          {"max_alignment_shift_m", s.max_alignment_shift_m},
+          {"time_offsets_estimated", s.num_time_offsets_estimated},
+          {"time_offsets_held", s.num_time_offsets_held},
+          {"converged", s.converged},
+          {"seconds",
+           {{"triangulation", s.triangulation_seconds},
+            {"solve", s.solve_seconds},
+            {"final_solve", s.final_solve_seconds}}}};
+}
+
+fusion::JointOptimiser::Summary JointSummaryFromJson(const json& j) {
+  fusion::JointOptimiser::Summary s;
+  s.num_passes = j.at("passes").get<int>();
+  s.num_states = j.at("states").get<int>();
+  s.num_landmarks_given = j.at("landmarks_given").get<int>();
+  s.num_landmarks = j.at("landmarks").get<int>();
+  s.num_shared_landmarks = j.at("shared_landmarks").get<int>();
+  s.num_observations = j.at("observations").get<std::int64_t>();
+  s.num_cross_observations = j.at("cross_observations").get<std::int64_t>();
+  s.num_rejected_observations = j.at("rejected_observations").get<std::int64_t>();
+  s.num_rejected_cross_observations = j.at("rejected_cross_observations").get<std::int64_t>();
+  s.initial_cost = j.at("initial_cost").get<double>();
+  s.final_cost = j.at("final_cost").get<double>();
+  s.iterations = j.at("iterations").get<int>();
+  s.reprojection_rms_px = j.at("reprojection_rms_px").get<double>();
+  s.cross_reprojection_rms_px = j.at("cross_reprojection_rms_px").get<double>();
+  s.num_ground_ties = j.at("ground_ties").get<int>();
+  s.ground_tie_rms_across_m = j.at("ground_tie_rms_across_m").get<double>();
+  s.ground_tie_rms_vertical_m = j.at("ground_tie_rms_vertical_m").get<double>();
+  s.num_gps_rejected = j.at("gps_rejected").get<int>();
+  s.num_cameras_refined = j.at("cameras_refined").get<int>();
+  s.num_passes_aligned = j.at("passes_aligned").get<int>();
+  s.max_alignment_shift_m = j.at("max_alignment_shift_m").get<double>();
+  s.num_time_offsets_estimated = j.at("time_offsets_estimated").get<int>();
+  s.num_time_offsets_held = j.at("time_offsets_held").get<int>();
+  s.converged = j.at("converged").get<bool>();
+  const json& seconds = j.at("seconds");
+  s.triangulation_seconds = seconds.at("triangulation").get<double>();
+  s.solve_seconds = seconds.at("solve").get<double>();
+  s.final_solve_seconds = seconds.at("final_solve").get<double>();
+  return s;
+}
+
+void AddJointSummary(const fusion::JointOptimiser::Summary& step,
+                     fusion::JointOptimiser::Summary* total) {
+  fusion::JointOptimiser::Summary& t = *total;
+  // RMS values over the steps, weighted by their observations (cross ones for the cross RMS) and
+  // ties.
+  const auto rms = [](double a, double wa, double b, double wb) {
+    return wa + wb > 0 ? std::sqrt((a * a * wa + b * b * wb) / (wa + wb)) : 0.0;
+  };
+  t.reprojection_rms_px = rms(t.reprojection_rms_px, static_cast<double>(t.num_observations),
+                              step.reprojection_rms_px, static_cast<double>(step.num_observations));
+  t.cross_reprojection_rms_px =
+      rms(t.cross_reprojection_rms_px, static_cast<double>(t.num_cross_observations),
+          step.cross_reprojection_rms_px, static_cast<double>(step.num_cross_observations));
+  t.ground_tie_rms_across_m = rms(t.ground_tie_rms_across_m, t.num_ground_ties,
+                                  step.ground_tie_rms_across_m, step.num_ground_ties);
+  t.ground_tie_rms_vertical_m = rms(t.ground_tie_rms_vertical_m, t.num_ground_ties,
+                                    step.ground_tie_rms_vertical_m, step.num_ground_ties);
+  t.converged = (t.num_passes == 0 || t.converged) && step.converged;
+  t.num_passes += step.num_passes;
+  t.num_states += step.num_states;
+  t.num_landmarks_given += step.num_landmarks_given;
+  t.num_passes_aligned += step.num_passes_aligned;
+  t.max_alignment_shift_m = std::max(t.max_alignment_shift_m, step.max_alignment_shift_m);
+  t.num_landmarks += step.num_landmarks;
+  t.num_shared_landmarks += step.num_shared_landmarks;
+  t.num_observations += step.num_observations;
+  t.num_cross_observations += step.num_cross_observations;
+  t.num_rejected_observations += step.num_rejected_observations;
+  t.num_rejected_cross_observations += step.num_rejected_cross_observations;
+  t.initial_cost += step.initial_cost;
+  t.final_cost += step.final_cost;
+  t.iterations += step.iterations;
+  t.num_ground_ties += step.num_ground_ties;
+  t.triangulation_seconds += step.triangulation_seconds;
+  t.solve_seconds += step.solve_seconds;
+  t.final_solve_seconds += step.final_solve_seconds;
+  t.num_time_offsets_estimated += step.num_time_offsets_estimated;
+  t.num_time_offsets_held += step.num_time_offsets_held;
+  t.num_gps_rejected += step.num_gps_rejected;
+  t.num_cameras_refined = std::max(t.num_cameras_refined, step.num_cameras_refined);
+}
+
 // The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,
 // the joint solve, the ground ties and the per-pass corrections.
 json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Result& result,
@@ -224,26 +330,7 @@ json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Res
                              {"thinned_matches", report.num_thinned_matches},
                              {"conflicting_matches", report.num_conflicting_matches},
                              {"invalid_matches", report.num_invalid_matches}};
-  summary["joint"] = {{"passes", s.num_passes},
-                      {"states", s.num_states},
-                      {"landmarks_given", s.num_landmarks_given},
-                      {"landmarks", s.num_landmarks},
-                      {"shared_landmarks", s.num_shared_landmarks},
-                      {"observations", s.num_observations},
-                      {"cross_observations", s.num_cross_observations},
-                      {"rejected_observations", s.num_rejected_observations},
-                      {"rejected_cross_observations", s.num_rejected_cross_observations},
-                      {"initial_cost", s.initial_cost},
-                      {"final_cost", s.final_cost},
-                      {"iterations", s.iterations},
-                      {"reprojection_rms_px", s.reprojection_rms_px},
-                      {"cross_reprojection_rms_px", s.cross_reprojection_rms_px},
-                      {"ground_ties", s.num_ground_ties},
-                      {"ground_tie_rms_across_m", s.ground_tie_rms_across_m},
-                      {"ground_tie_rms_vertical_m", s.ground_tie_rms_vertical_m},
-                      {"gps_rejected", s.num_gps_rejected},
-                      {"cameras_refined", s.num_cameras_refined},
-                      {"converged", s.converged}};
+  summary["joint"] = JointSummaryJson(s);
   json tie_list = json::array();
   for (const FuseTiePairReport& t : report.tie_pairs) {
     tie_list.push_back({{"a", t.a},
@@ -293,6 +380,10 @@ std::string FormatFuseReport(const FuseReport& report) {
   const fusion::JointOptimiser::Summary& s = report.joint;
   out << "fused " << report.num_passes << " passes of " << report.num_sessions << " sessions in "
       << std::fixed << std::setprecision(1) << report.seconds << " s\n";
+  if (!report.steps.empty()) {
+    out << "  session by session in " << report.steps.size()
+        << " steps; the counts below are summed over them (a pass is in several)\n";
+  }
   out << "  cross matches " << report.num_cross_matches << " from " << report.num_association_files
       << " files (" << report.num_thinned_matches << " left out by the per-image-pair cap, "
       << report.num_conflicting_matches << " inconsistent, " << report.num_invalid_matches
@@ -324,6 +415,26 @@ std::string FormatFuseReport(const FuseReport& report) {
                   c.RotationChangeDeg(), 1e3 * c.LeverArmChange().x(), 1e3 * c.LeverArmChange().y(),
                   1e3 * c.LeverArmChange().z());
     out << line;
+  }
+  if (!report.steps.empty()) {
+    out << "  step  session      optimised             held         landmarks  observations  "
+           "seconds\n";
+    for (std::size_t s = 0; s < report.steps.size(); ++s) {
+      const FuseStepReport& step = report.steps[s];
+      if (step.skipped) {
+        out << "  " << std::setw(4) << s + 1 << "  " << std::left << std::setw(12) << step.session
+            << std::right << " up to date\n";
+        continue;
+      }
+      std::string optimised, held;
+      for (const std::string& x : step.optimised) optimised += (optimised.empty() ? "" : ",") + x;
+      for (const std::string& x : step.held) held += (held.empty() ? "" : ",") + x;
+      char line[320];
+      std::snprintf(line, sizeof(line), "  %4zu  %-12s %-21s %-12s %9d  %12lld  %7.1f\n", s + 1,
+                    step.session.c_str(), optimised.c_str(), held.empty() ? "-" : held.c_str(),
+                    step.landmarks, static_cast<long long>(step.observations), step.seconds);
+      out << line;
+    }
   }
   out << "  session      pass     shift east/north/up [cm]   rotation [deg]\n";
   for (const FusePassReport& pr : report.passes) {

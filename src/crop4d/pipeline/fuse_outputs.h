@@ -48,6 +48,16 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
                  const std::vector<fusion::JointLandmark>& landmarks,
                  const fusion::JointOptimiser::Result& result, const workspace::Layout& layout);
 
+// The joint problem's counts, fit and times as summary.json's "joint" holds them, and back
+// (throws nlohmann::json::exception on a missing or mistyped field).
+nlohmann::json JointSummaryJson(const fusion::JointOptimiser::Summary& summary);
+fusion::JointOptimiser::Summary JointSummaryFromJson(const nlohmann::json& joint);
+
+// Adds one step's joint problem to the season's (incremental fuse): counts, costs, iterations
+// and times summed, RMS values pooled, converged when every step converged.
+void AddJointSummary(const fusion::JointOptimiser::Summary& step,
+                     fusion::JointOptimiser::Summary* total);
+
 // WS/fused/summary.json's content: the fingerprint, the options, the sessions, the association
 // and joint-problem counts, the ground ties, each pass's move and time offset, the rig's cameras
 // (refined or as written), the timings.

@@ -1,8 +1,9 @@
 #pragma once
 
-// The 4D fusion stage (`crop4d fuse`, DESIGN.md §2.4): every row pass of every session in one
-// joint problem (fusion/joint_optimiser.h), with the cross matches of `crop4d associate` as
-// shared landmarks.
+// The 4D fusion stage (`crop4d fuse`, DESIGN.md §2.4): the row passes of every session in joint
+// problems (fusion/joint_optimiser.h), with the cross matches of `crop4d associate` as shared
+// landmarks — session by session in date order by default (fuse_incremental.h), or every pass
+// of the season in one problem (FuseStageOptions::full).
 //
 // Landmarks: the observations (pass, image, feature) of each pass's optimised landmarks
 // (tracks.bin) are joined with the cross matches — each match joins the landmark (cloud track)
@@ -22,8 +23,9 @@
 //   colmap/               the whole 4D reconstruction as a COLMAP text model (one camera per
 //                         session, images named <session>/<pass>/<image file>, the joint
 //                         landmarks as 3D points);
+//   steps/<session>/      the steps of the incremental fuse (fuse_incremental.h);
 //   summary.json          counts, costs, times, per-pass corrections, the ground ties per pair
-//                         of passes, and a fingerprint of the
+//                         of passes, the steps, and a fingerprint of the
 //                         inputs: an unchanged workspace is not fused again (unless `force`).
 
 #include <string>
@@ -38,6 +40,13 @@ namespace crop4d::pipeline {
 struct FuseStageOptions {
   // The associations to use: WS/associations/<method>/ ("robust" or "naive").
   std::string method = "robust";
+  // The whole season in one joint problem, rebuilt whenever a session is added (`crop4d fuse
+  // --full`). By default the sessions are fused one by one in date order
+  // (pipeline/fuse_incremental.h): adding a session solves its passes with those of the
+  // `window_sessions` sessions before it, the session before those held, so that its cost and
+  // memory do not grow with the season.
+  bool full = false;
+  int window_sessions = 1;
   // At most this many cross matches of one image pair join the problem (0: all): the best by
   // descriptor distance, spread over a 4×4 grid of image a. A few dozen per image pair register
   // the passes as well as hundreds, and keep the joint problem small.
@@ -94,8 +103,22 @@ struct FuseTiePairReport {
   fusion::GroundTieSummary ties;
 };
 
+// One step of the incremental fuse: the session it added, the sessions it optimised and held.
+struct FuseStepReport {
+  std::string session;
+  std::vector<std::string> optimised;
+  std::vector<std::string> held;
+  bool skipped = false;  // up to date
+  int passes = 0;
+  int landmarks = 0;
+  std::int64_t observations = 0;
+  double seconds = 0;
+};
+
 struct FuseReport {
   bool skipped = false;  // up to date
+  // The steps of the incremental fuse (none with FuseStageOptions::full).
+  std::vector<FuseStepReport> steps;
   int num_sessions = 0;
   int num_passes = 0;
   int num_association_files = 0;

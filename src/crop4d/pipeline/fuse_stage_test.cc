@@ -17,6 +17,7 @@
 
 #include "crop4d/eval/workspace_eval.h"
 #include "crop4d/io/colmap_text.h"
+#include "crop4d/io/dataset_reader.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/io/tum.h"
 #include "crop4d/pipeline/associate_stage.h"
@@ -48,6 +49,17 @@ const std::string& RainField() {
   return path;
 }
 
+// The tiny preset with a third session and no rain (season_run_test.cc's field, shared through
+// the cache).
+const std::string& ThreeSessionField() {
+  static const std::string path = [] {
+    sim::SimConfig config = sim::PresetConfig("tiny");
+    config.sessions = {{"2016-06-10", false}, {"2016-06-24", false}, {"2016-07-08", false}};
+    return sim::testing::CachedSimulatedField("tiny_three_sessions", config);
+  }();
+  return path;
+}
+
 class FusionStagesTest : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -59,9 +71,11 @@ class FusionStagesTest : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(workspace_); }
 
-  void Slam(const std::string& sensors, const std::string& field = Field()) {
+  void Slam(const std::string& sensors, const std::string& field = Field(),
+            const std::string& session = "") {
     SlamStageOptions o;
     o.show_progress = false;
+    o.session = session;
     o.sensors = slam::ParseSensorSet(sensors);
     for (const PassReport& r : RunSlamStage(field, workspace_, o)) {
       ASSERT_FALSE(r.failed) << r.session << "/" << r.pass.id << ": " << r.message;
@@ -213,6 +227,72 @@ TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) 
   const FuseReport apart = RunFuseStage(RainField(), workspace_, fo);
   EXPECT_EQ(apart.joint.num_ground_ties, 0);
   EXPECT_GT(MedianMisalignment(RainField(), "fused"), 0.1);
+}
+
+// The incremental fuse (fuse_incremental.h): two sessions are fused in one step; when a third
+// arrives only its step runs, the first session held; the result is as accurate as one problem
+// over the whole season, and a damaged step file makes that step run again.
+TEST_F(FusionStagesTest, TheIncrementalFuseAddsASessionInOneStepAsWellAsTheFullFuse) {
+  const std::string& field = ThreeSessionField();
+  const std::vector<std::string> sessions = io::Field(field).session_ids();
+  ASSERT_EQ(sessions.size(), 3u);
+  Slam("cam+imu+rtk", field, sessions[0]);
+  Slam("cam+imu+rtk", field, sessions[1]);
+  Associate(field);
+  FuseStageOptions fo;
+  const FuseReport two = RunFuseStage(field, workspace_, fo);
+  ASSERT_EQ(two.steps.size(), 1u);
+  EXPECT_FALSE(two.steps[0].skipped);
+  EXPECT_EQ(two.steps[0].optimised, (std::vector<std::string>{sessions[0], sessions[1]}));
+  EXPECT_TRUE(two.steps[0].held.empty());
+
+  Slam("cam+imu+rtk", field, sessions[2]);
+  Associate(field);
+  const FuseReport three = RunFuseStage(field, workspace_, fo);
+  ASSERT_EQ(three.steps.size(), 2u);
+  EXPECT_TRUE(three.steps[0].skipped);
+  ASSERT_FALSE(three.steps[1].skipped);
+  EXPECT_EQ(three.steps[1].optimised, (std::vector<std::string>{sessions[1], sessions[2]}));
+  EXPECT_EQ(three.steps[1].held, (std::vector<std::string>{sessions[0]}));
+  EXPECT_EQ(three.passes.size(), 6u);
+  EXPECT_GT(three.joint.num_shared_landmarks, 100);
+  EXPECT_TRUE(RunFuseStage(field, workspace_, fo).skipped);
+
+  eval::WorkspaceEvalOptions eo;
+  eo.associations = false;
+  const eval::WorkspaceEval incremental = eval::EvaluateWorkspace(workspace_, field, eo);
+  ASSERT_TRUE(incremental.fused.has_value());
+  const eval::CloudSetEval* incremental_clouds = Clouds(incremental, "fused");
+  ASSERT_NE(incremental_clouds, nullptr);
+  const io::ColmapModel model = io::ReadColmapText(workspace_ + "/fused/colmap");
+  std::string why;
+  EXPECT_TRUE(model.Check(&why)) << why;
+  EXPECT_EQ(model.cameras.size(), 3u);
+  EXPECT_GT(model.points.size(), 1000u);
+
+  // A damaged step: that step runs again (and the one after it, which starts from it).
+  const fs::path step_landmarks =
+      fs::path(workspace_) / "fused/steps" / sessions[1] / "landmarks.bin";
+  ASSERT_TRUE(fs::exists(step_landmarks));
+  std::ofstream(step_landmarks, std::ios::app) << "x";
+  const FuseReport repaired = RunFuseStage(field, workspace_, fo);
+  ASSERT_EQ(repaired.steps.size(), 2u);
+  EXPECT_FALSE(repaired.steps[0].skipped);
+  EXPECT_FALSE(repaired.steps[1].skipped);
+
+  // One problem over the whole season: the same accuracy, within a few millimetres.
+  fo.full = true;
+  const FuseReport full = RunFuseStage(field, workspace_, fo);
+  EXPECT_TRUE(full.steps.empty());
+  EXPECT_FALSE(fs::exists(fs::path(workspace_) / "fused/steps"));
+  const eval::WorkspaceEval whole = eval::EvaluateWorkspace(workspace_, field, eo);
+  ASSERT_TRUE(whole.fused.has_value());
+  const eval::CloudSetEval* whole_clouds = Clouds(whole, "fused");
+  ASSERT_NE(whole_clouds, nullptr);
+  EXPECT_LT(incremental.fused->ate_raw_m.rmse, 0.02);
+  EXPECT_LT(incremental.fused->ate_raw_m.rmse, whole.fused->ate_raw_m.rmse * 1.1 + 0.002);
+  EXPECT_LT(incremental_clouds->misalignment.pooled.median_m,
+            whole_clouds->misalignment.pooled.median_m * 1.1 + 0.002);
 }
 
 // After row SLAM the workspace holds each pass's problem (priors in summary.json, measurements in

@@ -313,6 +313,14 @@ void AddAssociateKeys(std::vector<Key>& k) {
 void AddFuseKeys(std::vector<Key>& k) {
   k.push_back(Word("fuse", "method", "the associations used: robust or naive", {"robust", "naive"},
                    "fuse.method"));
+  k.push_back(Bool("fuse", "full",
+                   "one joint problem over the whole season, rebuilt when a session is added "
+                   "(default: session by session, fuse_incremental.h)",
+                   "fuse.full"));
+  k.push_back(Int("fuse", "window_sessions",
+                  "sessions before the new one that each step of the incremental fuse "
+                  "optimises again (the one before them is held)",
+                  "fuse.window_sessions", 1, 1000));
   k.push_back(Int("fuse", "matches_per_image_pair",
                   "cross matches of one image pair used at most (0: all)",
                   "fuse.max_matches_per_image_pair", 0, 1000000));

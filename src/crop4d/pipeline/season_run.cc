@@ -329,8 +329,13 @@ void SeasonRun::Fuse(StageRecord& stage) {
   o.force = options_.force;
   o.optimiser.row.num_threads = config_.threads;
   const FuseReport report = RunFuseStage(field_, ws_, o);
-  Item(stage, "", fmt::format("{} sessions, {} passes", report.num_sessions, report.num_passes),
-       report.skipped ? kActionUpToDate : kActionDone, report.seconds);
+  std::string what = fmt::format("{} sessions, {} passes", report.num_sessions, report.num_passes);
+  if (!report.steps.empty()) {
+    const auto solved = std::count_if(report.steps.begin(), report.steps.end(),
+                                      [](const FuseStepReport& s) { return !s.skipped; });
+    what += fmt::format(", {} of {} steps solved", solved, report.steps.size());
+  }
+  Item(stage, "", what, report.skipped ? kActionUpToDate : kActionDone, report.seconds);
   // The grades of the sessions (season_quality.h): a degraded one is listed with its reasons
   // and what was done about it.
   for (const SessionGrade* g : report.quality.Degraded()) {

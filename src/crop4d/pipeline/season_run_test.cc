@@ -874,5 +874,44 @@ TEST_F(SlurmRunTest, TheTinyFieldGivesTheLocalRunsOutputsAndAKilledTaskRunsAgain
   EXPECT_EQ(copy.Stage("densify")->done, 2);
 }
 
+// crop4d run --jobs (cluster_run.h RunSeasonInParallel): the work units side by side as
+// `crop4d task run` processes on this machine; with one thread per task its products are those
+// of the serial run to the byte.
+TEST_F(SeasonRunTest, UnitsSideBySideOnOneMachineGiveTheSerialRunsOutputs) {
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 2);
+  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
+  ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / "serial", extra), dir_ / "serial.log"), 0)
+      << Slurp(dir_ / "serial.log");
+  const fs::path ws = dir_ / "parallel";
+  std::vector<std::string> parallel = extra;
+  parallel.insert(parallel.end(), {"--jobs", "2"});
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, parallel), dir_ / "parallel.log"), 0)
+      << Slurp(dir_ / "parallel.log");
+
+  const auto expected = Products(dir_ / "serial");
+  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
+  EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
+  const RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  RunRecord copy = record;
+  ASSERT_NE(copy.Stage("slam"), nullptr);
+  EXPECT_EQ(copy.Stage("slam")->status, "done");
+  EXPECT_EQ(copy.Stage("densify")->done, 2);
+  // Every slam unit ran once, as its own process.
+  const json units = json::parse(Slurp(ws / "cluster" / "slam" / "units.json"));
+  ASSERT_GE(units["units"].size(), 4u);
+  for (std::size_t i = 0; i < units["units"].size(); ++i) {
+    const json state =
+        json::parse(Slurp(ws / "cluster" / "slam" / ("task-" + std::to_string(i) + ".json")));
+    EXPECT_EQ(state["state"], "done") << i;
+    EXPECT_EQ(state["attempts"].get<int>(), 1) << i;
+  }
+  // Run again: everything is up to date.
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, parallel), dir_ / "again.log"), 0)
+      << Slurp(dir_ / "again.log");
+  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
+}
+
 }  // namespace
 }  // namespace crop4d::pipeline

@@ -118,6 +118,8 @@ void VisitFields(QualityOptions& o, V&& visit) {
 template <class V>
 void VisitFields(FuseStageOptions& o, V&& visit) {
   visit("method", o.method);
+  visit("full", o.full);
+  visit("window_sessions", o.window_sessions);
   visit("max_matches_per_image_pair", o.max_matches_per_image_pair);
   visit("optimiser", o.optimiser);
   visit("ground_ties", o.ground_ties);

@@ -67,6 +67,8 @@ class Layout {
   std::filesystem::path FusedQuality() const { return FusedDir() / "quality.json"; }
   std::filesystem::path FusedLandmarks() const { return FusedDir() / "landmarks.ply"; }
   std::filesystem::path FusedColmapDir() const { return FusedDir() / "colmap"; }
+  // The steps of the incremental fuse (pipeline/fuse_incremental.h), one folder per session.
+  std::filesystem::path FusedStepsDir() const { return FusedDir() / "steps"; }
   std::filesystem::path FusedSessionDir(const std::string& session) const;
   std::filesystem::path FusedPoses(const std::string& session) const;
   std::filesystem::path FusedSparse(const std::string& session) const;

@@ -1,0 +1,760 @@
+#include "crop4d/pipeline/fuse_incremental.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <deque>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <unordered_map>
+
+#include "crop4d/core/error.h"
+#include "crop4d/core/hash.h"
+#include "crop4d/core/stopwatch.h"
+#include "crop4d/core/version.h"
+#include "crop4d/io/checksummed_file.h"
+#include "crop4d/io/tum.h"
+#include "crop4d/pipeline/fuse_outputs.h"
+#include "crop4d/pipeline/season_quality.h"
+#include "crop4d/pipeline/stage_option_fields.h"
+#include "crop4d/workspace/fused_camera.h"
+#include "crop4d/workspace/json_file.h"
+#include "crop4d/workspace/pass_files.h"
+#include "crop4d/workspace/stage_files.h"
+#include "crop4d/workspace/stage_summary.h"
+
+namespace crop4d::pipeline::fuse {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// A step's landmarks (landmarks.bin), little-endian:
+//   char[8] magic "C4DFLMK\0", u32 version (kStepLandmarksVersion)
+//   u32 P; P × { u32 n; n bytes: pass label "<session>/<pass>" }
+//   u64 L; L × { f64 x, y, z; u8 r, g, b; u32 n; n × { u32 pass (into the labels), i32 state,
+//                f64 u, v (distorted pixel) } }
+//   u64 FNV-1a 64 checksum of every byte above
+constexpr char kStepLandmarksMagic[io::kChecksummedMagicSize] = {'C', '4', 'D', 'F',
+                                                                 'L', 'M', 'K', '\0'};
+constexpr std::uint32_t kStepLandmarksVersion = 1;
+constexpr std::size_t kMaxLabelBytes = 4096;
+
+struct StepLandmarks {
+  std::vector<std::string> passes;
+  std::vector<Eigen::Vector3d> positions;
+  // Observations name their pass by its index in `passes`.
+  std::vector<fusion::JointLandmark> landmarks;
+};
+
+void WriteStepLandmarks(const fs::path& path, const StepLandmarks& step) {
+  io::ByteBuffer bytes;
+  bytes.Put<std::uint32_t>(static_cast<std::uint32_t>(step.passes.size()));
+  for (const std::string& label : step.passes) bytes.PutString(label, kMaxLabelBytes, "pass label");
+  bytes.Put<std::uint64_t>(step.landmarks.size());
+  for (std::size_t l = 0; l < step.landmarks.size(); ++l) {
+    for (int k = 0; k < 3; ++k) bytes.Put<double>(step.positions[l](k));
+    bytes.PutBytes(step.landmarks[l].color.data(), 3);
+    bytes.Put<std::uint32_t>(static_cast<std::uint32_t>(step.landmarks[l].observations.size()));
+    for (const fusion::JointObservation& o : step.landmarks[l].observations) {
+      bytes.Put<std::uint32_t>(static_cast<std::uint32_t>(o.pass));
+      bytes.Put<std::int32_t>(o.state);
+      bytes.Put<double>(o.pixel.x());
+      bytes.Put<double>(o.pixel.y());
+    }
+  }
+  io::ChecksummedFileWriter writer(path.string(), kStepLandmarksMagic, kStepLandmarksVersion);
+  writer.Write(bytes);
+  writer.Commit();
+}
+
+StepLandmarks ReadStepLandmarks(const fs::path& path) {
+  const std::string where = path.string();
+  const std::string rerun = " (rerun `crop4d fuse --force`)";
+  io::ChecksummedFileReader reader(where, kStepLandmarksMagic, kStepLandmarksVersion,
+                                   "fused step landmarks");
+  if (reader.status() != io::ChecksummedFileStatus::kOk) {
+    throw InputError(where + ": " + reader.detail() + rerun);
+  }
+  const auto get = [&](auto* value) {
+    if (!reader.Get(value)) throw InputError(where + ": truncated" + rerun);
+  };
+  StepLandmarks step;
+  std::uint32_t num_passes = 0;
+  get(&num_passes);
+  for (std::uint32_t p = 0; p < num_passes; ++p) {
+    std::uint32_t length = 0;
+    get(&length);
+    if (length > kMaxLabelBytes) throw InputError(where + ": corrupt pass label" + rerun);
+    std::string label(length, '\0');
+    if (!reader.Read(label.data(), length)) throw InputError(where + ": truncated" + rerun);
+    step.passes.push_back(std::move(label));
+  }
+  std::uint64_t count = 0;
+  get(&count);
+  // Each landmark takes at least 31 bytes: a corrupt count cannot allocate beyond the file.
+  if (count > reader.remaining() / 31) throw InputError(where + ": corrupt landmark count" + rerun);
+  step.positions.resize(count);
+  step.landmarks.resize(count);
+  for (std::uint64_t l = 0; l < count; ++l) {
+    for (int k = 0; k < 3; ++k) get(&step.positions[l](k));
+    for (int c = 0; c < 3; ++c) get(&step.landmarks[l].color[c]);
+    std::uint32_t n = 0;
+    get(&n);
+    if (n > reader.remaining() / 24)
+      throw InputError(where + ": corrupt observation count" + rerun);
+    for (std::uint32_t o = 0; o < n; ++o) {
+      std::uint32_t pass = 0;
+      fusion::JointObservation obs;
+      get(&pass);
+      get(&obs.state);
+      get(&obs.pixel.x());
+      get(&obs.pixel.y());
+      if (pass >= num_passes) throw InputError(where + ": observation of an unknown pass" + rerun);
+      obs.pass = static_cast<int>(pass);
+      step.landmarks[l].observations.push_back(obs);
+    }
+  }
+  if (reader.Finish("the landmarks") != io::ChecksummedFileStatus::kOk) {
+    throw InputError(where + ": " + reader.detail() + rerun);
+  }
+  return step;
+}
+
+std::string StateFileName(const LoadedPass& pass) {
+  return pass.data.session + "__" + pass.data.pass.id + ".csv";
+}
+
+// The season as the steps see it: each pass's session index, each session's passes, the
+// association files by name with their hashes.
+struct SeasonIndex {
+  std::vector<int> session_of;                // per pass of the season
+  std::vector<std::vector<int>> passes_of;    // per session
+  std::map<std::string, fs::path> files;      // association files by file name
+  std::map<std::string, std::string> hashes;  // and their FileHash
+};
+
+SeasonIndex IndexSeason(const SeasonPasses& season, const std::vector<fs::path>& files) {
+  SeasonIndex index;
+  std::map<std::string, int> session_index;
+  for (std::size_t s = 0; s < season.sessions.size(); ++s) {
+    session_index[season.sessions[s]] = static_cast<int>(s);
+  }
+  index.passes_of.resize(season.sessions.size());
+  for (std::size_t p = 0; p < season.passes.size(); ++p) {
+    const int s = session_index.at(season.passes[p]->data.session);
+    index.session_of.push_back(s);
+    index.passes_of[s].push_back(static_cast<int>(p));
+  }
+  for (const fs::path& path : files) {
+    index.files[path.filename().string()] = path;
+    index.hashes[path.filename().string()] = workspace::FileHash(path);
+  }
+  return index;
+}
+
+// The passes of a step (season indices, in order) and whether each is held.
+std::vector<int> StepPasses(const SeasonIndex& index, const FuseStep& step,
+                            std::vector<bool>* held) {
+  std::vector<int> passes;
+  held->clear();
+  for (int s = step.held >= 0 ? step.held : step.first; s <= step.last; ++s) {
+    for (const int p : index.passes_of[s]) {
+      passes.push_back(p);
+      held->push_back(s == step.held);
+    }
+  }
+  return passes;
+}
+
+// The association files between two passes of the step, not both held, sorted by name.
+std::vector<fs::path> StepAssociationFiles(const SeasonPasses& season, const SeasonIndex& index,
+                                           const std::vector<int>& passes,
+                                           const std::vector<bool>& held) {
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < passes.size(); ++i) {
+    for (std::size_t j = 0; j < passes.size(); ++j) {
+      if (i == j || (held[i] && held[j])) continue;
+      const workspace::PassData& a = season.passes[passes[i]]->data;
+      const workspace::PassData& b = season.passes[passes[j]]->data;
+      const std::string name =
+          association::AssociationFileName({a.session, a.pass.id}, {b.session, b.pass.id});
+      if (index.files.count(name)) names.insert(name);
+    }
+  }
+  std::vector<fs::path> files;
+  for (const std::string& name : names) files.push_back(index.files.at(name));
+  return files;
+}
+
+// The fingerprint of a step: the previous step's, the stage's revision, crop4d's version, the
+// options, the sessions it optimises and holds, its passes and their association files.
+std::string StepStamp(const std::string& previous, const FuseStep& step, const SeasonPasses& season,
+                      const SeasonIndex& index, const std::vector<int>& passes,
+                      const std::vector<bool>& held, const std::vector<fs::path>& files,
+                      const FuseStageOptions& options) {
+  Fnv1aHasher h;
+  h.AddString(previous);
+  h.Add(kFuseStageRevision);
+  h.AddString(kVersion);
+  h.AddString(FuseOptionsJson(options).dump());
+  h.Add(step.first);
+  h.Add(step.held);
+  h.Add(step.last);
+  for (std::size_t i = 0; i < passes.size(); ++i) {
+    h.AddString(season.passes[passes[i]]->data.label());
+    h.AddString(season.passes[passes[i]]->data.fingerprint);
+    h.Add(static_cast<int>(held[i]));
+  }
+  for (const fs::path& f : files) {
+    h.AddString(f.filename().string());
+    h.AddString(index.hashes.at(f.filename().string()));
+  }
+  return std::to_string(h.hash());
+}
+
+// The rig's cameras a step leaves (step.json "cameras" and the camera files), as the next step
+// carries them.
+std::vector<fusion::RefinedCalibration> ReadStepCalibrations(const fs::path& dir,
+                                                             const json& step) {
+  std::vector<fusion::RefinedCalibration> calibrations;
+  for (const json& c : step.at("cameras")) {
+    const workspace::FusedCamera written =
+        workspace::ReadFusedCamera((dir / c.at("written").get<std::string>()).string());
+    const workspace::FusedCamera refined =
+        workspace::ReadFusedCamera((dir / c.at("file").get<std::string>()).string());
+    fusion::RefinedCalibration r;
+    r.refined = c.at("refined").get<bool>();
+    r.num_cross_observations = c.at("cross_observations").get<std::int64_t>();
+    r.written_camera = written.intrinsics;
+    r.written_body_from_camera = written.body_from_camera;
+    r.camera = refined.intrinsics;
+    r.body_from_camera = refined.body_from_camera;
+    calibrations.push_back(r);
+  }
+  return calibrations;
+}
+
+json ReadStepJson(const fs::path& dir) {
+  return workspace::ReadJsonOfSchema((dir / "step.json").string(), 1, "crop4d fuse",
+                                     workspace::SchemaField::kOptional);
+}
+
+// Starts the passes of the step that the previous step optimised where it left them: states,
+// time offsets and the calibration it refined (held where a held pass shares the camera).
+void StartFromPreviousStep(const fs::path& previous_dir, PassList* passes,
+                           std::deque<geometry::PinholeRadTan>* storage) {
+  const json previous = ReadStepJson(previous_dir);
+  std::map<std::string, std::optional<double>> offsets;
+  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse", [&] {
+    for (const json& p : previous.at("passes")) {
+      const std::string label =
+          p.at("session").get<std::string>() + "/" + p.at("pass").get<std::string>();
+      offsets[label] = p.contains("time_offset_s")
+                           ? std::optional<double>(p.at("time_offset_s").get<double>())
+                           : std::nullopt;
+    }
+  });
+  for (auto& pass : *passes) {
+    const auto it = offsets.find(pass->data.label());
+    if (it == offsets.end()) continue;  // a pass of the session this step adds
+    const fs::path states = previous_dir / "states" / StateFileName(*pass);
+    std::vector<slam::RowState> start = workspace::ReadPassStates(states.string());
+    if (start.size() != pass->input.initial_states.size()) {
+      throw InputError(
+          states.string() + ": " + std::to_string(start.size()) + " states, the pass has " +
+          std::to_string(pass->input.initial_states.size()) + " (rerun `crop4d fuse --force`)");
+    }
+    pass->input.initial_states = std::move(start);
+    if (it->second) pass->input.time_offset_s = *it->second;
+  }
+  std::vector<fusion::RefinedCalibration> carried;
+  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse",
+                        [&] { carried = ReadStepCalibrations(previous_dir, previous); });
+  std::vector<slam::RowOptimiser::Input> inputs;
+  for (const auto& pass : *passes) inputs.push_back(pass->input);
+  fusion::UseRefinedCalibrations(carried, &inputs, storage);
+  for (std::size_t p = 0; p < passes->size(); ++p) {
+    (*passes)[p]->input.camera = inputs[p].camera;
+    (*passes)[p]->input.body_from_camera = inputs[p].body_from_camera;
+  }
+}
+
+// The calibrations carried into a step (as the previous step left them), for reporting the
+// step's own against the calibration as written.
+std::vector<fusion::RefinedCalibration> CarriedCalibrations(const fs::path& previous_dir) {
+  if (previous_dir.empty()) return {};
+  const json previous = ReadStepJson(previous_dir);
+  std::vector<fusion::RefinedCalibration> carried;
+  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse",
+                        [&] { carried = ReadStepCalibrations(previous_dir, previous); });
+  return carried;
+}
+
+json PassReportJson(const FusePassReport& pr, const std::optional<double>& time_offset_s) {
+  json j = {{"session", pr.session},
+            {"pass", pr.pass},
+            {"images", pr.images},
+            {"mean_shift_m", {pr.mean_shift.x(), pr.mean_shift.y(), pr.mean_shift.z()}},
+            {"rotation_change_deg", pr.rotation_change_deg}};
+  if (time_offset_s) j["time_offset_s"] = *time_offset_s;
+  return j;
+}
+
+FusePassReport PassReportFromJson(const json& j) {
+  FusePassReport pr;
+  pr.session = j.at("session").get<std::string>();
+  pr.pass = j.at("pass").get<std::string>();
+  pr.images = j.at("images").get<int>();
+  const auto shift = j.at("mean_shift_m").get<std::array<double, 3>>();
+  pr.mean_shift = Eigen::Vector3d(shift[0], shift[1], shift[2]);
+  pr.rotation_change_deg = j.at("rotation_change_deg").get<double>();
+  return pr;
+}
+
+struct StepContext {
+  const SeasonPasses& season;
+  const SeasonIndex& index;
+  const std::vector<FuseStep>& steps;
+  const std::vector<bool>& protects;  // per pass of the season
+  const std::string& workspace;
+  const FuseStageOptions& options;
+  const workspace::Layout& layout;
+};
+
+// Solves step `s` and writes its folder and the outputs of the sessions it makes final.
+FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string& stamp,
+                       FuseReport* report) {
+  const auto start = Clock::now();
+  const FuseStep& step = ctx.steps[s];
+  std::vector<bool> held;
+  const std::vector<int> season_passes = StepPasses(ctx.index, step, &held);
+  const std::vector<fs::path> files =
+      StepAssociationFiles(ctx.season, ctx.index, season_passes, held);
+  FuseStepReport out;
+  out.session = ctx.season.sessions[step.last];
+  for (int k = step.first; k <= step.last; ++k) out.optimised.push_back(ctx.season.sessions[k]);
+  if (step.held >= 0) out.held.push_back(ctx.season.sessions[step.held]);
+  spdlog::info("fuse: step {}/{}: session {} ({} passes; optimising {} session(s), holding {})",
+               s + 1, ctx.steps.size(), out.session, season_passes.size(), out.optimised.size(),
+               out.held.empty() ? "none" : out.held.front());
+
+  // The step's passes, their problems, and where the previous step left them.
+  PassList passes;
+  std::map<association::PassRef, int> pass_index;
+  std::vector<bool> protects;
+  for (const int g : season_passes) {
+    auto loaded = std::make_unique<LoadedPass>();
+    loaded->data.session = ctx.season.passes[g]->data.session;
+    loaded->data.pass = ctx.season.passes[g]->data.pass;
+    LoadPassProblem(ctx.workspace, loaded.get());
+    pass_index[{loaded->data.session, loaded->data.pass.id}] = static_cast<int>(passes.size());
+    passes.push_back(std::move(loaded));
+    protects.push_back(ctx.protects[g]);
+  }
+  const fs::path steps_dir = ctx.layout.FusedStepsDir();
+  const fs::path previous_dir =
+      s > 0 ? steps_dir / ctx.season.sessions[ctx.steps[s - 1].last] : fs::path();
+  std::deque<geometry::PinholeRadTan> carried_cameras;
+  if (s > 0) StartFromPreviousStep(previous_dir, &passes, &carried_cameras);
+
+  FuseReport step_report;
+  std::vector<SessionPair> session_pairs;
+  const fusion::CrossPassTracks graph =
+      BuildLandmarkGraph(passes, pass_index, files, ctx.options, &step_report, &session_pairs);
+  const std::vector<bool> every_pass(passes.size(), true);
+  const std::vector<fusion::JointLandmark> landmarks =
+      JoinLandmarks(graph, passes, every_pass, &step_report.num_conflicting_matches);
+  const std::vector<fusion::JointGroundTie> ties =
+      GroundTies(passes, session_pairs, ctx.options, &step_report);
+  fusion::JointOptimiser::Result result =
+      SolveJoint(graph, passes, landmarks, ties, protects, held, ctx.options);
+  fusion::ReportRefinedCalibrations(CarriedCalibrations(previous_dir), &result.calibrations);
+  result.summary.num_cameras_refined = static_cast<int>(
+      std::count_if(result.calibrations.begin(), result.calibrations.end(),
+                    [](const fusion::RefinedCalibration& c) { return c.refined; }));
+
+  // The sessions this step makes final get their outputs.
+  const std::vector<std::vector<geometry::Rigid3>> cameras =
+      FusedCameras(passes, result, &step_report);
+  const std::vector<workspace::FusedCamera> intrinsics = FusedIntrinsics(passes, result);
+  std::vector<std::string> final_sessions;
+  for (const int k : FinalSessions(ctx.steps, s)) {
+    final_sessions.push_back(ctx.season.sessions[k]);
+  }
+  WriteSessionOutputs(passes, cameras, intrinsics, final_sessions, ctx.options, ctx.layout);
+
+  // The step's folder, written aside and renamed.
+  const fs::path dir = steps_dir / out.session;
+  const fs::path tmp = steps_dir / ("." + out.session + ".tmp");
+  fs::remove_all(tmp);
+  fs::create_directories(tmp / "states");
+  json pass_list = json::array();
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    if (held[p]) continue;
+    workspace::WritePassStates((tmp / "states" / StateFileName(*passes[p])).string(),
+                               result.states[p]);
+    pass_list.push_back(PassReportJson(step_report.passes[p], result.time_offsets_s[p]));
+  }
+  json camera_list = json::array();
+  for (std::size_t c = 0; c < result.calibrations.size(); ++c) {
+    const fusion::RefinedCalibration& r = result.calibrations[c];
+    const std::string name = "camera-" + std::to_string(c);
+    workspace::WriteFusedCamera((tmp / (name + ".json")).string(),
+                                {r.camera, r.body_from_camera, r.refined, r.RotationChangeDeg()});
+    workspace::WriteFusedCamera((tmp / (name + "-written.json")).string(),
+                                {r.written_camera, r.written_body_from_camera, false, 0.0});
+    json labels = json::array();
+    for (const int p : r.passes) labels.push_back(passes[p]->data.label());
+    camera_list.push_back({{"passes", labels},
+                           {"refined", r.refined},
+                           {"cross_observations", r.num_cross_observations},
+                           {"file", name + ".json"},
+                           {"written", name + "-written.json"}});
+  }
+  // The landmarks seen from the session this step adds (every one in the first step).
+  StepLandmarks owned;
+  for (const auto& pass : passes) owned.passes.push_back(pass->data.label());
+  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
+    const fusion::JointLandmark& given = landmarks[result.landmark_ids[l]];
+    fusion::JointLandmark kept;
+    kept.color = given.color;
+    bool mine = s == 0;
+    for (std::size_t o = 0; o < given.observations.size(); ++o) {
+      if (!result.observations_kept[l][o]) continue;
+      kept.observations.push_back(given.observations[o]);
+      mine |= ctx.index.session_of[season_passes[given.observations[o].pass]] == step.last;
+    }
+    if (!mine || kept.observations.empty()) continue;
+    owned.positions.push_back(result.landmarks_world[l]);
+    owned.landmarks.push_back(std::move(kept));
+  }
+  WriteStepLandmarks(tmp / "landmarks.bin", owned);
+
+  out.passes = static_cast<int>(passes.size());
+  out.landmarks = result.summary.num_landmarks;
+  out.observations = result.summary.num_observations;
+  out.seconds = SecondsSince(start);
+  json tie_list = json::array();
+  for (const FuseTiePairReport& t : step_report.tie_pairs) {
+    tie_list.push_back({{"a", t.a},
+                        {"b", t.b},
+                        {"cross_matches", t.cross_matches},
+                        {"ties", t.ties.ties},
+                        {"median_across_m", t.ties.median_across_m},
+                        {"median_vertical_m", t.ties.median_vertical_m}});
+  }
+  json step_json = {{"fingerprint", stamp},
+                    {"session", out.session},
+                    {"optimised", out.optimised},
+                    {"held", out.held},
+                    {"final_sessions", final_sessions},
+                    {"passes", pass_list},
+                    {"cameras", camera_list},
+                    {"joint", JointSummaryJson(result.summary)},
+                    {"associations",
+                     {{"files", step_report.num_association_files},
+                      {"cross_matches", step_report.num_cross_matches},
+                      {"thinned_matches", step_report.num_thinned_matches},
+                      {"conflicting_matches", step_report.num_conflicting_matches},
+                      {"invalid_matches", step_report.num_invalid_matches}}},
+                    {"ground_ties", tie_list},
+                    {"owned_landmarks", owned.landmarks.size()},
+                    {"seconds", out.seconds}};
+  // Its own files, and apart the outputs of each session it made final: they are its results
+  // too (a damaged one makes the step run again) for as long as no later step makes that
+  // session final instead (a session added after it), which writes them again.
+  json session_outputs = json::object();
+  for (const std::string& session : final_sessions) {
+    std::vector<std::string> files;
+    for (const fs::path& f : {ctx.layout.FusedPoses(session), ctx.layout.FusedCamera(session),
+                              ctx.layout.FusedSparse(session)}) {
+      if (fs::exists(f)) files.push_back(f.lexically_relative(ctx.layout.FusedDir()).string());
+    }
+    workspace::RecordOutputs(&session_outputs[session], ctx.layout.FusedDir(), files);
+  }
+  step_json["session_outputs"] = session_outputs;
+  workspace::RecordOutputs(&step_json, tmp, workspace::FilesBelow(tmp));
+  workspace::WriteJsonOfSchema((tmp / "step.json").string(), step_json, 1);
+  fs::remove_all(dir);
+  fs::rename(tmp, dir);
+
+  report->tie_pairs.insert(report->tie_pairs.end(), step_report.tie_pairs.begin(),
+                           step_report.tie_pairs.end());
+  spdlog::info("fuse: step {}/{} done in {:.1f} s: {} landmarks, {} observations", s + 1,
+               ctx.steps.size(), out.seconds, out.landmarks, out.observations);
+  return out;
+}
+
+// Whether a step's folder has `stamp` and intact files, and the outputs of the sessions it makes
+// final (`final_sessions`, indices) are those it wrote.
+bool StepUpToDate(const fs::path& dir, const std::string& stamp,
+                  const std::vector<int>& final_sessions, const SeasonPasses& season,
+                  const workspace::Layout& layout, std::string* why) {
+  if (!workspace::SummaryUpToDate(dir / "step.json", stamp, why)) return false;
+  try {
+    const json step = ReadStepJson(dir);
+    for (const int k : final_sessions) {
+      const std::string& session = season.sessions[k];
+      const json& outputs = step.at("session_outputs");
+      if (!outputs.contains(session)) {
+        *why = "it did not write the outputs of " + session;
+        return false;
+      }
+      if (!workspace::OutputsIntact(layout.FusedDir(), outputs.at(session), why)) return false;
+    }
+  } catch (const std::exception& e) {
+    *why = e.what();
+    return false;
+  }
+  return true;
+}
+
+// The key of a camera as written (its intrinsics and T_BS), to follow it across the steps.
+std::string WrittenCameraKey(const fusion::RefinedCalibration& c) {
+  const geometry::PinholeRadTan& k = c.written_camera;
+  const Eigen::Quaterniond& q = c.written_body_from_camera.rotation();
+  const Eigen::Vector3d& t = c.written_body_from_camera.translation();
+  json j = {k.width, k.height, k.fx,  k.fy,  k.cx,  k.cy,  k.k1,  k.k2,  k.p1,
+            k.p2,    k.k3,     q.x(), q.y(), q.z(), q.w(), t.x(), t.y(), t.z()};
+  return j.dump();
+}
+
+// The season's outputs from the steps' folders and the sessions' fused outputs: the per-pass
+// reports, time offsets and the rig's cameras into `report` and `result`, the landmarks,
+// landmarks.ply, the COLMAP model and summary.json.
+void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
+                    const std::string& stamp, const FuseStageOptions& options,
+                    const workspace::Layout& layout, FuseReport* report) {
+  const fs::path steps_dir = layout.FusedStepsDir();
+  const std::size_t num_passes = season.passes.size();
+  fusion::JointOptimiser::Result result;
+  result.time_offsets_s.resize(num_passes);
+  report->passes.assign(num_passes, {});
+  std::vector<json> step_jsons;
+  json ground_ties = json::array();
+  json step_list = json::array();
+  // Each camera as written, followed over the steps: its latest calibration, every pass of it.
+  std::map<std::string, fusion::RefinedCalibration> cameras_by_key;
+  std::vector<std::string> camera_order;
+  fusion::JointOptimiser::Summary joint;
+  for (std::size_t s = 0; s < steps.size(); ++s) {
+    const fs::path dir = steps_dir / season.sessions[steps[s].last];
+    const json j = ReadStepJson(dir);
+    workspace::ReadFields((dir / "step.json").string(), "crop4d fuse", [&] {
+      AddJointSummary(JointSummaryFromJson(j.at("joint")), &joint);
+      const json& a = j.at("associations");
+      report->num_association_files += a.at("files").get<int>();
+      report->num_cross_matches += a.at("cross_matches").get<std::int64_t>();
+      report->num_thinned_matches += a.at("thinned_matches").get<std::int64_t>();
+      report->num_conflicting_matches += a.at("conflicting_matches").get<std::int64_t>();
+      report->num_invalid_matches += a.at("invalid_matches").get<std::int64_t>();
+      std::set<std::string> final_sessions;
+      for (const int k : FinalSessions(steps, s)) final_sessions.insert(season.sessions[k]);
+      for (const json& p : j.at("passes")) {
+        const FusePassReport pr = PassReportFromJson(p);
+        if (!final_sessions.count(pr.session)) continue;
+        const auto it = season.index.find({pr.session, pr.pass});
+        if (it == season.index.end()) continue;
+        report->passes[it->second] = pr;
+        if (p.contains("time_offset_s")) {
+          result.time_offsets_s[it->second] = p.at("time_offset_s").get<double>();
+        }
+      }
+      const std::vector<fusion::RefinedCalibration> calibrations = ReadStepCalibrations(dir, j);
+      const json& camera_list = j.at("cameras");
+      for (std::size_t c = 0; c < calibrations.size(); ++c) {
+        const std::string key = WrittenCameraKey(calibrations[c]);
+        if (!cameras_by_key.count(key)) camera_order.push_back(key);
+        fusion::RefinedCalibration& merged = cameras_by_key[key];
+        std::vector<int> passes = merged.passes;
+        for (const json& label : camera_list[c].at("passes")) {
+          const std::string text = label.get<std::string>();
+          const std::size_t slash = text.find('/');
+          const auto it = season.index.find({text.substr(0, slash), text.substr(slash + 1)});
+          if (it != season.index.end()) passes.push_back(it->second);
+        }
+        merged = calibrations[c];
+        std::sort(passes.begin(), passes.end());
+        passes.erase(std::unique(passes.begin(), passes.end()), passes.end());
+        merged.passes = passes;
+      }
+      for (const json& t : j.at("ground_ties")) ground_ties.push_back(t);
+      step_list.push_back({{"session", j.at("session")},
+                           {"optimised", j.at("optimised")},
+                           {"held", j.at("held")},
+                           {"landmarks", j.at("joint").at("landmarks")},
+                           {"observations", j.at("joint").at("observations")},
+                           {"seconds", j.at("seconds")}});
+    });
+  }
+  for (const std::string& key : camera_order) result.calibrations.push_back(cameras_by_key[key]);
+  result.summary = joint;
+  report->joint = joint;
+  report->calibrations = result.calibrations;
+
+  // The fused cameras of every pass, from its session's poses.tum and camera.json.
+  std::vector<std::vector<geometry::Rigid3>> cameras(num_passes);
+  std::vector<workspace::FusedCamera> intrinsics(num_passes);
+  for (const std::string& session : season.sessions) {
+    std::unordered_map<Timestamp, geometry::Rigid3> poses;
+    for (const io::StampedPose& pose : io::ReadTum(layout.FusedPoses(session).string())) {
+      poses[pose.t] = pose.pose;
+    }
+    const workspace::FusedCamera camera =
+        workspace::ReadFusedCamera(layout.FusedCamera(session).string());
+    for (std::size_t p = 0; p < num_passes; ++p) {
+      if (season.passes[p]->data.session != session) continue;
+      intrinsics[p] = camera;
+      for (const Timestamp t : season.passes[p]->data.times) {
+        const auto it = poses.find(t);
+        if (it == poses.end()) {
+          throw InputError(layout.FusedPoses(session).string() + ": no pose at " +
+                           std::to_string(t) + " (rerun `crop4d fuse --force`)");
+        }
+        cameras[p].push_back(it->second);
+      }
+    }
+  }
+
+  // The landmarks of every step, their observations on the season's passes.
+  std::vector<fusion::JointLandmark> landmarks;
+  for (const FuseStep& step : steps) {
+    const fs::path path = steps_dir / season.sessions[step.last] / "landmarks.bin";
+    StepLandmarks owned = ReadStepLandmarks(path);
+    std::vector<int> to_season;
+    for (const std::string& label : owned.passes) {
+      const std::size_t slash = label.find('/');
+      const auto it = season.index.find({label.substr(0, slash), label.substr(slash + 1)});
+      if (it == season.index.end()) {
+        throw InputError(path.string() + ": pass " + label +
+                         " is not in the workspace (rerun `crop4d fuse --force`)");
+      }
+      to_season.push_back(it->second);
+    }
+    for (std::size_t l = 0; l < owned.landmarks.size(); ++l) {
+      for (fusion::JointObservation& o : owned.landmarks[l].observations) {
+        o.pass = to_season[o.pass];
+        if (o.state < 0 || o.state >= static_cast<int>(cameras[o.pass].size())) {
+          throw InputError(path.string() + ": observation of an image the pass does not have" +
+                           " (rerun `crop4d fuse --force`)");
+        }
+      }
+      result.landmark_ids.push_back(static_cast<int>(landmarks.size()));
+      result.observations_kept.emplace_back(owned.landmarks[l].observations.size(), true);
+      result.landmarks_world.push_back(owned.positions[l]);
+      landmarks.push_back(std::move(owned.landmarks[l]));
+    }
+  }
+  WriteJointLandmarks(season.passes, landmarks, result, layout);
+  if (options.write_colmap) {
+    // The image names only: the rest of the measurements is dropped pass by pass.
+    for (auto& pass : season.passes) {
+      workspace::PassData data = workspace::LoadPassData(layout.root().string(), pass->data.session,
+                                                         pass->data.pass, {.measurements = true});
+      pass->data.measurements.camera = std::move(data.measurements.camera);
+    }
+    WriteColmap(season.passes, cameras, intrinsics, landmarks, result, layout);
+    for (auto& pass : season.passes) pass->data.measurements.camera.reset();
+  }
+
+  json summary = FuseSummaryJson(*report, result, stamp, options, season.sessions);
+  summary["ground_ties"] = ground_ties;
+  summary["steps"] = step_list;
+  workspace::WriteSeasonQuality(layout.FusedQuality().string(), report->quality);
+  workspace::RecordOutputs(&summary, layout.FusedDir(), workspace::FilesBelow(layout.FusedDir()));
+  workspace::WriteFusedSummary(layout.FusedSummary().string(), summary);
+}
+
+}  // namespace
+
+std::vector<FuseStep> PlanFuseSteps(int num_sessions, int window) {
+  std::vector<FuseStep> steps;
+  if (num_sessions <= 0) return steps;
+  const int first_last = std::min(window, num_sessions - 1);
+  steps.push_back({first_last, 0, -1});
+  for (int k = first_last + 1; k < num_sessions; ++k) {
+    steps.push_back({k, k - window, k - window - 1});
+  }
+  return steps;
+}
+
+std::vector<int> FinalSessions(const std::vector<FuseStep>& steps, std::size_t s) {
+  std::vector<int> sessions;
+  for (int k = steps[s].first; k <= steps[s].last; ++k) {
+    if (s + 1 == steps.size() || k < steps[s + 1].first) sessions.push_back(k);
+  }
+  return sessions;
+}
+
+FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace,
+                              const std::vector<fs::path>& association_files,
+                              const FuseStageOptions& options) {
+  const auto start = Clock::now();
+  FuseReport report;
+  report.num_sessions = static_cast<int>(season.sessions.size());
+  report.num_passes = static_cast<int>(season.passes.size());
+  const workspace::Layout layout(workspace);
+  const SeasonIndex index = IndexSeason(season, association_files);
+  const std::vector<FuseStep> steps =
+      PlanFuseSteps(static_cast<int>(season.sessions.size()), options.window_sessions);
+
+  // Every step's fingerprint, chained; the season's is the last one's.
+  std::vector<std::string> stamps;
+  Fnv1aHasher season_stamp;
+  season_stamp.AddString("incremental");
+  for (const FuseStep& step : steps) {
+    std::vector<bool> held;
+    const std::vector<int> passes = StepPasses(index, step, &held);
+    stamps.push_back(StepStamp(stamps.empty() ? std::string() : stamps.back(), step, season, index,
+                               passes, held, StepAssociationFiles(season, index, passes, held),
+                               options));
+    season_stamp.AddString(stamps.back());
+  }
+  const std::string stamp = std::to_string(season_stamp.hash());
+  if (!options.force && FusedUpToDate(layout, season.sessions, stamp)) {
+    spdlog::info("fuse: up to date, skipped (--force to fuse again)");
+    report.skipped = true;
+    report.quality = ReadSeasonQuality(workspace);
+    return report;
+  }
+
+  // Folders of steps that are not in this season, and outputs of the whole-season fuse, go.
+  const fs::path steps_dir = layout.FusedStepsDir();
+  std::set<std::string> step_names;
+  for (const FuseStep& step : steps) step_names.insert(season.sessions[step.last]);
+  if (fs::is_directory(steps_dir)) {
+    for (const auto& entry : fs::directory_iterator(steps_dir)) {
+      if (!step_names.count(entry.path().filename().string())) fs::remove_all(entry.path());
+    }
+  }
+  fs::create_directories(steps_dir);
+
+  // The grades of the sessions: a degraded session must not move the others.
+  const std::vector<bool> protects = GradeSessions(season.passes, options, &report);
+  const StepContext ctx{season, index, steps, protects, workspace, options, layout};
+  bool rerun = options.force;  // a step after one that ran starts from new states: it runs too
+  for (std::size_t s = 0; s < steps.size(); ++s) {
+    const fs::path dir = steps_dir / season.sessions[steps[s].last];
+    std::string why;
+    if (!rerun && StepUpToDate(dir, stamps[s], FinalSessions(steps, s), season, layout, &why)) {
+      FuseStepReport skipped;
+      skipped.session = season.sessions[steps[s].last];
+      skipped.skipped = true;
+      report.steps.push_back(skipped);
+      continue;
+    }
+    if (!why.empty() && !rerun) spdlog::info("fuse: step {} solved again: {}", s + 1, why);
+    report.steps.push_back(RunStep(ctx, s, stamps[s], &report));
+    rerun = true;
+  }
+  report.seconds = SecondsSince(start);  // the summary's total: the steps
+  AssembleSeason(season, steps, stamp, options, layout, &report);
+  report.seconds = SecondsSince(start);
+  return report;
+}
+
+}  // namespace crop4d::pipeline::fuse

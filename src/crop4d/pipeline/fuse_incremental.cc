@@ -245,8 +245,9 @@ json ReadStepJson(const fs::path& dir) {
 
 // Starts the passes of the step that the previous step optimised where it left them: states,
 // time offsets and the calibration it refined (held where a held pass shares the camera).
-void StartFromPreviousStep(const fs::path& previous_dir, PassList* passes,
-                           std::deque<geometry::PinholeRadTan>* storage) {
+// Returns the calibrations it carried in.
+std::vector<fusion::RefinedCalibration> StartFromPreviousStep(
+    const fs::path& previous_dir, PassList* passes, std::deque<geometry::PinholeRadTan>* storage) {
   const json previous = ReadStepJson(previous_dir);
   std::map<std::string, std::optional<double>> offsets;
   workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse", [&] {
@@ -281,16 +282,6 @@ void StartFromPreviousStep(const fs::path& previous_dir, PassList* passes,
     (*passes)[p]->input.camera = inputs[p].camera;
     (*passes)[p]->input.body_from_camera = inputs[p].body_from_camera;
   }
-}
-
-// The calibrations carried into a step (as the previous step left them), for reporting the
-// step's own against the calibration as written.
-std::vector<fusion::RefinedCalibration> CarriedCalibrations(const fs::path& previous_dir) {
-  if (previous_dir.empty()) return {};
-  const json previous = ReadStepJson(previous_dir);
-  std::vector<fusion::RefinedCalibration> carried;
-  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse",
-                        [&] { carried = ReadStepCalibrations(previous_dir, previous); });
   return carried;
 }
 
@@ -359,7 +350,9 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
   const fs::path previous_dir =
       s > 0 ? steps_dir / ctx.season.sessions[ctx.steps[s - 1].last] : fs::path();
   std::deque<geometry::PinholeRadTan> carried_cameras;
-  if (s > 0) StartFromPreviousStep(previous_dir, &passes, &carried_cameras);
+  // The calibrations carried in, to report the step's own against the calibration as written.
+  std::vector<fusion::RefinedCalibration> carried;
+  if (s > 0) carried = StartFromPreviousStep(previous_dir, &passes, &carried_cameras);
 
   FuseReport step_report;
   std::vector<SessionPair> session_pairs;
@@ -372,7 +365,7 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
       GroundTies(passes, session_pairs, ctx.options, &step_report);
   fusion::JointOptimiser::Result result =
       SolveJoint(graph, passes, landmarks, ties, protects, held, ctx.options);
-  fusion::ReportRefinedCalibrations(CarriedCalibrations(previous_dir), &result.calibrations);
+  fusion::ReportRefinedCalibrations(carried, &result.calibrations);
   result.summary.num_cameras_refined = static_cast<int>(
       std::count_if(result.calibrations.begin(), result.calibrations.end(),
                     [](const fusion::RefinedCalibration& c) { return c.refined; }));
@@ -438,15 +431,6 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
   out.landmarks = result.summary.num_landmarks;
   out.observations = result.summary.num_observations;
   out.seconds = SecondsSince(start);
-  json tie_list = json::array();
-  for (const FuseTiePairReport& t : step_report.tie_pairs) {
-    tie_list.push_back({{"a", t.a},
-                        {"b", t.b},
-                        {"cross_matches", t.cross_matches},
-                        {"ties", t.ties.ties},
-                        {"median_across_m", t.ties.median_across_m},
-                        {"median_vertical_m", t.ties.median_vertical_m}});
-  }
   json step_json = {{"fingerprint", stamp},
                     {"session", out.session},
                     {"optimised", out.optimised},
@@ -461,7 +445,7 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
                       {"thinned_matches", step_report.num_thinned_matches},
                       {"conflicting_matches", step_report.num_conflicting_matches},
                       {"invalid_matches", step_report.num_invalid_matches}}},
-                    {"ground_ties", tie_list},
+                    {"ground_ties", TiePairsJson(step_report.tie_pairs)},
                     {"owned_landmarks", owned.landmarks.size()},
                     {"seconds", out.seconds}};
   // Its own files, and apart the outputs of each session it made final: they are its results

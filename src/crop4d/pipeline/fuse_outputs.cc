@@ -240,6 +240,23 @@ json JointSummaryJson(const fusion::JointOptimiser::Summary& s) {
             {"final_solve", s.final_solve_seconds}}}};
 }
 
+json TiePairsJson(const std::vector<FuseTiePairReport>& pairs) {
+  json tie_list = json::array();
+  for (const FuseTiePairReport& t : pairs) {
+    tie_list.push_back({{"a", t.a},
+                        {"b", t.b},
+                        {"cross_matches", t.cross_matches},
+                        {"soil_points_a", t.ties.soil_points_a},
+                        {"soil_points_b", t.ties.soil_points_b},
+                        {"segments", t.ties.segments},
+                        {"ties", t.ties.ties},
+                        {"median_across_m", t.ties.median_across_m},
+                        {"median_vertical_m", t.ties.median_vertical_m},
+                        {"median_spread_m", t.ties.median_spread_m}});
+  }
+  return tie_list;
+}
+
 fusion::JointOptimiser::Summary JointSummaryFromJson(const json& j) {
   fusion::JointOptimiser::Summary s;
   s.num_passes = j.at("passes").get<int>();
@@ -331,20 +348,7 @@ json FuseSummaryJson(const FuseReport& report, const fusion::JointOptimiser::Res
                              {"conflicting_matches", report.num_conflicting_matches},
                              {"invalid_matches", report.num_invalid_matches}};
   summary["joint"] = JointSummaryJson(s);
-  json tie_list = json::array();
-  for (const FuseTiePairReport& t : report.tie_pairs) {
-    tie_list.push_back({{"a", t.a},
-                        {"b", t.b},
-                        {"cross_matches", t.cross_matches},
-                        {"soil_points_a", t.ties.soil_points_a},
-                        {"soil_points_b", t.ties.soil_points_b},
-                        {"segments", t.ties.segments},
-                        {"ties", t.ties.ties},
-                        {"median_across_m", t.ties.median_across_m},
-                        {"median_vertical_m", t.ties.median_vertical_m},
-                        {"median_spread_m", t.ties.median_spread_m}});
-  }
-  summary["ground_ties"] = tie_list;
+  summary["ground_ties"] = TiePairsJson(report.tie_pairs);
   json pass_list = json::array();
   for (std::size_t p = 0; p < report.passes.size(); ++p) {
     const FusePassReport& pr = report.passes[p];

@@ -53,6 +53,9 @@ void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
 nlohmann::json JointSummaryJson(const fusion::JointOptimiser::Summary& summary);
 fusion::JointOptimiser::Summary JointSummaryFromJson(const nlohmann::json& joint);
 
+// The ground ties per pair of passes as summary.json's "ground_ties" holds them.
+nlohmann::json TiePairsJson(const std::vector<FuseTiePairReport>& pairs);
+
 // Adds one step's joint problem to the season's (incremental fuse): counts, costs, iterations
 // and times summed, RMS values pooled, converged when every step converged.
 void AddJointSummary(const fusion::JointOptimiser::Summary& step,

@@ -125,6 +125,11 @@ RunFunction SetupDensify(CLI::App& app) {
                  "reference, s: leaves sway in the wind (0: any time)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--load-block", o.stereo.load_block_m,
+                 "Tiles are matched block by block, squares of this side, m, with only the "
+                 "images they select in memory (the result does not depend on it)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--min-score", o.stereo.min_score, "Least aggregated ZNCC of a kept point (-1..1)")
       ->capture_default_str();
   app.add_option("--top-surface-margin", o.stereo.top_surface_margin,

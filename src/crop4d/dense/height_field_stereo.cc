@@ -9,10 +9,12 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "crop4d/core/color.h"
 #include "crop4d/core/error.h"
@@ -545,6 +547,7 @@ OptionCheck HeightFieldStereo::Options::Check() const {
       .AtLeast("near_time_s", near_time_s, 0.0)
       .Between("near_time_min_green", near_time_min_green, 0.0, 1.0)
       .Greater("max_view_distance_m", max_view_distance_m, 0.0)
+      .Greater("load_block_m", load_block_m, 0.0)
       .AtLeast("image_margin_px", image_margin_px, 0.0)
       .AtLeast("min_reference_separation_m", min_reference_separation_m, 0.0)
       .AtLeast("min_views", min_views, 1)
@@ -673,13 +676,47 @@ void KeepViewsNearInTime(const Options& o, const std::vector<ViewGeometry>& geom
                     candidates->end());
 }
 
+// The views by the horizontal position of their camera, in square buckets of
+// max_view_distance_m: the views within that distance of a point lie in the 3 × 3 buckets around
+// it. (Testing every view of the session for every tile would cost the square of its length.)
+class ViewIndex {
+ public:
+  ViewIndex(const std::vector<ViewGeometry>& geometry, double bucket_m) : bucket_m_(bucket_m) {
+    for (std::size_t v = 0; v < geometry.size(); ++v) {
+      buckets_[Key(geometry[v].center.head<2>())].push_back(static_cast<int>(v));
+    }
+  }
+
+  // The views whose camera lies within bucket_m of `xy` horizontally, and some farther ones.
+  std::vector<int> Near(const Eigen::Vector2d& xy) const {
+    const auto [bx, by] = Key(xy);
+    std::vector<int> views;
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      for (std::int64_t dx = -1; dx <= 1; ++dx) {
+        const auto it = buckets_.find({bx + dx, by + dy});
+        if (it != buckets_.end()) views.insert(views.end(), it->second.begin(), it->second.end());
+      }
+    }
+    return views;
+  }
+
+ private:
+  std::pair<std::int64_t, std::int64_t> Key(const Eigen::Vector2d& xy) const {
+    return {static_cast<std::int64_t>(std::floor(xy.x() / bucket_m_)),
+            static_cast<std::int64_t>(std::floor(xy.y() / bucket_m_))};
+  }
+
+  double bucket_m_;
+  std::map<std::pair<std::int64_t, std::int64_t>, std::vector<int>> buckets_;
+};
+
 // The views that could serve a tile, from the poses alone: those that see the tile's ground
 // corners (with a margin), at most max_view_distance_m away; the most top-down first.
 std::vector<ViewCandidate> FindViewCandidates(const Options& o,
                                               const geometry::PinholeRadTan& camera,
                                               const std::vector<ViewGeometry>& geometry,
-                                              const CellGrid& grid, const GroundLevels& ground,
-                                              const Tile& tile) {
+                                              const ViewIndex& index, const CellGrid& grid,
+                                              const GroundLevels& ground, const Tile& tile) {
   const double s = grid.s;
   const double margin = o.image_margin_px + o.patch_radius;
   const Eigen::Vector2d lo = grid.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
@@ -692,7 +729,7 @@ std::vector<ViewCandidate> FindViewCandidates(const Options& o,
     corners.emplace_back(c.x(), c.y(), ground.At(c.x(), c.y()));
   }
   std::vector<ViewCandidate> candidates;
-  for (std::size_t v = 0; v < geometry.size(); ++v) {
+  for (const int v : index.Near(mid)) {
     const ViewGeometry& g = geometry[v];
     const Eigen::Vector3d d = g.center - center;
     if (d.norm() > o.max_view_distance_m || d.z() < 0.2) continue;
@@ -702,7 +739,7 @@ std::vector<ViewCandidate> FindViewCandidates(const Options& o,
       inside = inside && camera.Project(g.camera_from_world * (c - g.center), &pixel) &&
                camera.IsInImage(pixel, margin);
     }
-    if (inside) candidates.push_back({static_cast<int>(v), d.head<2>() / d.z()});
+    if (inside) candidates.push_back({v, d.head<2>() / d.z()});
   }
   std::sort(candidates.begin(), candidates.end(),
             [](const ViewCandidate& a, const ViewCandidate& b) {
@@ -761,51 +798,84 @@ TileViews PickTileViews(const Options& o, const std::vector<ViewGeometry>& geome
   return views;
 }
 
-// Loads and prepares the images that some tile selected (in colour where a tile uses one as a
-// reference); drops unreadable ones from the tiles (and a tile's views when too few are left).
-std::vector<ViewImage> LoadTileImages(const Options& o, const geometry::PinholeRadTan& camera,
-                                      const Rectification& rect,
-                                      const std::vector<DenseView>& views,
-                                      const HeightFieldStereo::ImageLoader& load,
-                                      std::vector<Tile>* tiles, Summary* summary) {
-  std::vector<char> needed(views.size(), 0), colour(views.size(), 0);
-  for (const Tile& tile : *tiles) {
-    for (const TileViews* tv : {&tile.views, &tile.near_views}) {
-      for (std::size_t k = 0; k < tv->views.size(); ++k) {
-        needed[tv->views[k]] = 1;
-        if (static_cast<int>(k) < tv->num_references) colour[tv->views[k]] = 1;
+// The tiles in blocks (Options::load_block_m): squares of the grid in strips along its longer
+// side, each block's tiles (indices into `tiles`) in their order.
+std::vector<std::vector<int>> TileBlocks(const CellGrid& grid, const std::vector<Tile>& tiles,
+                                         double block_m) {
+  const int block_cells = std::max(1, static_cast<int>(std::lround(block_m / grid.s)));
+  const bool along_y = grid.gy >= grid.gx;
+  std::map<std::pair<int, int>, std::vector<int>> blocks;
+  for (std::size_t t = 0; t < tiles.size(); ++t) {
+    const int bi = tiles[t].i0 / block_cells, bj = tiles[t].j0 / block_cells;
+    blocks[along_y ? std::pair(bi, bj) : std::pair(bj, bi)].push_back(static_cast<int>(t));
+  }
+  std::vector<std::vector<int>> out;
+  for (auto& [key, block] : blocks) out.push_back(std::move(block));
+  return out;
+}
+
+// The images of the views while the blocks are matched: those the current block's tiles select.
+struct BlockImages {
+  std::vector<ViewImage> images;  // by view; not ok where not loaded
+  std::vector<char> colour;       // kept in colour: some tile's reference
+  std::vector<char> tried, failed;
+
+  // `colour` from every tile's references.
+  BlockImages(std::size_t num_views, const std::vector<Tile>& tiles)
+      : images(num_views), colour(num_views, 0), tried(num_views, 0), failed(num_views, 0) {
+    for (const Tile& tile : tiles) {
+      for (const TileViews* tv : {&tile.views, &tile.near_views}) {
+        for (int k = 0; k < tv->num_references; ++k) colour[tv->views[k]] = 1;
       }
+    }
+  }
+};
+
+// Makes `state` hold the images that the tiles of `block` select (prepared, in colour where
+// some tile uses one as a reference): the others are freed, the missing ones loaded. Drops
+// unreadable images from the block's tiles (and a tile's views when too few are left).
+void LoadBlockImages(const Options& o, const geometry::PinholeRadTan& camera,
+                     const Rectification& rect, const std::vector<DenseView>& views,
+                     const HeightFieldStereo::ImageLoader& load, const std::vector<int>& block,
+                     std::vector<Tile>* tiles, BlockImages* state, Summary* summary) {
+  std::vector<char> needed(views.size(), 0);
+  for (const int t : block) {
+    for (const TileViews* tv : {&(*tiles)[t].views, &(*tiles)[t].near_views}) {
+      for (const int v : tv->views) needed[v] = 1;
     }
   }
   std::vector<int> to_load;
   for (std::size_t v = 0; v < views.size(); ++v) {
-    if (needed[v]) to_load.push_back(static_cast<int>(v));
+    if (!needed[v]) {
+      state->images[v] = ViewImage();
+    } else if (!state->images[v].ok && !state->failed[v]) {
+      to_load.push_back(static_cast<int>(v));
+    }
   }
-  std::vector<ViewImage> images(views.size());
-  {
-    std::unique_ptr<Progress> progress;
-    if (o.show_progress)
-      progress = std::make_unique<Progress>("densify: load", to_load.size(), "img");
-    tbb::parallel_for(std::size_t{0}, to_load.size(), [&](std::size_t k) {
-      const int v = to_load[k];
-      images[v] = PrepareImage(load(v), camera, rect, colour[v] != 0, o.vegetation_weight,
-                               o.highpass_sigma_px, o.highpass_gain);
-      if (progress) progress->Add();
-    });
-  }
-  summary->num_images_used = static_cast<int>(to_load.size());
-  for (int v : to_load) {
-    if (!images[v].ok) {
+  tbb::parallel_for(std::size_t{0}, to_load.size(), [&](std::size_t k) {
+    const int v = to_load[k];
+    state->images[v] = PrepareImage(load(v), camera, rect, state->colour[v] != 0,
+                                    o.vegetation_weight, o.highpass_sigma_px, o.highpass_gain);
+  });
+  summary->num_image_loads += static_cast<int>(to_load.size());
+  for (const int v : to_load) {
+    if (!state->tried[v]) ++summary->num_images_used;
+    state->tried[v] = 1;
+    if (!state->images[v].ok) {
+      state->failed[v] = 1;
       ++summary->num_images_failed;
       spdlog::warn("densify: image {} could not be read or has the wrong size; not used",
                    views[v].name);
     }
   }
-  for (Tile& tile : *tiles) {
-    for (TileViews* tv : {&tile.views, &tile.near_views}) {
+  const int in_memory = static_cast<int>(std::count_if(state->images.begin(), state->images.end(),
+                                                       [](const ViewImage& i) { return i.ok; }));
+  summary->max_images_loaded = std::max(summary->max_images_loaded, in_memory);
+  for (const int t : block) {
+    for (TileViews* tv : {&(*tiles)[t].views, &(*tiles)[t].near_views}) {
       TileViews kept;
       for (std::size_t k = 0; k < tv->views.size(); ++k) {
-        if (!images[tv->views[k]].ok) continue;
+        if (state->failed[tv->views[k]]) continue;
         kept.views.push_back(tv->views[k]);
         if (static_cast<int>(k) < tv->num_references) ++kept.num_references;
       }
@@ -815,7 +885,6 @@ std::vector<ViewImage> LoadTileImages(const Options& o, const geometry::PinholeR
       *tv = kept;
     }
   }
-  return images;
 }
 
 // Where a tile holds plants — at least near_time_min_green of its ground, as its first reference
@@ -823,14 +892,16 @@ std::vector<ViewImage> LoadTileImages(const Options& o, const geometry::PinholeR
 // reference in time replace its views: leaves sway in the wind, and a view from another pass,
 // tens of seconds later, sees a leaf elsewhere; the match then fails, or finds the canopy below
 // (bench/RESULTS.md, "Leaves in the wind"). Bare soil keeps the views of every pass, which
-// measure it more precisely. Returns the number of tiles that changed.
+// measure it more precisely. For the tiles of `block`, whose images are loaded; returns the
+// number of tiles that changed.
 int ChooseViewsInTime(const Options& o, const geometry::PinholeRadTan& camera,
                       const std::vector<ViewGeometry>& geometry,
                       const std::vector<ViewImage>& images, const CellGrid& grid,
-                      const GroundLevels& ground, std::vector<Tile>* tiles) {
+                      const GroundLevels& ground, const std::vector<int>& block,
+                      std::vector<Tile>* tiles) {
   std::atomic<int> changed{0};
-  tbb::parallel_for(std::size_t{0}, tiles->size(), [&](std::size_t t) {
-    Tile& tile = (*tiles)[t];
+  tbb::parallel_for(std::size_t{0}, block.size(), [&](std::size_t b) {
+    Tile& tile = (*tiles)[block[b]];
     TileViews near;
     std::swap(near, tile.near_views);  // needed no more once chosen
     if (near.views.empty() || tile.views.views.empty() || near.views == tile.views.views) return;
@@ -1496,9 +1567,10 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
   std::vector<Tile> tiles = MakeTiles(grid, o.tile_cells);
   summary.num_tiles = static_cast<int>(tiles.size());
   const std::vector<ViewGeometry> geometry = MakeViewGeometry(views);
+  const ViewIndex index(geometry, o.max_view_distance_m);
   tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
     std::vector<ViewCandidate> candidates =
-        FindViewCandidates(o, camera, geometry, grid, ground, tiles[t]);
+        FindViewCandidates(o, camera, geometry, index, grid, ground, tiles[t]);
     tiles[t].views = PickTileViews(o, geometry, candidates);
     if (o.near_time_s > 0) {
       KeepViewsNearInTime(o, geometry, &candidates);
@@ -1506,39 +1578,42 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
     }
   });
 
-  const Clock::time_point load_start = Clock::now();
+  // The sweeps, block by block: the images of a block's tiles loaded, then its tiles matched.
+  const Clock::time_point match_start = Clock::now();
   const Rectification rect = MakeRectification(
       camera, static_cast<int>(std::ceil(2 * std::max(0.0, o.highpass_sigma_px))) + 1);
-  const std::vector<ViewImage> images =
-      LoadTileImages(o, camera, rect, views, load, &tiles, &summary);
-  summary.num_tiles_near_in_time =
-      ChooseViewsInTime(o, camera, geometry, images, grid, ground, &tiles);
-  double view_sum = 0;
-  for (const Tile& tile : tiles) view_sum += static_cast<double>(tile.views.views.size());
-  summary.mean_views_per_tile = tiles.empty() ? 0 : view_sum / static_cast<double>(tiles.size());
-  summary.load_seconds = SecondsSince(load_start);
-
-  // The sweeps, tile by tile.
-  const Clock::time_point match_start = Clock::now();
-  const Sweeper sweeper(o, rect, geometry, images);
+  const std::vector<std::vector<int>> blocks = TileBlocks(grid, tiles, o.load_block_m);
+  summary.num_blocks = static_cast<int>(blocks.size());
   CellResults cells(grid.size());
   {
-    const TileMatcher matcher(o, camera, ground, geometry, images, sweeper, &grid, &cells);
+    BlockImages state(views.size(), tiles);
+    const Sweeper sweeper(o, rect, geometry, state.images);
+    const TileMatcher matcher(o, camera, ground, geometry, state.images, sweeper, &grid, &cells);
     std::unique_ptr<Progress> progress;
     if (o.show_progress)
       progress = std::make_unique<Progress>("densify: match", tiles.size(), "tile");
-    tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
-      matcher.Match(tiles[t]);
-      if (progress) progress->Add();
-    });
-  }
+    for (const std::vector<int>& block : blocks) {
+      const Clock::time_point load_start = Clock::now();
+      LoadBlockImages(o, camera, rect, views, load, block, &tiles, &state, &summary);
+      summary.num_tiles_near_in_time +=
+          ChooseViewsInTime(o, camera, geometry, state.images, grid, ground, block, &tiles);
+      summary.load_seconds += SecondsSince(load_start);
+      tbb::parallel_for(std::size_t{0}, block.size(), [&](std::size_t b) {
+        matcher.Match(tiles[block[b]]);
+        if (progress) progress->Add();
+      });
+    }
+  }  // (the images freed)
+  double view_sum = 0;
+  for (const Tile& tile : tiles) view_sum += static_cast<double>(tile.views.views.size());
+  summary.mean_views_per_tile = tiles.empty() ? 0 : view_sum / static_cast<double>(tiles.size());
 
   // The filters, then the cloud.
   MarkOccluding(o, geometry, cells, &grid);
   std::vector<std::uint8_t> isolated = FindIsolated(o, grid, cells.height);
   IsolateFalseIslands(o, grid, cells, FindIslands(o, grid, cells.height, isolated), &isolated);
   CollectPoints(cells, isolated, &grid, &result);
-  summary.match_seconds = SecondsSince(match_start);
+  summary.match_seconds = SecondsSince(match_start) - summary.load_seconds;
   summary.total_seconds = SecondsSince(start);
   return result;
 }

@@ -44,6 +44,9 @@
 // where a tile holds plants (green in its first reference), only images captured near that
 // reference in time are candidates (Options::near_time_s); bare soil keeps those of every pass.
 //
+// Memory: the tiles are matched block by block (Options::load_block_m), each block with the
+// images its tiles select, so a session's images are never all in memory at once.
+//
 // Written here because neither OpenCV nor any other packaged library has height-field
 // multi-view stereo (OpenCV has two-view rectified block matching only).
 
@@ -187,6 +190,12 @@ class HeightFieldStereo {
     double highpass_sigma_px = 2.0;
     // Gain of the high-passed channel stored in 8 bits.
     double highpass_gain = 2.0;
+    // The tiles are matched block by block, squares of this side, m, in strips along the
+    // region's longer side: the images a block's tiles select are loaded before it and those
+    // the next block does not select are freed after it, so that memory holds a block's images,
+    // not the session's. The result does not depend on it; larger blocks load fewer images
+    // twice (an image that two blocks select is loaded for each).
+    double load_block_m = 4.0;
     // Progress bars while loading and matching.
     bool show_progress = true;
 
@@ -210,6 +219,9 @@ class HeightFieldStereo {
     int num_views = 0;               // given
     int num_images_used = 0;         // loaded (selected by some tile)
     int num_images_failed = 0;       // selected but unreadable
+    int num_blocks = 0;              // blocks of tiles matched one after the other
+    int num_image_loads = 0;         // images loaded, counting one loaded for two blocks twice
+    int max_images_loaded = 0;       // the most images in memory at once
     double mean_views_per_tile = 0;
     double load_seconds = 0;
     double match_seconds = 0;
@@ -229,8 +241,9 @@ class HeightFieldStereo {
   explicit HeightFieldStereo(const Options& options);
 
   // Reconstructs `region`: `views` are the posed images of one camera, `load(i)` gives the
-  // pixels of views[i] (called in parallel, once per selected view), `ground` bounds the
-  // heights. Parallel over tiles (oneTBB, the caller's arena).
+  // pixels of views[i] (called in parallel, for the selected views of each block of tiles:
+  // Options::load_block_m), `ground` bounds the heights. Parallel over tiles (oneTBB, the
+  // caller's arena).
   Result Run(const geometry::PinholeRadTan& camera, const std::vector<DenseView>& views,
              const ImageLoader& load, const DenseRegion& region, const GroundLevels& ground) const;
 

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <memory>
 #include <stdexcept>
@@ -315,6 +316,70 @@ TEST_F(HeightFieldStereoTest, LateSeasonTopLeavesFromTheTopSurface) {
   // The soil is unchanged.
   ASSERT_GT(with.soil_dz.size(), 1000u);
   EXPECT_LT(std::abs(Quantile(with.soil_dz, 0.5)), 0.002);
+}
+
+// Block by block (Options::load_block_m): the same cloud to the bit as with every tile in one
+// block, with fewer images in memory at once; the images two blocks select are loaded twice.
+TEST_F(HeightFieldStereoTest, BlockByBlockGivesTheSameCloudWithFewerImagesInMemory) {
+  if (renderer_ == nullptr) GTEST_SKIP() << "no headless OpenGL";
+  const Eigen::AlignedBox2d box(Eigen::Vector2d(-0.35, 3.0), Eigen::Vector2d(1.26, 5.0));
+  const testing::RenderedSession rs = Render(1, box);
+  std::vector<DenseView> views;
+  for (const testing::RenderedImage& im : rs.images) {
+    views.push_back(
+        {im.world_from_camera, std::to_string(im.t), DurationSeconds(rs.images.front().t, im.t)});
+  }
+  Eigen::AlignedBox2d wide = box;
+  wide.min() -= Eigen::Vector2d::Constant(1.0);
+  wide.max() += Eigen::Vector2d::Constant(1.0);
+  const GroundLevels ground(testing::SoilCloud(simulator_->world(), wide), wide,
+                            GroundLevels::Options{});
+  DenseRegion region;
+  region.bounds = box;
+  std::atomic<int> loads{0};
+  const auto run = [&](double block_m) {
+    HeightFieldStereo::Options o;
+    o.cell_m = kEarlierCell;  // (coarser: quicker, the same logic)
+    o.show_progress = false;
+    o.load_block_m = block_m;
+    loads = 0;
+    return HeightFieldStereo(o).Run(
+        rs.camera, views,
+        [&](int i) {
+          ++loads;
+          return testing::ToRgbImage(rs.images[i].bgr);
+        },
+        region, ground);
+  };
+  const HeightFieldStereo::Result one = run(100.0);
+  const int loads_one = loads;
+  const HeightFieldStereo::Result blocks = run(0.5);
+  const int loads_blocks = loads;
+
+  EXPECT_EQ(one.summary.num_blocks, 1);
+  EXPECT_EQ(one.summary.num_image_loads, one.summary.num_images_used);
+  EXPECT_EQ(one.summary.max_images_loaded, one.summary.num_images_used);
+  EXPECT_EQ(loads_one, one.summary.num_images_used);
+  EXPECT_GE(blocks.summary.num_blocks, 8);  // 4 × 2 squares of 0.5 m
+  EXPECT_EQ(blocks.summary.num_images_used, one.summary.num_images_used);
+  EXPECT_GT(blocks.summary.num_image_loads, blocks.summary.num_images_used);
+  EXPECT_EQ(loads_blocks, blocks.summary.num_image_loads);
+  EXPECT_LT(blocks.summary.max_images_loaded, 0.8 * one.summary.max_images_loaded);
+  std::printf("one block: %d images; %d blocks of 0.5 m: %d loads, at most %d in memory\n",
+              one.summary.num_images_used, blocks.summary.num_blocks,
+              blocks.summary.num_image_loads, blocks.summary.max_images_loaded);
+
+  ASSERT_GT(one.cloud.size(), 10000u);
+  ASSERT_EQ(blocks.cloud.size(), one.cloud.size());
+  EXPECT_TRUE(blocks.cloud.points == one.cloud.points);
+  EXPECT_TRUE(blocks.cloud.colors == one.cloud.colors);
+  ASSERT_EQ(blocks.cloud.scalars.size(), one.cloud.scalars.size());
+  for (std::size_t k = 0; k < one.cloud.scalars.size(); ++k) {
+    EXPECT_TRUE(blocks.cloud.scalars[k].values == one.cloud.scalars[k].values)
+        << one.cloud.scalars[k].name;
+  }
+  EXPECT_EQ(blocks.summary.num_tiles_near_in_time, one.summary.num_tiles_near_in_time);
+  EXPECT_EQ(blocks.summary.mean_views_per_tile, one.summary.mean_views_per_tile);
 }
 
 // Leaves swaying by up to 1 cm (gusts of 2 s): where the tiles hold plants, views of the

@@ -47,6 +47,7 @@ void VisitFields(HeightFieldStereo::Options& o, V&& visit) {
   visit("vegetation_weight", o.vegetation_weight);
   visit("highpass_sigma_px", o.highpass_sigma_px);
   visit("highpass_gain", o.highpass_gain);
+  visit("load_block_m", o.load_block_m, fields::Role::kControl);
   visit("show_progress", o.show_progress, fields::Role::kControl);
 }
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
 
 namespace crop4d::fusion {
 namespace {
@@ -36,16 +37,25 @@ OptionCheck CalibrationRefinementOptions::Check() const {
   return c.Result();
 }
 
-std::vector<RigCamera> GroupPassesByCamera(const std::vector<slam::RowOptimiser::Input>& passes) {
+std::vector<RigCamera> GroupPassesByCamera(const std::vector<slam::RowOptimiser::Input>& passes,
+                                           const std::vector<bool>& apart) {
+  if (!apart.empty() && apart.size() != passes.size()) {
+    throw std::invalid_argument("GroupPassesByCamera: apart does not match the passes");
+  }
+  const auto is_apart = [&](std::size_t p) { return !apart.empty() && apart[p]; };
   std::vector<RigCamera> cameras;
+  std::vector<bool> camera_apart;
   for (std::size_t p = 0; p < passes.size(); ++p) {
     if (passes[p].camera == nullptr) continue;
     RigCamera* match = nullptr;
-    for (RigCamera& c : cameras) {
-      if (SameCalibration(c, passes[p])) match = &c;
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      if (camera_apart[c] == is_apart(p) && SameCalibration(cameras[c], passes[p])) {
+        match = &cameras[c];
+      }
     }
     if (match == nullptr) {
       cameras.push_back({{}, *passes[p].camera, passes[p].body_from_camera});
+      camera_apart.push_back(is_apart(p));
       match = &cameras.back();
     }
     match->passes.push_back(static_cast<int>(p));

@@ -69,7 +69,11 @@ struct RigCamera {
 };
 
 // The cameras of `passes` (passes without camera in none), in the order of their first pass.
-std::vector<RigCamera> GroupPassesByCamera(const std::vector<slam::RowOptimiser::Input>& passes);
+// Passes with `apart[p]` (empty: none) never share a camera with passes without: an incremental
+// fuse's held session keeps the calibration it was written with while the sessions after it
+// refine a copy of their own.
+std::vector<RigCamera> GroupPassesByCamera(const std::vector<slam::RowOptimiser::Input>& passes,
+                                           const std::vector<bool>& apart = {});
 
 // The priors of one camera's calibration blocks about `camera`'s written values; the lever arm
 // is held constant unless options.refine_lever_arm. Nothing when no reprojection factor of the

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <deque>
+#include <stdexcept>
 
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/slam/camera_test_util.h"
@@ -44,6 +45,20 @@ TEST(CameraRefinement, PassesWithTheSameCalibrationShareOneCamera) {
   EXPECT_EQ(cameras[1].camera.k2, other_lens.k2);
   EXPECT_TRUE(SameIntrinsics(cameras[0].camera, camera));
   EXPECT_FALSE(SameIntrinsics(cameras[1].camera, camera));
+}
+
+// Passes set apart (an incremental fuse's held session) never share a camera with the others,
+// though their calibration is the same; among themselves they group as usual.
+TEST(CameraRefinement, PassesSetApartGetCamerasOfTheirOwn) {
+  const geometry::PinholeRadTan camera = slam::testing::DistortedTestCamera();
+  const std::vector<slam::RowOptimiser::Input> passes = PassesOf(camera, 4);
+  const std::vector<RigCamera> cameras = GroupPassesByCamera(passes, {true, false, true, false});
+  ASSERT_EQ(cameras.size(), 2u);
+  EXPECT_EQ(cameras[0].passes, (std::vector<int>{0, 2}));
+  EXPECT_EQ(cameras[1].passes, (std::vector<int>{1, 3}));
+  EXPECT_TRUE(SameIntrinsics(cameras[1].camera, camera));
+  EXPECT_EQ(GroupPassesByCamera(passes, {false, false, false, false}).size(), 1u);
+  EXPECT_THROW(GroupPassesByCamera(passes, {true}), std::invalid_argument);
 }
 
 TEST(CameraRefinement, ASecondSolveHoldsTheCamerasTheFirstRefined) {

@@ -39,7 +39,7 @@ class JointProblem {
  public:
   JointProblem(const JointOptimiser::Options& options,
                const std::vector<JointOptimiser::Pass>& passes, std::vector<BodyTie> ties,
-               std::vector<bool> fixed)
+               std::vector<bool> fixed, const std::vector<bool>& own_camera)
       : joint_options_(options),
         options_(options.row),
         passes_(passes),
@@ -61,7 +61,7 @@ class JointProblem {
       graphs_.push_back(std::make_unique<slam::PassGraph>(*pass_options, passes_[p], blocks_[p]));
       pass_options_.push_back(std::move(pass_options));
     }
-    rig_cameras_ = GroupPassesByCamera(passes);
+    rig_cameras_ = GroupPassesByCamera(passes, own_camera);
     for (const RigCamera& camera : rig_cameras_) {
       calibrations_.push_back(slam::CameraCalibrationBlocks::From(camera.camera));
     }
@@ -278,11 +278,13 @@ std::vector<bool> CamerasToRefine(const CalibrationRefinementOptions& options,
     for (const int p : cameras[c].passes) every_offset = every_offset && uses_time_offset[p];
     refine[c] = options.refine.value_or(every_offset &&
                                         cross_observations[c] >= options.min_cross_observations);
-    for (const int p : cameras[c].passes) {
-      if (refine[c] && !fixed_passes.empty() && fixed_passes[p]) {
-        spdlog::info(
-            "joint problem: the calibration of a camera with held passes is held as given");
-        refine[c] = false;
+    int num_fixed = 0;
+    for (const int p : cameras[c].passes) num_fixed += !fixed_passes.empty() && fixed_passes[p];
+    if (refine[c] && num_fixed > 0) {
+      refine[c] = false;
+      if (num_fixed < static_cast<int>(cameras[c].passes.size())) {
+        spdlog::info("joint problem: camera {} has held passes: its calibration is held as given",
+                     c);
       }
     }
   }
@@ -603,13 +605,17 @@ std::vector<RefinedCalibration> SummariseCalibrations(
 JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
                                              const std::vector<JointLandmark>& landmarks,
                                              const std::vector<JointGroundTie>& ground_ties,
-                                             const std::vector<bool>& fixed_passes) const {
+                                             const std::vector<bool>& fixed_passes,
+                                             const std::vector<bool>& own_camera_passes) const {
   const slam::RowOptimiser::Options& op = options_.row;
   Result result;
   Summary& summary = result.summary;
   summary.num_passes = static_cast<int>(passes.size());
   if (!fixed_passes.empty() && fixed_passes.size() != passes.size()) {
     throw std::invalid_argument("JointOptimiser: fixed_passes does not match the passes");
+  }
+  if (!own_camera_passes.empty() && own_camera_passes.size() != passes.size()) {
+    throw std::invalid_argument("JointOptimiser: own_camera_passes does not match the passes");
   }
   summary.num_landmarks_given = static_cast<int>(landmarks.size());
   for (const Pass& pass : passes) {
@@ -661,7 +667,7 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   if (options_.align_passes) {
     AlignPasses(options_, landmarks, ground_ties, fixed_passes, &aligned, &summary);
   }
-  JointProblem problem(options_, aligned, std::move(ties), fixed_passes);
+  JointProblem problem(options_, aligned, std::move(ties), fixed_passes, own_camera_passes);
   problem.Preintegrate();
 
   // (1) Landmarks from the row-SLAM poses. Pixels of a pass whose camera differs from the

@@ -167,10 +167,14 @@ class JointOptimiser {
   // range).
   // Passes with `fixed_passes[p]` (empty: none) keep their initial states: they are neither
   // aligned nor optimised, and the others are registered onto them (a degraded session onto the
-  // trusted ones, pipeline/season_quality.h).
+  // trusted ones, pipeline/season_quality.h). A rig camera with a fixed pass is held, unless
+  // the pass is also in `own_camera_passes` (empty: none): those passes get rig cameras of
+  // their own (GroupPassesByCamera's `apart`), so that the camera of the free passes is still
+  // refined while the fixed ones keep their calibration (an incremental fuse's held session).
   Result Solve(const std::vector<Pass>& passes, const std::vector<JointLandmark>& landmarks,
                const std::vector<JointGroundTie>& ground_ties = {},
-               const std::vector<bool>& fixed_passes = {}) const;
+               const std::vector<bool>& fixed_passes = {},
+               const std::vector<bool>& own_camera_passes = {}) const;
 
   const Options& options() const { return options_; }
 

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <optional>
 #include <random>
+#include <stdexcept>
 
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/slam/simulated_session_test_util.h"
@@ -78,8 +80,11 @@ void MakeTwoPasses(TwoPasses& tp) {
 
 // Ground points along both rows, observed with 0.5 px noise from every image that sees them;
 // the images of pass p captured td[p] after their stamps.
-std::vector<JointLandmark> Landmarks(const TwoPasses& tp, bool shared,
-                                     const std::array<double, 2>& td = {0.0, 0.0}) {
+// The images' pixels are those of tp.s.body_from_camera, or of `mount` for both passes where
+// given (a camera remounted between two dates: pass 1 alone).
+std::vector<JointLandmark> Landmarks(
+    const TwoPasses& tp, bool shared, const std::array<double, 2>& td = {0.0, 0.0},
+    const std::array<std::optional<geometry::Rigid3>, 2>& mount = {}) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> pixel_noise(0.0, 0.5);
@@ -96,7 +101,7 @@ std::vector<JointLandmark> Landmarks(const TwoPasses& tp, bool shared,
         const geometry::Rigid3 camera_from_world =
             (tp.s.record.trajectory->WorldFromBody(tp.s.record.Seconds(tp.times[pass][i]) +
                                                    td[pass]) *
-             tp.s.body_from_camera)
+             mount[pass].value_or(tp.s.body_from_camera))
                 .Inverse();
         Eigen::Vector2d pixel;
         if (!tp.s.camera.Project(camera_from_world * p, &pixel) ||
@@ -506,6 +511,64 @@ TEST(JointOptimiser, RefinesTheCameraCalibrationThroughTheSharedLandmarks) {
   // The cameras are placed with the refined T_BS.
   const geometry::Rigid3 c = refined.states[0][3].nav.world_from_body * r.body_from_camera;
   EXPECT_LT((refined.cameras[0][3].rotation().coeffs() - c.rotation().coeffs()).norm(), 1e-12);
+}
+
+// An incremental fuse's held session shares its written calibration with the sessions after it
+// (passes 0 and 1 here), but the camera of pass 1 was turned by 0.3° since (remounted). Held with
+// pass 0, the shared camera cannot follow; with a camera of its own for the held pass
+// (`own_camera_passes`), pass 1's copy is refined to its mount while pass 0 keeps its own.
+TEST(JointOptimiser, AHeldPassKeepsItsCameraWhileTheOthersRefineTheirs) {
+  TwoPasses tp;
+  MakeTwoRtkPasses(tp);
+  const geometry::Rigid3 turned(
+      tp.s.body_from_camera.rotation() * geometry::ExpQuat(Eigen::Vector3d(0.004, -0.003, 0.002)),
+      tp.s.body_from_camera.translation());
+  const std::vector<JointLandmark> landmarks =
+      Landmarks(tp, /*shared=*/true, {0.0, 0.0}, {std::nullopt, turned});
+  JointOptimiser::Options options;
+  options.calibration.refine = true;
+  const std::vector<bool> held = {true, false};
+  const JointOptimiser::Result shared =
+      JointOptimiser(options).Solve(tp.passes, landmarks, {}, held);
+  const JointOptimiser::Result own =
+      JointOptimiser(options).Solve(tp.passes, landmarks, {}, held, held);
+
+  ASSERT_EQ(shared.calibrations.size(), 1u);
+  EXPECT_FALSE(shared.calibrations[0].refined);
+  ASSERT_EQ(own.calibrations.size(), 2u);
+  EXPECT_EQ(own.calibrations[0].passes, std::vector<int>{0});
+  EXPECT_FALSE(own.calibrations[0].refined);
+  EXPECT_EQ(own.calibrations[1].passes, std::vector<int>{1});
+  EXPECT_TRUE(own.calibrations[1].refined);
+  EXPECT_EQ(own.summary.num_cameras_refined, 1);
+  // The held pass: its states and its camera as given.
+  EXPECT_EQ(own.calibrations[0].camera.fx, tp.s.camera.fx);
+  EXPECT_EQ(
+      own.cameras[0][3].translation(),
+      (tp.passes[0].initial_states[3].nav.world_from_body * tp.s.body_from_camera).translation());
+  // Pass 1's rays: from its true mount, as written and refined.
+  const RefinedCalibration& r = own.calibrations[1];
+  const double before = RayAngleRmsDeg(tp.s.camera, tp.s.body_from_camera, tp.s.camera, turned);
+  const double after = RayAngleRmsDeg(r.camera, r.body_from_camera, tp.s.camera, turned);
+  // With the camera held, pass 1's attitude takes up the turn instead.
+  const auto attitude_error_deg = [&](const JointOptimiser::Result& result) {
+    double sum = 0;
+    for (const slam::RowState& st : result.states[1]) {
+      const double a = geometry::AngleBetween(st.nav.world_from_body.rotation(),
+                                              TrueBody(tp.s, st.t).rotation());
+      sum += a * a;
+    }
+    return std::sqrt(sum / result.states[1].size()) * 180.0 / M_PI;
+  };
+  std::printf(
+      "pass 1's rays %.3f deg from its mount as written, %.3f deg refined; its attitude "
+      "%.3f deg from the truth (%.3f deg with the camera held)\n",
+      before, after, attitude_error_deg(own), attitude_error_deg(shared));
+  EXPECT_GT(before, 0.25);
+  EXPECT_LT(after, 0.4 * before);
+  EXPECT_LT(attitude_error_deg(own), 0.5 * attitude_error_deg(shared));
+  EXPECT_THROW(JointOptimiser(options).Solve(tp.passes, landmarks, {}, held, {true}),
+               std::invalid_argument);
 }
 
 TEST(JointOptimiser, OptionErrorsNameTheOption) {

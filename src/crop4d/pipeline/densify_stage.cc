@@ -253,7 +253,10 @@ json DenseSummaryJson(const DensifySessionReport& report, const std::string& sta
   summary["tiles"] = s.num_tiles;
   summary["images"] = {{"used", s.num_images_used},
                        {"failed", s.num_images_failed},
-                       {"mean_views_per_tile", s.mean_views_per_tile}};
+                       {"mean_views_per_tile", s.mean_views_per_tile},
+                       {"blocks", s.num_blocks},
+                       {"loads", s.num_image_loads},
+                       {"most_in_memory", s.max_images_loaded}};
   summary["ground_tiles_measured"] = ground.num_measured_tiles();
   summary["seconds"] = {{"load", s.load_seconds},
                         {"match", s.match_seconds},

@@ -216,12 +216,19 @@ std::string StepStamp(const std::string& previous, const FuseStep& step, const S
   return std::to_string(h.hash());
 }
 
-// The rig's cameras a step leaves (step.json "cameras" and the camera files), as the next step
-// carries them.
-std::vector<fusion::RefinedCalibration> ReadStepCalibrations(const fs::path& dir,
-                                                             const json& step) {
-  std::vector<fusion::RefinedCalibration> calibrations;
+// A rig camera of the step's free passes: its calibration and the labels of its passes.
+struct StepCamera {
+  fusion::RefinedCalibration calibration;
+  std::vector<std::string> passes;
+};
+
+// The rig's cameras a step leaves for its free passes (step.json "cameras" and the camera
+// files), as the next step carries them; the cameras of its held passes (their calibration as
+// an earlier step left it) are not among them.
+std::vector<StepCamera> ReadStepCalibrations(const fs::path& dir, const json& step) {
+  std::vector<StepCamera> calibrations;
   for (const json& c : step.at("cameras")) {
+    if (c.at("held").get<bool>()) continue;
     const workspace::FusedCamera written =
         workspace::ReadFusedCamera((dir / c.at("written").get<std::string>()).string());
     const workspace::FusedCamera refined =
@@ -233,7 +240,7 @@ std::vector<fusion::RefinedCalibration> ReadStepCalibrations(const fs::path& dir
     r.written_body_from_camera = written.body_from_camera;
     r.camera = refined.intrinsics;
     r.body_from_camera = refined.body_from_camera;
-    calibrations.push_back(r);
+    calibrations.push_back({r, c.at("passes").get<std::vector<std::string>>()});
   }
   return calibrations;
 }
@@ -244,8 +251,10 @@ json ReadStepJson(const fs::path& dir) {
 }
 
 // Starts the passes of the step that the previous step optimised where it left them: states,
-// time offsets and the calibration it refined (held where a held pass shares the camera).
-// Returns the calibrations it carried in.
+// time offsets and the calibration it refined. Every pass starts from the calibration of the
+// previous step's free passes (its last camera of a calibration as written): a pass held here
+// was free there, and the session added starts from the latest calibration. Returns the
+// calibrations it carried in.
 std::vector<fusion::RefinedCalibration> StartFromPreviousStep(
     const fs::path& previous_dir, PassList* passes, std::deque<geometry::PinholeRadTan>* storage) {
   const json previous = ReadStepJson(previous_dir);
@@ -273,8 +282,11 @@ std::vector<fusion::RefinedCalibration> StartFromPreviousStep(
     if (it->second) pass->input.time_offset_s = *it->second;
   }
   std::vector<fusion::RefinedCalibration> carried;
-  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse",
-                        [&] { carried = ReadStepCalibrations(previous_dir, previous); });
+  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse", [&] {
+    for (StepCamera& c : ReadStepCalibrations(previous_dir, previous)) {
+      carried.push_back(std::move(c.calibration));
+    }
+  });
   std::vector<slam::RowOptimiser::Input> inputs;
   for (const auto& pass : *passes) inputs.push_back(pass->input);
   fusion::UseRefinedCalibrations(carried, &inputs, storage);
@@ -401,8 +413,13 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
     workspace::WriteFusedCamera((tmp / (name + "-written.json")).string(),
                                 {r.written_camera, r.written_body_from_camera, false, 0.0});
     json labels = json::array();
-    for (const int p : r.passes) labels.push_back(passes[p]->data.label());
+    bool camera_held = true;
+    for (const int p : r.passes) {
+      labels.push_back(passes[p]->data.label());
+      camera_held = camera_held && held[p];
+    }
     camera_list.push_back({{"passes", labels},
+                           {"held", camera_held},
                            {"refined", r.refined},
                            {"cross_observations", r.num_cross_observations},
                            {"file", name + ".json"},
@@ -548,20 +565,17 @@ void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
           result.time_offsets_s[it->second] = p.at("time_offset_s").get<double>();
         }
       }
-      const std::vector<fusion::RefinedCalibration> calibrations = ReadStepCalibrations(dir, j);
-      const json& camera_list = j.at("cameras");
-      for (std::size_t c = 0; c < calibrations.size(); ++c) {
-        const std::string key = WrittenCameraKey(calibrations[c]);
+      for (const StepCamera& camera : ReadStepCalibrations(dir, j)) {
+        const std::string key = WrittenCameraKey(camera.calibration);
         if (!cameras_by_key.count(key)) camera_order.push_back(key);
         fusion::RefinedCalibration& merged = cameras_by_key[key];
         std::vector<int> passes = merged.passes;
-        for (const json& label : camera_list[c].at("passes")) {
-          const std::string text = label.get<std::string>();
+        for (const std::string& text : camera.passes) {
           const std::size_t slash = text.find('/');
           const auto it = season.index.find({text.substr(0, slash), text.substr(slash + 1)});
           if (it != season.index.end()) passes.push_back(it->second);
         }
-        merged = calibrations[c];
+        merged = camera.calibration;
         std::sort(passes.begin(), passes.end());
         passes.erase(std::unique(passes.begin(), passes.end()), passes.end());
         merged.passes = passes;

@@ -280,7 +280,7 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
     for (const int p : trusted.original_pass) first_held.push_back(is_held(p));
     spdlog::info("fuse: the {} trusted passes first, alone", trusted.passes.size());
     const fusion::JointOptimiser::Result first =
-        optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties, first_held);
+        optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties, first_held, first_held);
     for (std::size_t k = 0; k < trusted.original_pass.size(); ++k) {
       inputs[trusted.original_pass[k]].initial_states = first.states[k];
       if (first.time_offsets_s[k]) {
@@ -289,8 +289,18 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
     }
     first_calibrations = first.calibrations;
     fusion::UseRefinedCalibrations(first_calibrations, &inputs, &refined_cameras);
+    for (std::size_t p = 0; p < passes.size(); ++p) {
+      if (!is_held(p)) continue;  // (a held pass keeps its calibration)
+      inputs[p].camera = passes[p]->input.camera;
+      inputs[p].body_from_camera = passes[p]->input.body_from_camera;
+    }
   }
-  fusion::JointOptimiser::Result result = optimiser.Solve(inputs, landmarks, ties, fixed);
+  // The held passes keep the calibration they were written with; the camera they share with
+  // the free passes is refined on a copy of its own.
+  std::vector<bool> own_camera(passes.size());
+  for (std::size_t p = 0; p < passes.size(); ++p) own_camera[p] = is_held(p);
+  fusion::JointOptimiser::Result result =
+      optimiser.Solve(inputs, landmarks, ties, fixed, own_camera);
   fusion::ReportRefinedCalibrations(first_calibrations, &result.calibrations);
   result.summary.num_cameras_refined = static_cast<int>(
       std::count_if(result.calibrations.begin(), result.calibrations.end(),

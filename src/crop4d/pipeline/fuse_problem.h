@@ -26,7 +26,8 @@ namespace crop4d::pipeline::fuse {
 using PassList = std::vector<std::unique_ptr<LoadedPass>>;
 
 // Changes whenever the stage's outputs for the same inputs change.
-inline constexpr int kFuseStageRevision = 4;  // 4: session by session unless fuse.full
+// 4: session by session unless fuse.full; 5: a step refines the calibration of its free passes.
+inline constexpr int kFuseStageRevision = 5;
 
 // The passes with a camera of every session of a workspace, in session and pass order, with
 // only their summaries and row-SLAM poses loaded (LoadPassProblem loads the rest).
@@ -76,7 +77,8 @@ std::vector<fusion::JointGroundTie> GroundTies(const PassList& passes,
 std::vector<bool> GradeSessions(const PassList& passes, const FuseStageOptions& options,
                                 FuseReport* report);
 
-// The joint problem. Passes with `held[p]` (empty: none) keep their initial states. With
+// The joint problem. Passes with `held[p]` (empty: none) keep their initial states and their
+// calibration (a rig camera of their own; the free passes' copy is refined). With
 // degraded sessions among the others (a free pass not `protects`ed), first the trusted passes
 // alone, then every pass with the trusted ones held where that solve put them.
 fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,

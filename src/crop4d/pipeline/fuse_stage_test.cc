@@ -31,13 +31,39 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The tiny preset with three rows and no rain between its two sessions.
+// The tiny preset with three rows and no rain between its two sessions, with the true depth map
+// of every image (the evaluation of the associations reads them instead of rendering them).
 const std::string& Field() {
   static const std::string path = [] {
     sim::SimConfig config = sim::PresetConfig("tiny");
     config.world.num_rows = 3;
     config.sessions.at(1).rain_before = false;
+    config.ground_truth.depth = true;
     return sim::testing::CachedSimulatedField("tiny_three_rows", config);
+  }();
+  return path;
+}
+
+// Row SLAM (cam+imu+rtk) of Field(): a workspace made once per build of this test program
+// (sim::testing::CachedTestFolder) and copied by the tests that start from it.
+const std::string& RtkSlamOfField() {
+  static const std::string path = [] {
+    const std::string self = fs::read_symlink("/proc/self/exe").string();
+    const std::string key = "test program " + sim::testing::BuiltFileStamp(self) + "\nfield " +
+                            Field() + "\nsensors cam+imu+rtk\n";
+    const std::string folder =
+        sim::testing::CachedTestFolder("fusion_rtk_slam", key, [](const std::string& made) {
+          SlamStageOptions o;
+          o.show_progress = false;
+          o.sensors = slam::ParseSensorSet("cam+imu+rtk");
+          bool ok = true;
+          for (const PassReport& r : RunSlamStage(Field(), made + "/ws", o)) {
+            if (r.failed) ADD_FAILURE() << r.session << "/" << r.pass.id << ": " << r.message;
+            ok = ok && !r.failed;
+          }
+          return ok;
+        });
+    return folder + "/ws";
   }();
   return path;
 }
@@ -82,6 +108,9 @@ class FusionStagesTest : public ::testing::Test {
     }
   }
 
+  // The workspace after Slam("cam+imu+rtk") on Field(), from RtkSlamOfField().
+  void CopyRtkSlamOfField() { fs::copy(RtkSlamOfField(), workspace_, fs::copy_options::recursive); }
+
   static const eval::AssociationGroupEval* Group(const eval::WorkspaceEval& e, eval::PairType type,
                                                  const std::string& method) {
     for (const eval::AssociationGroupEval& g : e.association->eval.groups) {
@@ -123,7 +152,7 @@ class FusionStagesTest : public ::testing::Test {
 };
 
 TEST_F(FusionStagesTest, RtkAssociationIsPreciseAndFusionKeepsTheAccuracy) {
-  Slam("cam+imu+rtk");
+  CopyRtkSlamOfField();
   AssociateStageOptions ao;
   ao.show_progress = false;
   ao.method = "both";
@@ -303,7 +332,9 @@ TEST_F(FusionStagesTest, AssociateFuseAndDensifyReadOnlyTheWorkspace) {
   const fs::path field = fs::path(workspace_ + "_field");
   fs::remove_all(field);
   fs::copy(Field(), field, fs::copy_options::recursive);
-  Slam("cam+imu+rtk", field.string());
+  // Row SLAM of the field (that of its copy: the workspace does not depend on where the field
+  // lies).
+  CopyRtkSlamOfField();
   int removed = 0;
   for (const fs::directory_entry& e : fs::recursive_directory_iterator(field / "sessions")) {
     const std::string ext = e.path().extension().string();

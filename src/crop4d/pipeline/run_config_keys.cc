@@ -409,6 +409,10 @@ void AddDensifyKeys(std::vector<Key>& k) {
              "a green peak above a cell's best height (a top leaf) scoring at most this much "
              "less wins (0: off)",
              "densify_options.stereo.top_surface_margin", 0.0, 2.0));
+  k.push_back(Double("densify", "load_block_m",
+                     "tiles matched block by block, squares of this side, with only their "
+                     "images in memory (larger: fewer images loaded twice)",
+                     "densify_options.stereo.load_block_m", 0.1, 1e6));
   k.push_back(Bool("densify", "around_sites", "only discs of radius_m around the sites",
                    "densify_options.around_sites"));
   k.push_back(Double("densify", "radius_m", "radius of the discs of around_sites",

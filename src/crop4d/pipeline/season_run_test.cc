@@ -198,6 +198,44 @@ std::map<std::string, std::string> Products(const fs::path& ws) {
   return out;
 }
 
+// The coarser dense clouds of these tests (keeps them quick; the stages are the same).
+constexpr const char* kTestConfig = "densify: {cell_m: 0.015}\n";
+
+// The serial run (`--threads 1 --eval never`) of the field's first two sessions, the reference
+// of the tests that compare a resumed, truncated, clustered or parallel run with it: its field
+// view, configuration and workspace. It is run once per build of crop4d
+// (sim::testing::CachedTestFolder: the serial run was a third of such a test's time).
+struct SerialReference {
+  fs::path field, config, ws;
+  std::vector<std::string> Args(const std::vector<std::string>& extra = {}) const {
+    std::vector<std::string> args = {"run",      field.string(),  "--workspace", ws.string(),
+                                     "--config", config.string(), "-q",          "--threads",
+                                     "1",        "--eval",        "never"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return args;
+  }
+};
+
+const SerialReference& TheSerialReference() {
+  static const SerialReference reference = [] {
+    const std::string key =
+        "crop4d " + sim::testing::BuiltFileStamp(Crop4dBinary()) + "\nconfig " + kTestConfig;
+    const fs::path folder =
+        sim::testing::CachedTestFolder("serial_reference", key, [](const std::string& made) {
+          const SerialReference r{fs::path(made) / "field", fs::path(made) / "config.yaml",
+                                  fs::path(made) / "ws"};
+          MakeFieldView(r.field, 2);
+          std::ofstream(r.config) << kTestConfig;
+          const fs::path log = fs::path(made) / "run.log";
+          const bool ok = RunToEnd(r.Args(), log) == 0;
+          if (!ok) ADD_FAILURE() << "the serial reference run failed: " << Slurp(log);
+          return ok;
+        });
+    return SerialReference{folder / "field", folder / "config.yaml", folder / "ws"};
+  }();
+  return reference;
+}
+
 // The same files (no stray temporary file, nothing missing) with the same bytes.
 void ExpectSameProducts(const std::map<std::string, std::string>& expected,
                         const std::map<std::string, std::string>& actual) {
@@ -272,8 +310,7 @@ class SeasonRunTest : public ::testing::Test {
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     ThreeSessionField();
-    // Coarser dense clouds than the default keep the test quick; the stages are the same.
-    std::ofstream(dir_ / "config.yaml") << "densify: {cell_m: 0.015}\n";
+    std::ofstream(dir_ / "config.yaml") << kTestConfig;
   }
   void TearDown() override {
     if (!HasFailure()) fs::remove_all(dir_);
@@ -296,11 +333,13 @@ TEST_F(SeasonRunTest, RunsKilledAtRandomMomentsFinishWithTheOutputsOfAnUninterru
   // One thread: Ceres sums in a fixed order, so results are reproducible to the last bit (with
   // more threads they agree to rounding, run to run, interrupted or not).
   const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
-  const auto start = std::chrono::steady_clock::now();
-  ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / "reference", extra), dir_ / "reference.log"), 0)
-      << Slurp(dir_ / "reference.log");
-  const double full_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const SerialReference& reference = TheSerialReference();
+  // The time of an uninterrupted run, from its stages' times in run.json.
+  double full_s = 0;
+  for (const auto& stage : ReadRunRecord((reference.ws / "run.json").string()).stages) {
+    full_s += stage.seconds;
+  }
+  ASSERT_GT(full_s, 1.0);
 
   // Kill moments drawn at random (seeded: the test is repeatable), each 5–20 % of an
   // uninterrupted run after the start of its attempt: each resumed run gets further, since the
@@ -317,7 +356,7 @@ TEST_F(SeasonRunTest, RunsKilledAtRandomMomentsFinishWithTheOutputsOfAnUninterru
   ASSERT_EQ(RunToEnd(RunArgs(field, ws, extra), dir_ / "resumed.log"), 0)
       << Slurp(dir_ / "resumed.log");
 
-  const auto expected = Products(dir_ / "reference");
+  const auto expected = Products(reference.ws);
   ExpectSameProducts(expected, Products(ws));
   EXPECT_GT(expected.size(), 50u);  // passes, associations, fusion, dense, analysis
   EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
@@ -343,13 +382,17 @@ TEST_F(SeasonRunTest, AddedSessionRedoesOnlyItsOwnWorkAndWhatDependsOnAllSession
   const fs::path field = dir_ / "field";
   const fs::path ws = dir_ / "ws";
   MakeFieldView(field, 2);
-  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run1.log"), 0) << Slurp(dir_ / "run1.log");
+  // The first run: the serial reference's, on the same two sessions (the workspace does not
+  // depend on where the field lies).
+  fs::copy(TheSerialReference().ws, ws, fs::copy_options::recursive);
+  const std::vector<std::string> serial = {"--threads", "1", "--eval", "never"};
   // Nothing changed: nothing is redone.
-  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run2.log"), 0) << Slurp(dir_ / "run2.log");
-  // The third session arrives.
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, serial), dir_ / "run2.log"), 0) << Slurp(dir_ / "run2.log");
+  // The third session arrives (and the evaluation is asked for).
   fs::remove(field / "field.yaml");
   MakeFieldView(field, 3);
-  ASSERT_EQ(RunToEnd(RunArgs(field, ws), dir_ / "run3.log"), 0) << Slurp(dir_ / "run3.log");
+  ASSERT_EQ(RunToEnd(RunArgs(field, ws, {"--threads", "1"}), dir_ / "run3.log"), 0)
+      << Slurp(dir_ / "run3.log");
 
   const std::vector<RunEvent> events = ReadRunLog((ws / "run_log.jsonl").string());
   std::vector<std::string> runs;
@@ -359,7 +402,7 @@ TEST_F(SeasonRunTest, AddedSessionRedoesOnlyItsOwnWorkAndWhatDependsOnAllSession
   ASSERT_EQ(runs.size(), 3u);
 
   // Run 2: up to date everywhere (the report is always drawn again).
-  for (const char* stage : {"slam", "associate", "fuse", "densify", "analyze", "eval"}) {
+  for (const char* stage : {"slam", "associate", "fuse", "densify", "analyze"}) {
     EXPECT_TRUE(DoneItems(events, runs[1], stage).empty()) << stage;
   }
   // Run 3: the new session's passes only.
@@ -434,8 +477,11 @@ TEST_F(SeasonRunTest, BadDataInSessionsIsReportedAndTheRestOfTheSeasonIsProcesse
 
 TEST_F(SeasonRunTest, ASecondRunOnTheSameWorkspaceRefusesOrWaitsForTheFirst) {
   const fs::path ws = dir_ / "ws";
+  // The first two sessions: long enough a run to start the others while it holds the lock.
+  const fs::path field = dir_ / "field";
+  MakeFieldView(field, 2);
   const std::vector<std::string> quick = {"--no-densify", "--eval", "never", "--no-report"};
-  const pid_t first = Start(RunArgs(ThreeSessionField(), ws, quick), dir_ / "first.log");
+  const pid_t first = Start(RunArgs(field, ws, quick), dir_ / "first.log");
   ASSERT_GT(first, 0);
   // The first run holds the lock once its line is in the lock file.
   const std::string holder = "crop4d run, pid " + std::to_string(first) + " ";
@@ -445,13 +491,13 @@ TEST_F(SeasonRunTest, ASecondRunOnTheSameWorkspaceRefusesOrWaitsForTheFirst) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   // A second run refuses at once (exit 2), naming the first.
-  EXPECT_EQ(RunToEnd(RunArgs(ThreeSessionField(), ws, quick), dir_ / "second.log"), 2);
+  EXPECT_EQ(RunToEnd(RunArgs(field, ws, quick), dir_ / "second.log"), 2);
   EXPECT_NE(Slurp(dir_ / "second.log").find("in use by " + holder), std::string::npos)
       << Slurp(dir_ / "second.log");
   // A third, with --wait, starts once the first has ended and finds its work done.
   std::vector<std::string> waiting = quick;
   waiting.push_back("--wait");
-  const pid_t third = Start(RunArgs(ThreeSessionField(), ws, waiting), dir_ / "third.log");
+  const pid_t third = Start(RunArgs(field, ws, waiting), dir_ / "third.log");
   ASSERT_GT(third, 0);
   std::this_thread::sleep_for(std::chrono::seconds(2));
   int status = 0;
@@ -478,12 +524,15 @@ TEST_F(SeasonRunTest, ASecondRunOnTheSameWorkspaceRefusesOrWaitsForTheFirst) {
 }
 
 TEST_F(SeasonRunTest, AStageThatFailsAsAWholeLeavesTheRunIncomplete) {
-  // WS/analysis is a file, not a folder: the analysis cannot write anything and fails.
+  // A season processed up to the analysis (the serial reference's workspace), whose
+  // WS/analysis is now a file, not a folder: the analysis cannot write anything and fails.
+  const SerialReference& reference = TheSerialReference();
   const fs::path ws = dir_ / "ws";
-  fs::create_directories(ws);
+  fs::copy(reference.ws, ws, fs::copy_options::recursive);
+  fs::remove_all(ws / "analysis");
   std::ofstream(ws / "analysis") << "in the way\n";
   const int code =
-      RunToEnd(RunArgs(ThreeSessionField(), ws, {"--no-densify", "--eval", "never", "--no-report"}),
+      RunToEnd(RunArgs(reference.field, ws, {"--threads", "1", "--eval", "never", "--no-report"}),
                dir_ / "run.log");
   EXPECT_EQ(code, 1) << Slurp(dir_ / "run.log");
   const RunRecord record = ReadRunRecord((ws / "run.json").string());
@@ -492,17 +541,17 @@ TEST_F(SeasonRunTest, AStageThatFailsAsAWholeLeavesTheRunIncomplete) {
   RunRecord copy = record;
   ASSERT_NE(copy.Stage("analyze"), nullptr);
   EXPECT_EQ(copy.Stage("analyze")->status, "failed");
-  EXPECT_EQ(copy.Stage("fuse")->status, "done");
+  EXPECT_EQ(copy.Stage("fuse")->status, "up to date");
+  EXPECT_EQ(copy.Stage("densify")->status, "up to date");
   EXPECT_NE(Slurp(dir_ / "run.log").find("incomplete"), std::string::npos);
 }
 
 TEST_F(SeasonRunTest, TruncatedOutputsAreRedoneAndGiveTheResultsOfAnUninterruptedRun) {
-  const fs::path field = dir_ / "field";
-  MakeFieldView(field, 2);
-  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never", "--no-report"};
-  const fs::path reference = dir_ / "reference";
-  ASSERT_EQ(RunToEnd(RunArgs(field, reference, extra), dir_ / "reference.log"), 0)
-      << Slurp(dir_ / "reference.log");
+  // On the reference's field view, whose workspace a copy of the reference is.
+  const SerialReference& serial = TheSerialReference();
+  const fs::path field = serial.field;
+  const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
+  const fs::path reference = serial.ws;
   const fs::path ws = dir_ / "ws";
   fs::copy(reference, ws, fs::copy_options::recursive);
   // Cut short: a row pass's poses, a session's fused poses, another session's dense cloud.
@@ -538,14 +587,13 @@ TEST_F(SeasonRunTest, TruncatedOutputsAreRedoneAndGiveTheResultsOfAnUninterrupte
 TEST_F(SeasonRunTest, ADegradedSessionCannotMoveAHealthyOneNorSetItsTerrain) {
   const std::vector<std::string> extra = {"--threads", "1", "--eval", "never", "--no-report"};
   const std::string early = "2016-06-10", late = "2016-06-24";
-  const fs::path full = dir_ / "full", spoiled = dir_ / "spoiled", alone = dir_ / "alone";
-  MakeFieldViewOf(full, {early, late});
+  const fs::path spoiled = dir_ / "spoiled", alone = dir_ / "alone";
   MakeFieldViewOf(spoiled, {early, late});
   RemoveFixes(spoiled, early, "gps0");
   MakeFieldViewOf(alone, {early, late});
   RemoveFixes(alone, early, "gps0");
   RemoveFixes(alone, early, "gps1");
-  for (const fs::path& field : {full, spoiled, alone}) {
+  for (const fs::path& field : {spoiled, alone}) {
     const std::string name = field.filename().string();
     ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / ("ws_" + name), extra), dir_ / (name + ".log")), 0)
         << Slurp(dir_ / (name + ".log"));
@@ -607,7 +655,8 @@ TEST_F(SeasonRunTest, ADegradedSessionCannotMoveAHealthyOneNorSetItsTerrain) {
     EXPECT_EQ(n, 4) << ws;
     return sum / std::max(n, 1);
   };
-  const double bias_full = bias(dir_ / "ws_full"), bias_alone = bias(dir_ / "ws_alone");
+  // With both sessions healthy: the serial run of the same two sessions.
+  const double bias_full = bias(TheSerialReference().ws), bias_alone = bias(dir_ / "ws_alone");
   EXPECT_LE(std::abs(bias_alone), std::abs(bias_full) + 0.02)
       << "bias " << bias_alone << " m alone, " << bias_full << " m with the earliest session";
 }
@@ -822,8 +871,7 @@ TEST_F(SlurmRunTest, TheTinyFieldGivesTheLocalRunsOutputsAndAKilledTaskRunsAgain
   const fs::path field = dir_ / "field";
   MakeFieldView(field, 2);
   const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
-  ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / "local", extra), dir_ / "local.log"), 0)
-      << Slurp(dir_ / "local.log");
+  const fs::path local = TheSerialReference().ws;
 
   const fs::path ws = dir_ / "cluster";
   std::vector<std::string> cluster = extra;
@@ -863,7 +911,7 @@ TEST_F(SlurmRunTest, TheTinyFieldGivesTheLocalRunsOutputsAndAKilledTaskRunsAgain
   EXPECT_EQ(state["state"], "done") << killed_task;
   EXPECT_EQ(state["attempts"].get<int>(), 2) << killed_task << " of job " << killed_job;
 
-  const auto expected = Products(dir_ / "local");
+  const auto expected = Products(local);
   ExpectSameProducts(expected, ProductsOutsideCluster(ws));
   EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
   const RunRecord record = ReadRunRecord((ws / "run.json").string());
@@ -881,15 +929,14 @@ TEST_F(SeasonRunTest, UnitsSideBySideOnOneMachineGiveTheSerialRunsOutputs) {
   const fs::path field = dir_ / "field";
   MakeFieldView(field, 2);
   const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
-  ASSERT_EQ(RunToEnd(RunArgs(field, dir_ / "serial", extra), dir_ / "serial.log"), 0)
-      << Slurp(dir_ / "serial.log");
+  const fs::path serial = TheSerialReference().ws;
   const fs::path ws = dir_ / "parallel";
   std::vector<std::string> parallel = extra;
   parallel.insert(parallel.end(), {"--jobs", "2"});
   ASSERT_EQ(RunToEnd(RunArgs(field, ws, parallel), dir_ / "parallel.log"), 0)
       << Slurp(dir_ / "parallel.log");
 
-  const auto expected = Products(dir_ / "serial");
+  const auto expected = Products(serial);
   ExpectSameProducts(expected, ProductsOutsideCluster(ws));
   EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
   const RunRecord record = ReadRunRecord((ws / "run.json").string());

@@ -237,47 +237,51 @@ TEST(SimulatorTest, RefusesToOverwriteAField) {
 }
 
 // Writes the short tiny field twice with the same seed (renderer needed).
+// The fields these tests compare, each written on first use: ctest runs every test in a process
+// of its own, so a test writes only the fields it reads.
 class SimulatorWriteTest : public testing::Test {
  protected:
   static void SetUpTestSuite() {
     root_ = new fs::path(fs::path(testing::TempDir()) /
                          ("crop4d_sim_write_" + std::to_string(::getpid())));
     fs::remove_all(*root_);
-    for (const char* name : {"a", "b"}) {
-      Simulator sim(ShortTiny(5));
-      summary_ = sim.Write((*root_ / name).string());
-    }
-    // Every imperfection's magnitude explicitly zero, its other settings changed: the same
-    // field as "a".
-    SimConfig zero = ShortTiny(5);
-    ApplySimConfigYaml(
-        "zero.yaml",
-        "realism: ideal\n"
-        "recording: {wind_sway_m: 0, wind_period_s: 7}\n"
-        "camera: {exposure_s: 0, electrons_per_dn: 0, read_noise_dn: 0, "
-        "auto_exposure_jitter: 0, auto_exposure_period_s: 3, jpeg_quality: 0}\n"
-        "drive: {standstill_start_s: 0, stop_probability_row_end: 0, "
-        "stop_probability_in_row: 0, stop_duration_s: 9, stop_ramp_s: 2}\n"
-        "imu: {scale_factor_sigma: 0, misalignment_sigma_rad: 0}\n"
-        "gps0: {outlier_probability: 0, outlier_sigma_m: 3, float_rate_per_min: 0, "
-        "float_duration_s: 4, dropout_rate_per_min: 0, dropout_duration_s: 9}\n"
-        "soil_change: {fraction_per_session: 0, patch_m: 0.5, drying_per_session: 0}\n"
-        "weeds: {density_per_m2: 0, row_clearance_m: 0.3, first_emergence_days: 3}\n"
-        "calibration_error: {focal_px: 0, principal_point_px: 0, "
-        "radial_distortion: 0, tangential_distortion: 0, lever_arm_m: 0, "
-        "rotation_deg: 0, camera_time_offset_s: 0, camera_clock_drift_ppm: 0}\n",
-        &zero);
-    Simulator(zero).Write((*root_ / "zero").string());
-    // The real world, with JPEG images.
-    SimConfig real = ShortTiny(5);
-    ApplyRealism("real", &real);
-    real.image.jpeg_quality = 90;
-    real.drive.standstill_start_s = 1.5;  // (5 s in the real preset: shorter for a fast test)
-    Simulator(real).Write((*root_ / "real").string());
   }
   static void TearDownTestSuite() {
     fs::remove_all(*root_);
     delete root_;
+  }
+  // "a" and "b": the same seed; "zero": every imperfection's magnitude explicitly zero, its
+  // other settings changed (the same field as "a"); "real": the real world, with JPEG images.
+  static fs::path Field(const std::string& name) {
+    const fs::path dir = *root_ / name;
+    if (fs::exists(dir)) return dir;
+    SimConfig config = ShortTiny(5);
+    if (name == "zero") {
+      ApplySimConfigYaml(
+          "zero.yaml",
+          "realism: ideal\n"
+          "recording: {wind_sway_m: 0, wind_period_s: 7}\n"
+          "camera: {exposure_s: 0, electrons_per_dn: 0, read_noise_dn: 0, "
+          "auto_exposure_jitter: 0, auto_exposure_period_s: 3, jpeg_quality: 0}\n"
+          "drive: {standstill_start_s: 0, stop_probability_row_end: 0, "
+          "stop_probability_in_row: 0, stop_duration_s: 9, stop_ramp_s: 2}\n"
+          "imu: {scale_factor_sigma: 0, misalignment_sigma_rad: 0}\n"
+          "gps0: {outlier_probability: 0, outlier_sigma_m: 3, float_rate_per_min: 0, "
+          "float_duration_s: 4, dropout_rate_per_min: 0, dropout_duration_s: 9}\n"
+          "soil_change: {fraction_per_session: 0, patch_m: 0.5, drying_per_session: 0}\n"
+          "weeds: {density_per_m2: 0, row_clearance_m: 0.3, first_emergence_days: 3}\n"
+          "calibration_error: {focal_px: 0, principal_point_px: 0, "
+          "radial_distortion: 0, tangential_distortion: 0, lever_arm_m: 0, "
+          "rotation_deg: 0, camera_time_offset_s: 0, camera_clock_drift_ppm: 0}\n",
+          &config);
+    } else if (name == "real") {
+      ApplyRealism("real", &config);
+      config.image.jpeg_quality = 90;
+      config.drive.standstill_start_s = 1.5;  // (5 s in the real preset: shorter for a fast test)
+    }
+    const Simulator::Summary summary = Simulator(config).Write(dir.string());
+    if (name == "a") summary_ = summary;
+    return dir;
   }
   static fs::path* root_;
   static Simulator::Summary summary_;
@@ -286,7 +290,7 @@ fs::path* SimulatorWriteTest::root_ = nullptr;
 Simulator::Summary SimulatorWriteTest::summary_;
 
 TEST_F(SimulatorWriteTest, WritesTheDatasetAndItsGroundTruth) {
-  const fs::path field = *root_ / "a";
+  const fs::path field = Field("a");
   EXPECT_EQ(summary_.sessions, 2);
   EXPECT_GT(summary_.images, 40);
   for (const char* file : {"field.yaml", "ground_truth/terrain.csv", "ground_truth/site_truth.csv",
@@ -337,10 +341,10 @@ TEST_F(SimulatorWriteTest, WritesTheDatasetAndItsGroundTruth) {
 
 TEST_F(SimulatorWriteTest, SameSeedGivesByteIdenticalFiles) {
   std::map<std::string, fs::path> a, b;
-  for (const auto& entry : fs::recursive_directory_iterator(*root_ / "a")) {
+  for (const auto& entry : fs::recursive_directory_iterator(Field("a"))) {
     if (entry.is_regular_file()) a[fs::relative(entry.path(), *root_ / "a").string()] = entry;
   }
-  for (const auto& entry : fs::recursive_directory_iterator(*root_ / "b")) {
+  for (const auto& entry : fs::recursive_directory_iterator(Field("b"))) {
     if (entry.is_regular_file()) b[fs::relative(entry.path(), *root_ / "b").string()] = entry;
   }
   ASSERT_EQ(a.size(), b.size());
@@ -357,10 +361,10 @@ TEST_F(SimulatorWriteTest, SameSeedGivesByteIdenticalFiles) {
 
 TEST_F(SimulatorWriteTest, ZeroImperfectionsGiveTheIdealFieldByteForByte) {
   std::map<std::string, fs::path> a, zero;
-  for (const auto& entry : fs::recursive_directory_iterator(*root_ / "a")) {
+  for (const auto& entry : fs::recursive_directory_iterator(Field("a"))) {
     if (entry.is_regular_file()) a[fs::relative(entry.path(), *root_ / "a").string()] = entry;
   }
-  for (const auto& entry : fs::recursive_directory_iterator(*root_ / "zero")) {
+  for (const auto& entry : fs::recursive_directory_iterator(Field("zero"))) {
     if (entry.is_regular_file()) zero[fs::relative(entry.path(), *root_ / "zero").string()] = entry;
   }
   ASSERT_EQ(a.size(), zero.size());
@@ -373,8 +377,8 @@ TEST_F(SimulatorWriteTest, ZeroImperfectionsGiveTheIdealFieldByteForByte) {
 }
 
 TEST_F(SimulatorWriteTest, TheRealWorldWritesItsErrorsAndTheirTruth) {
-  const fs::path field = *root_ / "real";
-  const fs::path ideal = *root_ / "a";
+  const fs::path field = Field("real");
+  const fs::path ideal = Field("a");
   SimConfig real = ShortTiny(5);
   ApplyRealism("real", &real);
   EXPECT_TRUE(fs::is_regular_file(field / "ground_truth/calibration_truth.yaml"));
@@ -476,7 +480,7 @@ std::map<Timestamp, geometry::Rigid3> ReadTum(const fs::path& path) {
 }
 
 TEST_F(SimulatorWriteTest, DepthMapsAgreeWithTheTrueGeometry) {
-  const fs::path field = *root_ / "a";
+  const fs::path field = Field("a");
   const SimConfig config = ShortTiny(5);
   const Simulator sim(config);
   const World& world = sim.world();

@@ -129,11 +129,14 @@ bool SameRigid(const geometry::Rigid3& a, const geometry::Rigid3& b) {
 
 void UseRefinedCalibrations(const std::vector<RefinedCalibration>& first,
                             std::vector<slam::RowOptimiser::Input>* passes,
-                            std::deque<geometry::PinholeRadTan>* storage) {
+                            std::deque<geometry::PinholeRadTan>* storage,
+                            const std::vector<bool>& keep) {
   for (const RefinedCalibration& c : first) {
     if (!c.refined) continue;
     storage->push_back(c.camera);
-    for (slam::RowOptimiser::Input& pass : *passes) {
+    for (std::size_t p = 0; p < passes->size(); ++p) {
+      slam::RowOptimiser::Input& pass = (*passes)[p];
+      if (!keep.empty() && keep[p]) continue;
       if (pass.camera != nullptr && SameIntrinsics(*pass.camera, c.written_camera) &&
           SameRigid(pass.body_from_camera, c.written_body_from_camera)) {
         pass.camera = &storage->back();

@@ -102,10 +102,12 @@ struct RefinedCalibration {
 // where the first refined them, not as written, or the trusted sessions' cameras would differ
 // from a season without the degraded ones. Points every pass whose camera is written as one
 // that `first` refined (the trusted passes and the degraded sessions of the same rig) at the
-// refined camera, kept in `storage`.
+// refined camera, kept in `storage`. Passes with `keep[p]` (empty: none) keep their camera (an
+// incremental fuse's held passes).
 void UseRefinedCalibrations(const std::vector<RefinedCalibration>& first,
                             std::vector<slam::RowOptimiser::Input>* passes,
-                            std::deque<geometry::PinholeRadTan>* storage);
+                            std::deque<geometry::PinholeRadTan>* storage,
+                            const std::vector<bool>& keep = {});
 // After the second step: its calibrations held at a refinement of the first step are reported
 // as that refinement of the written calibration.
 void ReportRefinedCalibrations(const std::vector<RefinedCalibration>& first,

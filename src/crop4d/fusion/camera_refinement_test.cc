@@ -80,6 +80,12 @@ TEST(CameraRefinement, ASecondSolveHoldsTheCamerasTheFirstRefined) {
       mount.rotation() * geometry::ExpQuat(Eigen::Vector3d(0.004, 0, 0)), mount.translation());
   refined.num_cross_observations = 5000;
   std::deque<geometry::PinholeRadTan> storage;
+  // A pass kept (an incremental fuse's held pass) keeps its camera.
+  std::vector<slam::RowOptimiser::Input> kept = passes;
+  UseRefinedCalibrations({refined}, &kept, &storage, {false, true, false});
+  EXPECT_NE(kept[0].camera, &camera);
+  EXPECT_EQ(kept[1].camera, &camera);
+  EXPECT_TRUE(kept[1].body_from_camera.rotation().isApprox(mount.rotation()));
   UseRefinedCalibrations({refined}, &passes, &storage);
   for (int p : {0, 1}) {
     ASSERT_NE(passes[p].camera, &camera);

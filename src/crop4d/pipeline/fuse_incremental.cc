@@ -377,10 +377,7 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
       GroundTies(passes, session_pairs, ctx.options, &step_report);
   fusion::JointOptimiser::Result result =
       SolveJoint(graph, passes, landmarks, ties, protects, held, ctx.options);
-  fusion::ReportRefinedCalibrations(carried, &result.calibrations);
-  result.summary.num_cameras_refined = static_cast<int>(
-      std::count_if(result.calibrations.begin(), result.calibrations.end(),
-                    [](const fusion::RefinedCalibration& c) { return c.refined; }));
+  ReportEarlierRefinement(carried, &result);
 
   // The sessions this step makes final get their outputs.
   const std::vector<std::vector<geometry::Rigid3>> cameras =

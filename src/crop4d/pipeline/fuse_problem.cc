@@ -288,12 +288,8 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
       }
     }
     first_calibrations = first.calibrations;
-    fusion::UseRefinedCalibrations(first_calibrations, &inputs, &refined_cameras);
-    for (std::size_t p = 0; p < passes.size(); ++p) {
-      if (!is_held(p)) continue;  // (a held pass keeps its calibration)
-      inputs[p].camera = passes[p]->input.camera;
-      inputs[p].body_from_camera = passes[p]->input.body_from_camera;
-    }
+    // (a held pass keeps its calibration)
+    fusion::UseRefinedCalibrations(first_calibrations, &inputs, &refined_cameras, held);
   }
   // The held passes keep the calibration they were written with; the camera they share with
   // the free passes is refined on a copy of its own.
@@ -301,11 +297,17 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
   for (std::size_t p = 0; p < passes.size(); ++p) own_camera[p] = is_held(p);
   fusion::JointOptimiser::Result result =
       optimiser.Solve(inputs, landmarks, ties, fixed, own_camera);
-  fusion::ReportRefinedCalibrations(first_calibrations, &result.calibrations);
-  result.summary.num_cameras_refined = static_cast<int>(
-      std::count_if(result.calibrations.begin(), result.calibrations.end(),
-                    [](const fusion::RefinedCalibration& c) { return c.refined; }));
+  ReportEarlierRefinement(first_calibrations, &result);
   return result;
+}
+
+// The joint problem's result (fuse_problem.h).
+void ReportEarlierRefinement(const std::vector<fusion::RefinedCalibration>& earlier,
+                             fusion::JointOptimiser::Result* result) {
+  fusion::ReportRefinedCalibrations(earlier, &result->calibrations);
+  result->summary.num_cameras_refined = static_cast<int>(
+      std::count_if(result->calibrations.begin(), result->calibrations.end(),
+                    [](const fusion::RefinedCalibration& c) { return c.refined; }));
 }
 
 // The fused world_from_camera of every image of every pass, and each pass's correction against

@@ -89,6 +89,12 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
                                           const std::vector<bool>& held,
                                           const FuseStageOptions& options);
 
+// The calibrations of `result` that an earlier solve refined (and this one held there) reported
+// as refined from the calibration as written (fusion::ReportRefinedCalibrations), and the count
+// of refined cameras in its summary.
+void ReportEarlierRefinement(const std::vector<fusion::RefinedCalibration>& earlier,
+                             fusion::JointOptimiser::Result* result);
+
 // The fused world_from_camera of every image of every pass, and each pass's correction against
 // row SLAM (appended to report->passes).
 std::vector<std::vector<geometry::Rigid3>> FusedCameras(

@@ -867,11 +867,25 @@ std::map<std::string, std::string> ProductsOutsideCluster(const fs::path& ws) {
   return products;
 }
 
+// The products of a clustered or parallel run in `ws` (its cluster/ records aside) are those of
+// the serial reference to the byte, and its record says it completed, with slam run and both
+// sessions densified.
+void ExpectTheSerialRunsProducts(const fs::path& ws) {
+  const auto expected = Products(TheSerialReference().ws);
+  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
+  EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
+  RunRecord record = ReadRunRecord((ws / "run.json").string());
+  EXPECT_TRUE(record.complete);
+  ASSERT_NE(record.Stage("slam"), nullptr);
+  EXPECT_EQ(record.Stage("slam")->status, "done");
+  ASSERT_NE(record.Stage("densify"), nullptr);
+  EXPECT_EQ(record.Stage("densify")->done, 2);
+}
+
 TEST_F(SlurmRunTest, TheTinyFieldGivesTheLocalRunsOutputsAndAKilledTaskRunsAgain) {
   const fs::path field = dir_ / "field";
   MakeFieldView(field, 2);
   const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
-  const fs::path local = TheSerialReference().ws;
 
   const fs::path ws = dir_ / "cluster";
   std::vector<std::string> cluster = extra;
@@ -911,15 +925,7 @@ TEST_F(SlurmRunTest, TheTinyFieldGivesTheLocalRunsOutputsAndAKilledTaskRunsAgain
   EXPECT_EQ(state["state"], "done") << killed_task;
   EXPECT_EQ(state["attempts"].get<int>(), 2) << killed_task << " of job " << killed_job;
 
-  const auto expected = Products(local);
-  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
-  EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
-  const RunRecord record = ReadRunRecord((ws / "run.json").string());
-  EXPECT_TRUE(record.complete);
-  RunRecord copy = record;
-  ASSERT_NE(copy.Stage("slam"), nullptr);
-  EXPECT_EQ(copy.Stage("slam")->status, "done");
-  EXPECT_EQ(copy.Stage("densify")->done, 2);
+  ExpectTheSerialRunsProducts(ws);
 }
 
 // crop4d run --jobs (cluster_run.h RunSeasonInParallel): the work units side by side as
@@ -929,22 +935,13 @@ TEST_F(SeasonRunTest, UnitsSideBySideOnOneMachineGiveTheSerialRunsOutputs) {
   const fs::path field = dir_ / "field";
   MakeFieldView(field, 2);
   const std::vector<std::string> extra = {"--threads", "1", "--eval", "never"};
-  const fs::path serial = TheSerialReference().ws;
   const fs::path ws = dir_ / "parallel";
   std::vector<std::string> parallel = extra;
   parallel.insert(parallel.end(), {"--jobs", "2"});
   ASSERT_EQ(RunToEnd(RunArgs(field, ws, parallel), dir_ / "parallel.log"), 0)
       << Slurp(dir_ / "parallel.log");
 
-  const auto expected = Products(serial);
-  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
-  EXPECT_TRUE(expected.count("analysis/site_heights.csv"));
-  const RunRecord record = ReadRunRecord((ws / "run.json").string());
-  EXPECT_TRUE(record.complete);
-  RunRecord copy = record;
-  ASSERT_NE(copy.Stage("slam"), nullptr);
-  EXPECT_EQ(copy.Stage("slam")->status, "done");
-  EXPECT_EQ(copy.Stage("densify")->done, 2);
+  ExpectTheSerialRunsProducts(ws);
   // Every slam unit ran once, as its own process.
   const json units = json::parse(Slurp(ws / "cluster" / "slam" / "units.json"));
   ASSERT_GE(units["units"].size(), 4u);
@@ -957,7 +954,7 @@ TEST_F(SeasonRunTest, UnitsSideBySideOnOneMachineGiveTheSerialRunsOutputs) {
   // Run again: everything is up to date.
   ASSERT_EQ(RunToEnd(RunArgs(field, ws, parallel), dir_ / "again.log"), 0)
       << Slurp(dir_ / "again.log");
-  ExpectSameProducts(expected, ProductsOutsideCluster(ws));
+  ExpectSameProducts(Products(TheSerialReference().ws), ProductsOutsideCluster(ws));
 }
 
 }  // namespace

@@ -20,24 +20,12 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/progress.h"
 #include "crop4d/core/stopwatch.h"
+#include "crop4d/dense/cell_window.h"
 
 namespace crop4d::dense {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-// Why a cell has no point (kept in a byte per cell).
-enum CellState : std::uint8_t {
-  kOutside = 0,
-  kNoViews,
-  kLowTexture,
-  kLowScore,
-  kNotUnique,
-  kAtRangeEdge,
-  kIsolated,
-  kOccluding,
-  kKept,
-};
 
 // The undistorted pinhole camera that the images are resampled to once when they are loaded,
 // so that the inner loops project with a pinhole (a plane maps to an image by a homography)
@@ -566,42 +554,19 @@ HeightFieldStereo::HeightFieldStereo(const Options& options) : options_(options)
   CROP4D_CHECK_OPTIONS(options, "HeightFieldStereo");
 }
 
+io::PlyLayout HeightFieldStereo::CloudLayout() {
+  io::PlyLayout layout;
+  layout.colors = true;
+  layout.scalars = {{"score", io::PlyType::kFloat32},
+                    {"num_views", io::PlyType::kUint8},
+                    {"uniqueness", io::PlyType::kFloat32}};
+  return layout;
+}
+
 namespace {
 
 using Options = HeightFieldStereo::Options;
 using Summary = HeightFieldStereo::Summary;
-
-// The cells of the region: a grid of cell_m cells from a multiple of the cell size, with the
-// state of each (kOutside for cells outside the region).
-struct CellGrid {
-  Eigen::Vector2d origin;
-  double s = 0;  // cell size
-  int gx = 0, gy = 0;
-  std::vector<std::uint8_t> state;
-
-  std::size_t size() const { return static_cast<std::size_t>(gx) * gy; }
-};
-
-CellGrid MakeCellGrid(double cell_m, const DenseRegion& region, std::int64_t* num_cells) {
-  CellGrid grid;
-  const double s = cell_m;
-  grid.s = s;
-  grid.origin = Eigen::Vector2d(std::floor(region.bounds.min().x() / s) * s,
-                                std::floor(region.bounds.min().y() / s) * s);
-  grid.gx = static_cast<int>(std::ceil((region.bounds.max().x() - grid.origin.x()) / s));
-  grid.gy = static_cast<int>(std::ceil((region.bounds.max().y() - grid.origin.y()) / s));
-  grid.state.assign(grid.size(), kOutside);
-  for (int j = 0; j < grid.gy; ++j) {
-    for (int i = 0; i < grid.gx; ++i) {
-      const Eigen::Vector2d xy = grid.origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
-      if (region.Contains(xy)) {
-        grid.state[static_cast<std::size_t>(j) * grid.gx + i] = kNoViews;
-        ++*num_cells;
-      }
-    }
-  }
-  return grid;
-}
 
 // A tile of at most tile_cells × tile_cells cells, matched as one: its cells (i0, j0) ..
 // (i0 + nx − 1, j0 + ny − 1) and the views that match them.
@@ -613,8 +578,9 @@ struct Tile {
   TileViews near_views;
 };
 
-// The tiles that hold cells of the region.
-std::vector<Tile> MakeTiles(const CellGrid& grid, int tile_cells) {
+// The tiles that hold cells of the region; `num_cells`: how many cells of the region they hold.
+std::vector<Tile> MakeTiles(const CellWindow& grid, const DenseRegion& region, int tile_cells,
+                            std::int64_t* num_cells) {
   const int T = tile_cells;
   std::vector<Tile> tiles;
   for (int j0 = 0; j0 < grid.gy; j0 += T) {
@@ -624,13 +590,12 @@ std::vector<Tile> MakeTiles(const CellGrid& grid, int tile_cells) {
       tile.j0 = j0;
       tile.nx = std::min(T, grid.gx - i0);
       tile.ny = std::min(T, grid.gy - j0);
-      bool any = false;
-      for (int j = j0; j < j0 + tile.ny && !any; ++j) {
-        for (int i = i0; i < i0 + tile.nx && !any; ++i) {
-          any = grid.state[static_cast<std::size_t>(j) * grid.gx + i] != kOutside;
-        }
+      std::int64_t inside = 0;
+      for (int j = j0; j < j0 + tile.ny; ++j) {
+        for (int i = i0; i < i0 + tile.nx; ++i) inside += region.Contains(grid.Centre(i, j));
       }
-      if (any) tiles.push_back(tile);
+      *num_cells += inside;
+      if (inside > 0) tiles.push_back(tile);
     }
   }
   return tiles;
@@ -715,7 +680,7 @@ class ViewIndex {
 std::vector<ViewCandidate> FindViewCandidates(const Options& o,
                                               const geometry::PinholeRadTan& camera,
                                               const std::vector<ViewGeometry>& geometry,
-                                              const ViewIndex& index, const CellGrid& grid,
+                                              const ViewIndex& index, const CellWindow& grid,
                                               const GroundLevels& ground, const Tile& tile) {
   const double s = grid.s;
   const double margin = o.image_margin_px + o.patch_radius;
@@ -798,20 +763,39 @@ TileViews PickTileViews(const Options& o, const std::vector<ViewGeometry>& geome
   return views;
 }
 
-// The tiles in blocks (Options::load_block_m): squares of the grid in strips along its longer
-// side, each block's tiles (indices into `tiles`) in their order.
-std::vector<std::vector<int>> TileBlocks(const CellGrid& grid, const std::vector<Tile>& tiles,
-                                         double block_m) {
+// A band of blocks across the region: the blocks (each its tiles, indices into `tiles`, in
+// their order) whose tiles start below `along_end`, and after the bands before it.
+struct BlockBand {
+  int along_end = 0;  // every cell below it is in a block of this band or of one before
+  std::vector<std::vector<int>> blocks;
+};
+
+// The tiles in blocks (Options::load_block_m): squares of the grid, in bands across its longer
+// (along) side, one band after the other, so that the cells are matched in order along it
+// (CellFilters).
+std::vector<BlockBand> TileBlocks(const CellWindow& grid, const std::vector<Tile>& tiles,
+                                  double block_m, int tile_cells) {
   const int block_cells = std::max(1, static_cast<int>(std::lround(block_m / grid.s)));
-  const bool along_y = grid.gy >= grid.gx;
-  std::map<std::pair<int, int>, std::vector<int>> blocks;
+  std::map<std::pair<int, int>, std::vector<int>> blocks;  // (along, across) → tiles
   for (std::size_t t = 0; t < tiles.size(); ++t) {
-    const int bi = tiles[t].i0 / block_cells, bj = tiles[t].j0 / block_cells;
-    blocks[along_y ? std::pair(bi, bj) : std::pair(bj, bi)].push_back(static_cast<int>(t));
+    const int ba = grid.Along(tiles[t].i0, tiles[t].j0) / block_cells;
+    const int bc = (grid.along_y ? tiles[t].i0 : tiles[t].j0) / block_cells;
+    blocks[{ba, bc}].push_back(static_cast<int>(t));
   }
-  std::vector<std::vector<int>> out;
-  for (auto& [key, block] : blocks) out.push_back(std::move(block));
-  return out;
+  std::vector<BlockBand> bands;
+  for (auto& [key, block] : blocks) {
+    if (bands.empty() || key.first != bands.back().along_end) {
+      bands.push_back({key.first, {}});
+    }
+    bands.back().blocks.push_back(std::move(block));
+  }
+  // The tiles start at multiples of tile_cells: the cells below the first tile start at or
+  // above the band's end lie in the band's tiles (or before).
+  for (BlockBand& band : bands) {
+    const int end = (band.along_end + 1) * block_cells;
+    band.along_end = std::min(grid.along_size(), (end + tile_cells - 1) / tile_cells * tile_cells);
+  }
+  return bands;
 }
 
 // The images of the views while the blocks are matched: those the current block's tiles select.
@@ -896,7 +880,7 @@ void LoadBlockImages(const Options& o, const geometry::PinholeRadTan& camera,
 // number of tiles that changed.
 int ChooseViewsInTime(const Options& o, const geometry::PinholeRadTan& camera,
                       const std::vector<ViewGeometry>& geometry,
-                      const std::vector<ViewImage>& images, const CellGrid& grid,
+                      const std::vector<ViewImage>& images, const CellWindow& grid,
                       const GroundLevels& ground, const std::vector<int>& block,
                       std::vector<Tile>* tiles) {
   std::atomic<int> changed{0};
@@ -935,27 +919,6 @@ int ChooseViewsInTime(const Options& o, const geometry::PinholeRadTan& camera,
   return changed;
 }
 
-// What the sweeps found per cell of the grid (beside CellGrid::state; set for kept cells).
-struct CellResults {
-  std::vector<float> height, score, unique;
-  std::vector<std::uint8_t> num_views;
-  std::vector<std::array<std::uint8_t, 3>> rgb;
-  std::vector<int> reference_of;
-  std::vector<std::uint8_t> on_top_surface;
-  // |height of reference 1 alone − height of reference 2 alone| (−1: one of them did not score).
-  std::vector<float> disagreement;
-
-  explicit CellResults(std::size_t n)
-      : height(n, std::numeric_limits<float>::quiet_NaN()),
-        score(n, 0.0f),
-        unique(n, 0.0f),
-        num_views(n, 0),
-        rgb(n, {0, 0, 0}),
-        reference_of(n, -1),
-        on_top_surface(n, 0),
-        disagreement(n, -1.0f) {}
-};
-
 // Per cell of a tile, two candidate surfaces from the coarse sweep: [0] the best coarse peak,
 // [1] the top surface (a peak above it, see Options::top_surface_margin; the best where there
 // is none).
@@ -982,14 +945,13 @@ class TileMatcher {
  public:
   TileMatcher(const Options& o, const geometry::PinholeRadTan& camera, const GroundLevels& ground,
               const std::vector<ViewGeometry>& geometry, const std::vector<ViewImage>& images,
-              const Sweeper& sweeper, CellGrid* grid, CellResults* cells)
+              const Sweeper& sweeper, CellWindow* cells)
       : o_(o),
         camera_(camera),
         ground_(ground),
         geometry_(geometry),
         images_(images),
         sweeper_(sweeper),
-        grid_(*grid),
         cells_(*cells),
         exclusion_(std::max(1, static_cast<int>(std::lround(0.02 / o.coarse_step_m)))) {}
 
@@ -1014,8 +976,8 @@ class TileMatcher {
   const std::vector<ViewGeometry>& geometry_;
   const std::vector<ViewImage>& images_;
   const Sweeper& sweeper_;
-  CellGrid& grid_;
-  CellResults& cells_;
+  // The window the tiles' results go to (it holds their cells while they are matched).
+  CellWindow& cells_;
   // Levels closer than 2 cm to a peak belong to it (uniqueness, top surface, cross-check).
   const int exclusion_;
 };
@@ -1023,9 +985,9 @@ class TileMatcher {
 void TileMatcher::Match(const Tile& tile) const {
   if (tile.views.views.empty()) return;
   const Options& o = o_;
-  const double s = grid_.s;
+  const double s = cells_.s;
   const int r = o.patch_radius;
-  const Eigen::Vector2d lo = grid_.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
+  const Eigen::Vector2d lo = cells_.origin + Eigen::Vector2d(tile.i0, tile.j0) * s;
   double ground_lo, ground_hi;
   ground_.Range(Eigen::AlignedBox2d(lo, lo + Eigen::Vector2d(tile.nx, tile.ny) * s), &ground_lo,
                 &ground_hi);
@@ -1062,9 +1024,9 @@ void TileMatcher::Match(const Tile& tile) const {
   if (all.empty()) {
     for (int j = 0; j < tile.ny; ++j) {
       for (int i = 0; i < tile.nx; ++i) {
-        const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * grid_.gx + tile.i0 + i;
-        if (grid_.state[g] != kOutside) {
-          grid_.state[g] = cv.low_texture[j * tile.nx + i] ? kLowTexture : kNoViews;
+        const std::size_t g = cells_.At(tile.i0 + i, tile.j0 + j);
+        if (cells_.state[g] != kOutside) {
+          cells_.state[g] = cv.low_texture[j * tile.nx + i] ? kLowTexture : kNoViews;
         }
       }
     }
@@ -1173,7 +1135,7 @@ int TileMatcher::FindTopSurface(const Tile& tile, const Eigen::Vector2d& lo, con
   const Options& o = o_;
   if (!(o.top_surface_margin > 0 && tile.views.num_references > 1)) return best;
   const int fcells_c = tile.nx * tile.ny;
-  const double s = grid_.s;
+  const double s = cells_.s;
   const float* by_reference[2] = {
       cv.score_by_reference.data(),
       cv.score_by_reference.data() + static_cast<std::size_t>(cv.levels) * fcells_c};
@@ -1217,7 +1179,7 @@ void TileMatcher::FineSweep(const Tile& tile, const CoarseSurfaces& coarse, cons
                             float tile_median, std::vector<float>* window,
                             std::vector<FineResult>* results) const {
   const Options& o = o_;
-  const double s = grid_.s;
+  const double s = cells_.s;
   const int rf = fine.r;
   const int fcells = tile.nx * tile.ny;
   // The surface the fine sweep follows: 3 × 3 median of the confident coarse heights (holes
@@ -1277,7 +1239,7 @@ void TileMatcher::FineSweep(const Tile& tile, const CoarseSurfaces& coarse, cons
       res.num_views = static_cast<std::uint8_t>(fv.num_views[ib] + 1);
       res.reference = tile.views.views[fv.reference[ib]];
       const Eigen::Vector2d xy =
-          grid_.origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
+          cells_.origin + Eigen::Vector2d(tile.i0 + i + 0.5, tile.j0 + j + 0.5) * s;
       const ViewGeometry& view = geometry_[res.reference];
       Eigen::Vector2d pixel;
       if (camera_.Project(
@@ -1297,8 +1259,8 @@ void TileMatcher::StoreTile(const Tile& tile, const CoarseSurfaces& coarse,
                             const std::vector<FineResult>& fine_top) const {
   for (int j = 0; j < tile.ny; ++j) {
     for (int i = 0; i < tile.nx; ++i) {
-      const std::size_t g = static_cast<std::size_t>(tile.j0 + j) * grid_.gx + tile.i0 + i;
-      if (grid_.state[g] == kOutside) continue;
+      const std::size_t g = cells_.At(tile.i0 + i, tile.j0 + j);
+      if (cells_.state[g] == kOutside) continue;
       const int c = j * tile.nx + i;
       int k = 0;
       if (coarse.top_surface[c] && fine_top[c].state == kKept &&
@@ -1306,7 +1268,7 @@ void TileMatcher::StoreTile(const Tile& tile, const CoarseSurfaces& coarse,
         k = 1;
       }
       const FineResult& res = k == 1 ? fine_top[c] : fine_best[c];
-      grid_.state[g] = res.state;
+      cells_.state[g] = res.state;
       if (res.state != kKept) continue;
       cells_.height[g] = static_cast<float>(res.z);
       cells_.score[g] = res.score;
@@ -1320,231 +1282,24 @@ void TileMatcher::StoreTile(const Tile& tile, const CoarseSurfaces& coarse,
   }
 }
 
-// Visibility: a point must not hide other points from the views they were matched in. Walk
-// from every kept point towards its reference camera; a kept cell on the way that lies above
-// the ray blocks it. A false match floating above the soil blocks the reference rays of many
-// soil points behind it; a real leaf blocks none, since the points behind it were matched in a
-// reference that sees them. Cells that block more than max_blocked_rays become kOccluding.
-void MarkOccluding(const Options& o, const std::vector<ViewGeometry>& geometry,
-                   const CellResults& cells, CellGrid* cell_grid) {
-  if (!(o.max_blocked_rays > 0)) return;
-  const Eigen::Vector2d& grid_origin = cell_grid->origin;
-  const double s = cell_grid->s;
-  const int gx = cell_grid->gx, gy = cell_grid->gy;
-  const std::size_t num_grid = cell_grid->size();
-  std::vector<std::uint8_t>& state = cell_grid->state;
-  const std::vector<float>& height = cells.height;
-  std::vector<std::uint8_t> occluding(num_grid, 0);
-  std::vector<int> blocked_count(num_grid, 0);
-  std::vector<std::atomic<int>> blocked(num_grid);
-  for (auto& b : blocked) b.store(0, std::memory_order_relaxed);
-  const double z_top_span = o.max_canopy_height_m + o.below_ground_m + 0.5;
-  tbb::parallel_for(0, gy, [&](int j) {
-    for (int i = 0; i < gx; ++i) {
-      const std::size_t g = static_cast<std::size_t>(j) * gx + i;
-      if (state[g] != kKept || cells.reference_of[g] < 0) continue;
-      const Eigen::Vector3d p(grid_origin.x() + (i + 0.5) * s, grid_origin.y() + (j + 0.5) * s,
-                              height[g]);
-      const Eigen::Vector3d d = geometry[cells.reference_of[g]].center - p;
-      if (d.z() <= 0) continue;
-      // Up to where the ray is above anything that can have been matched.
-      const double t_max = std::min(1.0, z_top_span / d.z());
-      const double horizontal = d.head<2>().norm() * t_max;
-      const int steps = static_cast<int>(horizontal / (0.5 * s));
-      int last = -1;
-      for (int k = 3; k <= steps; ++k) {  // from 1.5 cells away (not the point's own patch)
-        const double t = t_max * k / std::max(1, steps);
-        const Eigen::Vector3d q = p + t * d;
-        const int ci = static_cast<int>(std::floor((q.x() - grid_origin.x()) / s));
-        const int cj = static_cast<int>(std::floor((q.y() - grid_origin.y()) / s));
-        if (ci < 0 || cj < 0 || ci >= gx || cj >= gy) break;
-        const int c = cj * gx + ci;
-        if (c == last) continue;
-        last = c;
-        if (state[c] == kKept && height[c] > q.z() + o.visibility_tolerance_m) {
-          blocked[c].fetch_add(1, std::memory_order_relaxed);
-        }
+// The farthest any cell lies, horizontally, from a reference camera of its tile: the reach of
+// the visibility rays (CellFilters). Every reference a tile can end up with is among these.
+double ReferenceReach(const CellWindow& grid, const std::vector<ViewGeometry>& geometry,
+                      const std::vector<Tile>& tiles) {
+  double reach = 0;
+  for (const Tile& tile : tiles) {
+    const Eigen::Vector2d lo = grid.origin + Eigen::Vector2d(tile.i0, tile.j0) * grid.s;
+    const Eigen::Vector2d hi = lo + Eigen::Vector2d(tile.nx, tile.ny) * grid.s;
+    for (const TileViews* tv : {&tile.views, &tile.near_views}) {
+      for (int k = 0; k < tv->num_references; ++k) {
+        const Eigen::Vector2d c = geometry[tv->views[k]].center.head<2>();
+        const Eigen::Vector2d far(std::max(std::abs(c.x() - lo.x()), std::abs(c.x() - hi.x())),
+                                  std::max(std::abs(c.y() - lo.y()), std::abs(c.y() - hi.y())));
+        reach = std::max(reach, far.norm());
       }
     }
-  });
-  for (std::size_t g = 0; g < num_grid; ++g) {
-    blocked_count[g] = blocked[g].load(std::memory_order_relaxed);
-    if (blocked_count[g] > o.max_blocked_rays) occluding[g] = 1;
   }
-  for (std::size_t g = 0; g < num_grid; ++g) {
-    if (occluding[g]) state[g] = kOccluding;
-  }
-}
-
-// Isolated points: kept cells with fewer than min_neighbours of the 8 neighbours within
-// neighbour_tolerance_m (1 per such cell).
-std::vector<std::uint8_t> FindIsolated(const Options& o, const CellGrid& grid,
-                                       const std::vector<float>& height) {
-  const int gx = grid.gx, gy = grid.gy;
-  const std::vector<std::uint8_t>& state = grid.state;
-  std::vector<std::uint8_t> isolated(grid.size(), 0);
-  tbb::parallel_for(0, gy, [&](int j) {
-    for (int i = 0; i < gx; ++i) {
-      const std::size_t g = static_cast<std::size_t>(j) * gx + i;
-      if (state[g] != kKept) continue;
-      int agree = 0;
-      for (int dj = -1; dj <= 1; ++dj) {
-        for (int di = -1; di <= 1; ++di) {
-          const int ii = i + di, jj = j + dj;
-          if ((di == 0 && dj == 0) || ii < 0 || jj < 0 || ii >= gx || jj >= gy) continue;
-          const std::size_t n = static_cast<std::size_t>(jj) * gx + ii;
-          if (state[n] == kKept && std::abs(height[n] - height[g]) <= o.neighbour_tolerance_m) {
-            ++agree;
-          }
-        }
-      }
-      if (agree < o.min_neighbours) isolated[g] = 1;
-    }
-  });
-  return isolated;
-}
-
-// Islands: connected sets of kept, not isolated cells (8-neighbours within
-// neighbour_tolerance_m) smaller than island_area_m2. A plant's top leaf is often one; so is a
-// false match (the size of a matching window).
-std::vector<std::vector<std::size_t>> FindIslands(const Options& o, const CellGrid& grid,
-                                                  const std::vector<float>& height,
-                                                  const std::vector<std::uint8_t>& isolated) {
-  std::vector<std::vector<std::size_t>> islands;
-  if (!(o.island_area_m2 > 0)) return islands;
-  const double s = grid.s;
-  const int gx = grid.gx, gy = grid.gy;
-  const std::size_t num_grid = grid.size();
-  const std::vector<std::uint8_t>& state = grid.state;
-  const int min_cells = static_cast<int>(std::ceil(o.island_area_m2 / (s * s)));
-  std::vector<int> label(num_grid, -1);
-  std::vector<std::size_t> stack, members;
-  for (std::size_t start_cell = 0; start_cell < num_grid; ++start_cell) {
-    if (state[start_cell] != kKept || isolated[start_cell] || label[start_cell] >= 0) continue;
-    members.clear();
-    stack.assign(1, start_cell);
-    label[start_cell] = 1;
-    while (!stack.empty()) {
-      const std::size_t g = stack.back();
-      stack.pop_back();
-      members.push_back(g);
-      const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
-      for (int dj = -1; dj <= 1; ++dj) {
-        for (int di = -1; di <= 1; ++di) {
-          const int ii = i + di, jj = j + dj;
-          if (ii < 0 || jj < 0 || ii >= gx || jj >= gy) continue;
-          const std::size_t n = static_cast<std::size_t>(jj) * gx + ii;
-          if (label[n] >= 0 || state[n] != kKept || isolated[n] ||
-              std::abs(height[n] - height[g]) > o.neighbour_tolerance_m) {
-            continue;
-          }
-          label[n] = 1;
-          stack.push_back(n);
-        }
-      }
-    }
-    if (static_cast<int>(members.size()) < min_cells) {
-      islands.push_back(members);
-    }
-  }
-  return islands;
-}
-
-// The false islands float where the two references, each alone, disagree: an island's points
-// whose references' heights differ by more than island_max_disagreement_m become isolated; the
-// whole island does when it rises more than island_max_rise_m above every other point within
-// island_radius_m (a leaf does not float high above everything around it; its plant grows from
-// below).
-void IsolateFalseIslands(const Options& o, const CellGrid& grid, const CellResults& cells,
-                         const std::vector<std::vector<std::size_t>>& islands,
-                         std::vector<std::uint8_t>* isolated) {
-  const double s = grid.s;
-  const int gx = grid.gx, gy = grid.gy;
-  const std::vector<std::uint8_t>& state = grid.state;
-  const std::vector<float>& height = cells.height;
-  std::vector<std::uint8_t> in_island(grid.size(), 0);
-  for (std::size_t k = 0; k < islands.size(); ++k) {
-    for (const std::size_t g : islands[k]) in_island[g] = 1;
-  }
-  const int reach = static_cast<int>(std::ceil(o.island_radius_m / s));
-  for (const std::vector<std::size_t>& island : islands) {
-    float top = -INFINITY;
-    int i0 = gx, i1 = -1, j0 = gy, j1 = -1;
-    for (const std::size_t g : island) {
-      top = std::max(top, height[g]);
-      const int i = static_cast<int>(g % gx), j = static_cast<int>(g / gx);
-      i0 = std::min(i0, i);
-      i1 = std::max(i1, i);
-      j0 = std::min(j0, j);
-      j1 = std::max(j1, j);
-    }
-    float around = -INFINITY;
-    for (int j = std::max(0, j0 - reach); j <= std::min(gy - 1, j1 + reach); ++j) {
-      for (int i = std::max(0, i0 - reach); i <= std::min(gx - 1, i1 + reach); ++i) {
-        const std::size_t g = static_cast<std::size_t>(j) * gx + i;
-        if (state[g] == kKept && !(*isolated)[g] && !in_island[g])
-          around = std::max(around, height[g]);
-      }
-    }
-    const bool floating = top > around + o.island_max_rise_m;
-    for (const std::size_t g : island) {
-      if (floating || cells.disagreement[g] > o.island_max_disagreement_m) (*isolated)[g] = 1;
-    }
-  }
-}
-
-// The kept cells become the cloud's points (with their colour, score, views and uniqueness);
-// the others are counted in the summary by why they were not kept.
-void CollectPoints(const CellResults& cells, const std::vector<std::uint8_t>& isolated,
-                   CellGrid* cell_grid, HeightFieldStereo::Result* result) {
-  Summary& summary = result->summary;
-  const Eigen::Vector2d& grid_origin = cell_grid->origin;
-  const double s = cell_grid->s;
-  const int gx = cell_grid->gx, gy = cell_grid->gy;
-  std::vector<std::uint8_t>& state = cell_grid->state;
-  io::PlyScalarField score_field{"score", io::PlyType::kFloat32, {}};
-  io::PlyScalarField views_field{"num_views", io::PlyType::kUint8, {}};
-  io::PlyScalarField unique_field{"uniqueness", io::PlyType::kFloat32, {}};
-  for (int j = 0; j < gy; ++j) {
-    for (int i = 0; i < gx; ++i) {
-      const std::size_t g = static_cast<std::size_t>(j) * gx + i;
-      if (state[g] == kOutside) continue;
-      if (state[g] != kNoViews) ++summary.num_cells_with_views;
-      if (state[g] == kKept && isolated[g]) state[g] = kIsolated;
-      switch (state[g]) {
-        case kLowTexture:
-          ++summary.num_low_texture;
-          break;
-        case kLowScore:
-          ++summary.num_low_score;
-          break;
-        case kNotUnique:
-          ++summary.num_not_unique;
-          break;
-        case kAtRangeEdge:
-          ++summary.num_at_range_edge;
-          break;
-        case kIsolated:
-          ++summary.num_isolated;
-          break;
-        case kOccluding:
-          ++summary.num_occluding;
-          break;
-        default:
-          break;
-      }
-      if (state[g] != kKept) continue;
-      summary.num_top_surface += cells.on_top_surface[g];
-      const Eigen::Vector2d xy = grid_origin + Eigen::Vector2d(i + 0.5, j + 0.5) * s;
-      result->cloud.points.emplace_back(xy.x(), xy.y(), cells.height[g]);
-      result->cloud.colors.push_back(cells.rgb[g]);
-      score_field.values.push_back(cells.score[g]);
-      views_field.values.push_back(cells.num_views[g]);
-      unique_field.values.push_back(cells.unique[g]);
-    }
-  }
-  result->cloud.scalars = {std::move(score_field), std::move(views_field), std::move(unique_field)};
-  summary.num_points = static_cast<std::int64_t>(result->cloud.points.size());
+  return reach;
 }
 
 }  // namespace
@@ -1552,7 +1307,8 @@ void CollectPoints(const CellResults& cells, const std::vector<std::uint8_t>& is
 HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& camera,
                                                  const std::vector<DenseView>& views,
                                                  const ImageLoader& load, const DenseRegion& region,
-                                                 const GroundLevels& ground) const {
+                                                 const GroundLevels& ground,
+                                                 const PointSink& sink) const {
   const Clock::time_point start = Clock::now();
   const Options& o = options_;
   Result result;
@@ -1563,56 +1319,59 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
     summary.total_seconds = SecondsSince(start);
     return result;
   }
-  CellGrid grid = MakeCellGrid(o.cell_m, region, &summary.num_cells);
-  std::vector<Tile> tiles = MakeTiles(grid, o.tile_cells);
+  CellWindow cells = CellWindow::ForRegion(o.cell_m, region);
+  std::vector<Tile> tiles = MakeTiles(cells, region, o.tile_cells, &summary.num_cells);
   summary.num_tiles = static_cast<int>(tiles.size());
   const std::vector<ViewGeometry> geometry = MakeViewGeometry(views);
   const ViewIndex index(geometry, o.max_view_distance_m);
   tbb::parallel_for(std::size_t{0}, tiles.size(), [&](std::size_t t) {
     std::vector<ViewCandidate> candidates =
-        FindViewCandidates(o, camera, geometry, index, grid, ground, tiles[t]);
+        FindViewCandidates(o, camera, geometry, index, cells, ground, tiles[t]);
     tiles[t].views = PickTileViews(o, geometry, candidates);
     if (o.near_time_s > 0) {
       KeepViewsNearInTime(o, geometry, &candidates);
       tiles[t].near_views = PickTileViews(o, geometry, candidates);
     }
   });
+  std::vector<Eigen::Vector3d> centres;
+  for (const ViewGeometry& g : geometry) centres.push_back(g.center);
+  CellFilters filters(o, region, &cells, std::move(centres), ReferenceReach(cells, geometry, tiles),
+                      sink, &result.cloud, &summary);
 
-  // The sweeps, block by block: the images of a block's tiles loaded, then its tiles matched.
+  // The sweeps, band by band and block by block: the images of a block's tiles loaded, then its
+  // tiles matched; after each band, the filters and the points of what is final.
   const Clock::time_point match_start = Clock::now();
   const Rectification rect = MakeRectification(
       camera, static_cast<int>(std::ceil(2 * std::max(0.0, o.highpass_sigma_px))) + 1);
-  const std::vector<std::vector<int>> blocks = TileBlocks(grid, tiles, o.load_block_m);
-  summary.num_blocks = static_cast<int>(blocks.size());
-  CellResults cells(grid.size());
+  const std::vector<BlockBand> bands = TileBlocks(cells, tiles, o.load_block_m, o.tile_cells);
   {
     BlockImages state(views.size(), tiles);
     const Sweeper sweeper(o, rect, geometry, state.images);
-    const TileMatcher matcher(o, camera, ground, geometry, state.images, sweeper, &grid, &cells);
+    const TileMatcher matcher(o, camera, ground, geometry, state.images, sweeper, &cells);
     std::unique_ptr<Progress> progress;
     if (o.show_progress)
       progress = std::make_unique<Progress>("densify: match", tiles.size(), "tile");
-    for (const std::vector<int>& block : blocks) {
-      const Clock::time_point load_start = Clock::now();
-      LoadBlockImages(o, camera, rect, views, load, block, &tiles, &state, &summary);
-      summary.num_tiles_near_in_time +=
-          ChooseViewsInTime(o, camera, geometry, state.images, grid, ground, block, &tiles);
-      summary.load_seconds += SecondsSince(load_start);
-      tbb::parallel_for(std::size_t{0}, block.size(), [&](std::size_t b) {
-        matcher.Match(tiles[block[b]]);
-        if (progress) progress->Add();
-      });
+    for (const BlockBand& band : bands) {
+      filters.Hold(band.along_end);
+      for (const std::vector<int>& block : band.blocks) {
+        ++summary.num_blocks;
+        const Clock::time_point load_start = Clock::now();
+        LoadBlockImages(o, camera, rect, views, load, block, &tiles, &state, &summary);
+        summary.num_tiles_near_in_time +=
+            ChooseViewsInTime(o, camera, geometry, state.images, cells, ground, block, &tiles);
+        summary.load_seconds += SecondsSince(load_start);
+        tbb::parallel_for(std::size_t{0}, block.size(), [&](std::size_t b) {
+          matcher.Match(tiles[block[b]]);
+          if (progress) progress->Add();
+        });
+      }
+      filters.Matched(band.along_end);
     }
   }  // (the images freed)
   double view_sum = 0;
   for (const Tile& tile : tiles) view_sum += static_cast<double>(tile.views.views.size());
   summary.mean_views_per_tile = tiles.empty() ? 0 : view_sum / static_cast<double>(tiles.size());
-
-  // The filters, then the cloud.
-  MarkOccluding(o, geometry, cells, &grid);
-  std::vector<std::uint8_t> isolated = FindIsolated(o, grid, cells.height);
-  IsolateFalseIslands(o, grid, cells, FindIslands(o, grid, cells.height, isolated), &isolated);
-  CollectPoints(cells, isolated, &grid, &result);
+  filters.Finish();
   summary.match_seconds = SecondsSince(match_start) - summary.load_seconds;
   summary.total_seconds = SecondsSince(start);
   return result;

@@ -45,7 +45,9 @@
 // reference in time are candidates (Options::near_time_s); bare soil keeps those of every pass.
 //
 // Memory: the tiles are matched block by block (Options::load_block_m), each block with the
-// images its tiles select, so a session's images are never all in memory at once.
+// images its tiles select, so a session's images are never all in memory at once; the cells are
+// held a window at a time along the region, and the points given out as they are final
+// (cell_window.h), so neither the region's cells nor its cloud are ever all in memory.
 //
 // Written here because neither OpenCV nor any other packaged library has height-field
 // multi-view stereo (OpenCV has two-view rectified block matching only).
@@ -190,11 +192,12 @@ class HeightFieldStereo {
     double highpass_sigma_px = 2.0;
     // Gain of the high-passed channel stored in 8 bits.
     double highpass_gain = 2.0;
-    // The tiles are matched block by block, squares of this side, m, in strips along the
-    // region's longer side: the images a block's tiles select are loaded before it and those
-    // the next block does not select are freed after it, so that memory holds a block's images,
-    // not the session's. The result does not depend on it; larger blocks load fewer images
-    // twice (an image that two blocks select is loaded for each).
+    // The tiles are matched block by block, squares of this side, m, in bands across the
+    // region's longer side, one band after the other: the images a block's tiles select are
+    // loaded before it and those the next block does not select are freed after it, so that
+    // memory holds a block's images, not the session's. The result does not depend on it;
+    // larger blocks load fewer images twice (an image that two blocks select is loaded for
+    // each).
     double load_block_m = 4.0;
     // Progress bars while loading and matching.
     bool show_progress = true;
@@ -215,13 +218,14 @@ class HeightFieldStereo {
     std::int64_t num_isolated = 0;
     std::int64_t num_occluding = 0;  // hide more than max_blocked_rays points from their reference
     int num_tiles = 0;
-    int num_tiles_near_in_time = 0;  // tiles with plants, matched in views near in time
-    int num_views = 0;               // given
-    int num_images_used = 0;         // loaded (selected by some tile)
-    int num_images_failed = 0;       // selected but unreadable
-    int num_blocks = 0;              // blocks of tiles matched one after the other
-    int num_image_loads = 0;         // images loaded, counting one loaded for two blocks twice
-    int max_images_loaded = 0;       // the most images in memory at once
+    int num_tiles_near_in_time = 0;   // tiles with plants, matched in views near in time
+    int num_views = 0;                // given
+    int num_images_used = 0;          // loaded (selected by some tile)
+    int num_images_failed = 0;        // selected but unreadable
+    int num_blocks = 0;               // blocks of tiles matched one after the other
+    int num_image_loads = 0;          // images loaded, counting one loaded for two blocks twice
+    int max_images_loaded = 0;        // the most images in memory at once
+    std::int64_t max_cells_held = 0;  // the most cells of the region in memory at once
     double mean_views_per_tile = 0;
     double load_seconds = 0;
     double match_seconds = 0;
@@ -237,15 +241,23 @@ class HeightFieldStereo {
   };
 
   using ImageLoader = std::function<RgbImage(int view)>;
+  // Receives the points of the cloud, a part at a time, in the cloud's order.
+  using PointSink = std::function<void(const io::PlyPointCloud& part)>;
 
   explicit HeightFieldStereo(const Options& options);
+
+  // The layout of Result::cloud and of the parts a PointSink receives: colours and the scalar
+  // fields score, num_views and uniqueness.
+  static io::PlyLayout CloudLayout();
 
   // Reconstructs `region`: `views` are the posed images of one camera, `load(i)` gives the
   // pixels of views[i] (called in parallel, for the selected views of each block of tiles:
   // Options::load_block_m), `ground` bounds the heights. Parallel over tiles (oneTBB, the
-  // caller's arena).
+  // caller's arena). The points go to `sink` as they are final, a band of the region at a time
+  // (Result::cloud then stays empty), or into Result::cloud when there is no sink.
   Result Run(const geometry::PinholeRadTan& camera, const std::vector<DenseView>& views,
-             const ImageLoader& load, const DenseRegion& region, const GroundLevels& ground) const;
+             const ImageLoader& load, const DenseRegion& region, const GroundLevels& ground,
+             const PointSink& sink = nullptr) const;
 
  private:
   Options options_;

@@ -365,9 +365,13 @@ TEST_F(HeightFieldStereoTest, BlockByBlockGivesTheSameCloudWithFewerImagesInMemo
   EXPECT_GT(blocks.summary.num_image_loads, blocks.summary.num_images_used);
   EXPECT_EQ(loads_blocks, blocks.summary.num_image_loads);
   EXPECT_LT(blocks.summary.max_images_loaded, 0.8 * one.summary.max_images_loaded);
-  std::printf("one block: %d images; %d blocks of 0.5 m: %d loads, at most %d in memory\n",
-              one.summary.num_images_used, blocks.summary.num_blocks,
-              blocks.summary.num_image_loads, blocks.summary.max_images_loaded);
+  std::printf(
+      "one block: %d images; %d blocks of 0.5 m: %d loads, at most %d in memory; cells held at "
+      "most %lld of %lld (one block: %lld)\n",
+      one.summary.num_images_used, blocks.summary.num_blocks, blocks.summary.num_image_loads,
+      blocks.summary.max_images_loaded, static_cast<long long>(blocks.summary.max_cells_held),
+      static_cast<long long>(blocks.summary.num_cells),
+      static_cast<long long>(one.summary.max_cells_held));
 
   ASSERT_GT(one.cloud.size(), 10000u);
   ASSERT_EQ(blocks.cloud.size(), one.cloud.size());

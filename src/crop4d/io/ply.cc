@@ -1,19 +1,25 @@
 #include "crop4d/io/ply.h"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <atomic>
 #include <bit>
 #include <cctype>
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
 #include <set>
 #include <sstream>
 #include <string_view>
+#include <system_error>
 
 #include "crop4d/core/error.h"
 #include "crop4d/io/atomic_file.h"
@@ -149,6 +155,138 @@ void AppendAscii(double value, PlyType type, const std::string& name, std::strin
   } else {
     fmt::format_to(std::back_inserter(*out), "{}", ToInteger(value, type, name));
   }
+}
+
+// The header WritePly writes for `count` vertices of `layout`.
+std::string PlyHeader(const PlyLayout& layout, std::size_t count, const PlyWriteOptions& options) {
+  std::string text = "ply\n";
+  text += options.format == PlyFormat::kBinaryLittleEndian ? "format binary_little_endian 1.0\n"
+                                                           : "format ascii 1.0\n";
+  std::istringstream comment(options.comment);
+  for (std::string line; std::getline(comment, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    text += "comment " + line + "\n";
+  }
+  text += fmt::format("element vertex {}\n", count);
+  text += "property double x\nproperty double y\nproperty double z\n";
+  if (layout.normals) text += "property float nx\nproperty float ny\nproperty float nz\n";
+  if (layout.colors) text += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  for (const auto& [name, type] : layout.scalars) {
+    text += fmt::format("property {} {}\n", PlyTypeName(type), name);
+  }
+  text += "end_header\n";
+  return text;
+}
+
+// Appends the records of points [start, stop) of `cloud` (which passes Check()) to `out`, in
+// the layout of LayoutOf(cloud): the one encoder of WritePly and PlyStreamWriter.
+void AppendRecords(const PlyPointCloud& cloud, std::size_t start, std::size_t stop,
+                   PlyFormat format, std::string* out) {
+  const bool binary = format == PlyFormat::kBinaryLittleEndian;
+  const bool has_normals = !cloud.normals.empty();
+  const bool has_colors = !cloud.colors.empty();
+  for (std::size_t i = start; i < stop; ++i) {
+    const Eigen::Vector3d& p = cloud.points[i];
+    if (binary) {
+      for (int k = 0; k < 3; ++k) AppendLittleEndian(p[k], out);
+      if (has_normals) {
+        for (int k = 0; k < 3; ++k) AppendLittleEndian(cloud.normals[i][k], out);
+      }
+      if (has_colors) {
+        for (int k = 0; k < 3; ++k) AppendLittleEndian(cloud.colors[i][k], out);
+      }
+      for (const PlyScalarField& field : cloud.scalars) {
+        AppendBinary(field.values[i], field.type, field.name, out);
+      }
+    } else {
+      fmt::format_to(std::back_inserter(*out), "{} {} {}", p.x(), p.y(), p.z());
+      if (has_normals) {
+        const Eigen::Vector3f& n = cloud.normals[i];
+        fmt::format_to(std::back_inserter(*out), " {} {} {}", n.x(), n.y(), n.z());
+      }
+      if (has_colors) {
+        const auto& c = cloud.colors[i];
+        fmt::format_to(std::back_inserter(*out), " {} {} {}", int{c[0]}, int{c[1]}, int{c[2]});
+      }
+      for (const PlyScalarField& field : cloud.scalars) {
+        *out += ' ';
+        AppendAscii(field.values[i], field.type, field.name, out);
+      }
+      *out += '\n';
+    }
+  }
+}
+
+// Encodes all the points of `cloud` (which passes Check()) into `out`, kWriteChunk points at a
+// time. Returns false as soon as `out` fails.
+bool WriteRecords(const PlyPointCloud& cloud, PlyFormat format, std::ostream& out) {
+  std::string text;
+  for (std::size_t start = 0; start < cloud.size() && out; start += kWriteChunk) {
+    text.clear();
+    AppendRecords(cloud, start, std::min(cloud.size(), start + kWriteChunk), format, &text);
+    out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  }
+  return static_cast<bool>(out);
+}
+
+// Why `name` cannot name a scalar field (empty when it can); `seen` holds the names of the
+// fields before it and receives `name`.
+std::string ScalarNameProblem(const std::string& name, std::set<std::string>* seen) {
+  static const std::set<std::string> kReserved = {"x",
+                                                  "y",
+                                                  "z",
+                                                  "nx",
+                                                  "ny",
+                                                  "nz",
+                                                  "red",
+                                                  "green",
+                                                  "blue",
+                                                  "diffuse_red",
+                                                  "diffuse_green",
+                                                  "diffuse_blue"};
+  if (name.empty()) return "a scalar field without a name";
+  for (char c : name) {
+    if (std::isspace(static_cast<unsigned char>(c)) ||
+        !std::isprint(static_cast<unsigned char>(c))) {
+      return "scalar field name \"" + name + "\" is not a single printable word";
+    }
+  }
+  if (kReserved.count(name) > 0) return "scalar field name \"" + name + "\" is reserved";
+  if (!seen->insert(name).second) return "two scalar fields named \"" + name + "\"";
+  return "";
+}
+
+// How the layout of a part differs from the writer's (empty when it does not).
+std::string LayoutDifference(const PlyLayout& writer, const PlyLayout& part) {
+  auto differ = [](const char* what, bool in_part, bool in_writer) {
+    return fmt::format("the part has {}{}, the writer's layout has {}", in_part ? "" : "no ", what,
+                       in_writer ? "them" : "none");
+  };
+  if (part.normals != writer.normals) return differ("normals", part.normals, writer.normals);
+  if (part.colors != writer.colors) return differ("colours", part.colors, writer.colors);
+  for (std::size_t k = 0; k < std::max(part.scalars.size(), writer.scalars.size()); ++k) {
+    auto describe = [k](const std::vector<std::pair<std::string, PlyType>>& scalars) {
+      return k < scalars.size()
+                 ? fmt::format("\"{}\" ({})", scalars[k].first, PlyTypeName(scalars[k].second))
+                 : std::string("none");
+    };
+    if (k >= part.scalars.size() || k >= writer.scalars.size() ||
+        part.scalars[k] != writer.scalars[k]) {
+      return fmt::format("scalar field {} of the part is {}, of the writer's layout {}", k + 1,
+                         describe(part.scalars), describe(writer.scalars));
+    }
+  }
+  return "";
+}
+
+// The body file of a PlyStreamWriter for `path`: hidden, next to it, unique to this process
+// and writer, ending like AtomicFile's temporary names (so RemoveStaleTemporaryFiles takes it).
+std::string BodyPath(const std::string& path) {
+  static std::atomic<unsigned long> counter{0};
+  const std::filesystem::path p(path);
+  const std::string name =
+      fmt::format(".{}.body.tmp.{}.{}", p.filename().string(), ::getpid(), counter++);
+  return (p.parent_path() / name).string();
 }
 
 // ---- reading ----
@@ -615,33 +753,10 @@ bool PlyPointCloud::Check(std::string* why) const {
   if (!normals.empty() && normals.size() != n) {
     return fail(fmt::format("{} normals for {} points", normals.size(), n));
   }
-  static const std::set<std::string> kReserved = {"x",
-                                                  "y",
-                                                  "z",
-                                                  "nx",
-                                                  "ny",
-                                                  "nz",
-                                                  "red",
-                                                  "green",
-                                                  "blue",
-                                                  "diffuse_red",
-                                                  "diffuse_green",
-                                                  "diffuse_blue"};
   std::set<std::string> names;
   for (const PlyScalarField& field : scalars) {
-    if (field.name.empty()) return fail("a scalar field without a name");
-    for (char c : field.name) {
-      if (std::isspace(static_cast<unsigned char>(c)) ||
-          !std::isprint(static_cast<unsigned char>(c))) {
-        return fail("scalar field name \"" + field.name + "\" is not a single printable word");
-      }
-    }
-    if (kReserved.count(field.name) > 0) {
-      return fail("scalar field name \"" + field.name + "\" is reserved");
-    }
-    if (!names.insert(field.name).second) {
-      return fail("two scalar fields named \"" + field.name + "\"");
-    }
+    const std::string problem = ScalarNameProblem(field.name, &names);
+    if (!problem.empty()) return fail(problem);
     if (field.values.size() != n) {
       return fail(fmt::format("scalar field \"{}\" has {} values for {} points", field.name,
                               field.values.size(), n));
@@ -653,65 +768,106 @@ bool PlyPointCloud::Check(std::string* why) const {
 void WritePly(const std::string& path, const PlyPointCloud& cloud, const PlyWriteOptions& options) {
   std::string why;
   CROP4D_CHECK_MSG(cloud.Check(&why), why);
-  const bool binary = options.format == PlyFormat::kBinaryLittleEndian;
-  const bool has_normals = !cloud.normals.empty();
-  const bool has_colors = !cloud.colors.empty();
-
-  std::string text = "ply\n";
-  text += binary ? "format binary_little_endian 1.0\n" : "format ascii 1.0\n";
-  std::istringstream comment(options.comment);
-  for (std::string line; std::getline(comment, line);) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    text += "comment " + line + "\n";
-  }
-  text += fmt::format("element vertex {}\n", cloud.size());
-  text += "property double x\nproperty double y\nproperty double z\n";
-  if (has_normals) text += "property float nx\nproperty float ny\nproperty float nz\n";
-  if (has_colors) text += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  for (const PlyScalarField& field : cloud.scalars) {
-    text += fmt::format("property {} {}\n", PlyTypeName(field.type), field.name);
-  }
-  text += "end_header\n";
-
+  const std::string header = PlyHeader(LayoutOf(cloud), cloud.size(), options);
   AtomicFile file(path);
-  std::ofstream& out = file.stream();
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  for (std::size_t start = 0; start < cloud.size(); start += kWriteChunk) {
-    text.clear();
-    const std::size_t stop = std::min(cloud.size(), start + kWriteChunk);
-    for (std::size_t i = start; i < stop; ++i) {
-      const Eigen::Vector3d& p = cloud.points[i];
-      if (binary) {
-        for (int k = 0; k < 3; ++k) AppendLittleEndian(p[k], &text);
-        if (has_normals) {
-          for (int k = 0; k < 3; ++k) AppendLittleEndian(cloud.normals[i][k], &text);
-        }
-        if (has_colors) {
-          for (int k = 0; k < 3; ++k) AppendLittleEndian(cloud.colors[i][k], &text);
-        }
-        for (const PlyScalarField& field : cloud.scalars) {
-          AppendBinary(field.values[i], field.type, field.name, &text);
-        }
-      } else {
-        fmt::format_to(std::back_inserter(text), "{} {} {}", p.x(), p.y(), p.z());
-        if (has_normals) {
-          const Eigen::Vector3f& n = cloud.normals[i];
-          fmt::format_to(std::back_inserter(text), " {} {} {}", n.x(), n.y(), n.z());
-        }
-        if (has_colors) {
-          const auto& c = cloud.colors[i];
-          fmt::format_to(std::back_inserter(text), " {} {} {}", int{c[0]}, int{c[1]}, int{c[2]});
-        }
-        for (const PlyScalarField& field : cloud.scalars) {
-          text += ' ';
-          AppendAscii(field.values[i], field.type, field.name, &text);
-        }
-        text += '\n';
-      }
-    }
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  file.stream().write(header.data(), static_cast<std::streamsize>(header.size()));
+  WriteRecords(cloud, options.format, file.stream());
+  file.Commit();  // Throws when a write failed.
+}
+
+bool operator==(const PlyLayout& a, const PlyLayout& b) {
+  return a.normals == b.normals && a.colors == b.colors && a.scalars == b.scalars;
+}
+
+PlyLayout LayoutOf(const PlyPointCloud& cloud) {
+  PlyLayout layout;
+  layout.normals = !cloud.normals.empty();
+  layout.colors = !cloud.colors.empty();
+  for (const PlyScalarField& field : cloud.scalars)
+    layout.scalars.emplace_back(field.name, field.type);
+  return layout;
+}
+
+PlyStreamWriter::PlyStreamWriter(const std::string& path, const PlyLayout& layout,
+                                 const PlyWriteOptions& options)
+    : path_(path), layout_(layout), options_(options) {
+  std::set<std::string> names;
+  for (const auto& [name, type] : layout_.scalars) {
+    const std::string problem = ScalarNameProblem(name, &names);
+    CROP4D_CHECK_MSG(problem.empty(), problem);
   }
-  file.Commit();
+  const std::filesystem::path parent = std::filesystem::path(path_).parent_path();
+  std::error_code ec;
+  if (!parent.empty()) {
+    std::filesystem::create_directories(parent, ec);
+    if (ec) {
+      throw InputError(path_, 0, "cannot create folder " + parent.string() + ": " + ec.message());
+    }
+  }
+  if (std::filesystem::is_directory(path_, ec)) {
+    throw InputError(path_, 0, "cannot write: it is a folder");
+  }
+  body_path_ = BodyPath(path_);
+  body_.open(body_path_, std::ios::binary | std::ios::trunc);
+  if (!body_) {
+    throw InputError(
+        path_, 0, "cannot create the temporary file " + body_path_ + ": " + std::strerror(errno));
+  }
+}
+
+PlyStreamWriter::~PlyStreamWriter() {
+  if (body_path_.empty()) return;
+  body_.close();
+  std::error_code ec;
+  std::filesystem::remove(body_path_, ec);
+}
+
+void PlyStreamWriter::Append(const PlyPointCloud& part) {
+  CROP4D_CHECK_MSG(!finished_, "PlyStreamWriter::Append after Finish");
+  std::string why;
+  CROP4D_CHECK_MSG(part.Check(&why), why);
+  PlyLayout part_layout = LayoutOf(part);
+  if (part.size() == 0) {  // Its normals and colours cannot show: only the scalars count.
+    part_layout.normals = layout_.normals;
+    part_layout.colors = layout_.colors;
+  }
+  const std::string difference = LayoutDifference(layout_, part_layout);
+  CROP4D_CHECK_MSG(difference.empty(), difference);
+  if (!WriteRecords(part, options_.format, body_)) {
+    throw InputError(path_, 0, "cannot write the temporary file " + body_path_ + " (disk full?)");
+  }
+  size_ += part.size();
+}
+
+void PlyStreamWriter::Finish() {
+  CROP4D_CHECK_MSG(!finished_, "PlyStreamWriter::Finish called twice");
+  finished_ = true;
+  body_.close();  // Flushes.
+  if (body_.fail()) {
+    throw InputError(path_, 0, "cannot write the temporary file " + body_path_ + " (disk full?)");
+  }
+  const std::string header = PlyHeader(layout_, size_, options_);
+  AtomicFile file(path_);
+  std::ofstream& out = file.stream();
+  out.write(header.data(), static_cast<std::streamsize>(header.size()));
+  std::ifstream body(body_path_, std::ios::binary);
+  if (!body) {
+    throw InputError(path_, 0,
+                     "cannot read the temporary file " + body_path_ + ": " + std::strerror(errno));
+  }
+  // In blocks: the body may be larger than memory.
+  std::vector<char> block(1 << 20);
+  while (out) {
+    body.read(block.data(), static_cast<std::streamsize>(block.size()));
+    if (body.gcount() == 0) break;
+    out.write(block.data(), body.gcount());
+  }
+  if (body.bad()) throw InputError(path_, 0, "cannot read the temporary file " + body_path_);
+  body.close();
+  file.Commit();  // Throws when a write failed.
+  std::error_code ec;
+  std::filesystem::remove(body_path_, ec);
+  body_path_.clear();
 }
 
 PlyPointCloud ReadPly(const std::string& path) {
@@ -733,6 +889,143 @@ PlyPointCloud ReadPly(const std::string& path) {
     ReadAscii(path, header, layout, data, &cloud);
   }
   return cloud;
+}
+
+PlyVertexReader::PlyVertexReader(const std::string& path) : path_(path) {
+  in_.open(path, std::ios::binary);
+  if (!in_) throw InputError(path, 0, "cannot open the PLY file");
+  // The header: read until its end, a block at a time.
+  std::string head;
+  std::array<char, 1 << 16> block;
+  constexpr std::size_t kMaxHeader = std::size_t{1} << 24;  // (not a PLY file)
+  while (head.size() < kMaxHeader &&
+         (head.find("end_header") == std::string::npos ||
+          head.find('\n', head.find("end_header")) == std::string::npos)) {
+    in_.read(block.data(), block.size());
+    if (in_.gcount() <= 0) break;
+    head.append(block.data(), static_cast<std::size_t>(in_.gcount()));
+  }
+  in_.clear();
+  const Header header = ParseHeader(path, head);
+  const auto vertex = std::find_if(header.elements.begin(), header.elements.end(),
+                                   [](const Element& e) { return e.name == "vertex"; });
+  if (vertex == header.elements.end()) {
+    throw InputError(path, 0, "the PLY file has no \"vertex\" element");
+  }
+  const VertexLayout layout = MakeLayout(path, *vertex, &empty_);
+  Resize(layout, 0, &empty_);
+  if (layout.has_normals) empty_.normals.clear();
+  if (layout.has_colors) empty_.colors.clear();
+  layout_ = LayoutOf(empty_);
+  layout_.normals = layout.has_normals;
+  layout_.colors = layout.has_colors;
+
+  // Seekable: binary, fixed-size records before and in the vertex element.
+  bool seekable = header.format == PlyFormat::kBinaryLittleEndian;
+  std::size_t offset = header.data_offset;
+  for (auto e = header.elements.begin(); seekable && e != vertex; ++e) {
+    std::size_t record = 0;
+    for (const Property& p : e->properties) {
+      seekable = seekable && !p.is_list;
+      record += TypeSize(p.type);
+    }
+    offset += static_cast<std::size_t>(e->count) * record;
+  }
+  for (const Property& p : vertex->properties) {
+    seekable = seekable && !p.is_list;
+    record_size_ += TypeSize(p.type);
+    types_.push_back(p.type);
+  }
+  if (!seekable) {
+    cloud_ = ReadPly(path);
+    size_ = cloud_.size();
+    whole_ = true;
+    return;
+  }
+  slots_ = layout.slots;
+  data_offset_ = offset;
+  size_ = static_cast<std::size_t>(vertex->count);
+  std::error_code ec;
+  const std::uintmax_t file_size = std::filesystem::file_size(path, ec);
+  if (ec) throw InputError(path, 0, "cannot read the PLY file: " + ec.message());
+  const bool last = vertex + 1 == header.elements.end();
+  if (last && file_size > data_offset_ + size_ * record_size_) {
+    throw InputError(path, 0,
+                     fmt::format("{} bytes after the last element: the data does not match the "
+                                 "element counts of the header",
+                                 file_size - data_offset_ - size_ * record_size_));
+  }
+  if (file_size < data_offset_ || (file_size - data_offset_) / record_size_ < size_) {
+    throw InputError(
+        path, 0,
+        fmt::format("truncated data: the file holds {} of the {} vertices its "
+                    "header announces",
+                    file_size < data_offset_ ? 0 : (file_size - data_offset_) / record_size_,
+                    size_));
+  }
+}
+
+PlyPointCloud PlyVertexReader::Read(std::size_t start, std::size_t count) {
+  start = std::min(start, size_);
+  count = std::min(count, size_ - start);
+  PlyPointCloud part = empty_;
+  if (whole_) {
+    const auto from = static_cast<std::ptrdiff_t>(start);
+    const auto to = static_cast<std::ptrdiff_t>(start + count);
+    part.points.assign(cloud_.points.begin() + from, cloud_.points.begin() + to);
+    if (!cloud_.normals.empty()) {
+      part.normals.assign(cloud_.normals.begin() + from, cloud_.normals.begin() + to);
+    }
+    if (!cloud_.colors.empty()) {
+      part.colors.assign(cloud_.colors.begin() + from, cloud_.colors.begin() + to);
+    }
+    for (std::size_t k = 0; k < part.scalars.size(); ++k) {
+      const std::vector<double>& values = cloud_.scalars[k].values;
+      part.scalars[k].values.assign(values.begin() + from, values.begin() + to);
+    }
+    return part;
+  }
+  VertexLayout layout;
+  layout.slots = slots_;
+  layout.has_normals = layout_.normals;
+  layout.has_colors = layout_.colors;
+  Resize(layout, count, &part);
+  std::string bytes(count * record_size_, '\0');
+  in_.seekg(static_cast<std::streamoff>(data_offset_ + start * record_size_));
+  in_.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  if (!in_ || static_cast<std::size_t>(in_.gcount()) != bytes.size()) {
+    in_.clear();
+    throw InputError(path_, 0,
+                     fmt::format("cannot read vertices {} to {}", start + 1, start + count));
+  }
+  const char* record = bytes.data();
+  for (std::size_t i = 0; i < count; ++i) {
+    for (std::size_t k = 0; k < types_.size(); ++k) {
+      Store(slots_[k], types_[k], LoadBinary(record, types_[k]), i, &part);
+      record += TypeSize(types_[k]);
+    }
+  }
+  return part;
+}
+
+PlyPointCloud ReadPlyWhere(const std::string& path,
+                           const std::function<bool(const Eigen::Vector3d&)>& keep) {
+  constexpr std::size_t kSlice = std::size_t{1} << 18;
+  PlyVertexReader reader(path);
+  PlyPointCloud kept = reader.Read(0, 0);  // no point: the scalar fields' names and types
+  for (std::size_t start = 0; start < reader.size(); start += kSlice) {
+    const PlyPointCloud part = reader.Read(start, kSlice);
+    for (std::size_t i = 0; i < part.size(); ++i) {
+      if (!keep(part.points[i])) continue;
+      kept.points.push_back(part.points[i]);
+      if (!part.normals.empty()) kept.normals.push_back(part.normals[i]);
+      if (!part.colors.empty()) kept.colors.push_back(part.colors[i]);
+      for (std::size_t k = 0; k < part.scalars.size(); ++k) {
+        kept.scalars[k].values.push_back(part.scalars[k].values[i]);
+      }
+    }
+  }
+  return kept;
 }
 
 }  // namespace crop4d::io

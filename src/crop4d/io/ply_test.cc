@@ -1,12 +1,17 @@
 #include "crop4d/io/ply.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <limits>
+#include <string>
+#include <vector>
 
 #include "crop4d/core/error.h"
+#include "crop4d/io/atomic_file.h"
 #include "crop4d/io/test_helpers.h"
 
 namespace crop4d::io {
@@ -417,6 +422,370 @@ TEST(PlyTest, RejectsBadAsciiData) {
   expect("1 2 3 4 5 6.5\n1 2 3 4 5 6\n", "not a valid uchar", 11);
   expect("1 2 3e999 4 5 6\n1 2 3 4 5 6\n", "not a valid double", 11);
   expect("1,2,3,4,5,6\n1 2 3 4 5 6\n", "not a valid double", 11);
+}
+
+// ---- PlyStreamWriter ----
+
+// Points [start, stop) of `cloud`, with its normals, colours and scalar fields.
+PlyPointCloud Slice(const PlyPointCloud& cloud, std::size_t start, std::size_t stop) {
+  PlyPointCloud part;
+  part.points.assign(cloud.points.begin() + start, cloud.points.begin() + stop);
+  if (!cloud.normals.empty()) {
+    part.normals.assign(cloud.normals.begin() + start, cloud.normals.begin() + stop);
+  }
+  if (!cloud.colors.empty()) {
+    part.colors.assign(cloud.colors.begin() + start, cloud.colors.begin() + stop);
+  }
+  for (const PlyScalarField& field : cloud.scalars) {
+    part.scalars.push_back(
+        {field.name, field.type, {field.values.begin() + start, field.values.begin() + stop}});
+  }
+  return part;
+}
+
+// The names of the entries of `folder`, sorted.
+std::vector<std::string> ListFolder(const std::string& folder) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) {
+    names.push_back(entry.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// A cloud of `n` points with every feature, larger than the writer's chunk of 65536 points
+// when n is.
+PlyPointCloud LargeCloud(int n) {
+  PlyPointCloud cloud;
+  PlyScalarField count{"count", PlyType::kUint16, {}};
+  PlyScalarField weight{"weight", PlyType::kFloat32, {}};
+  PlyScalarField id{"id", PlyType::kInt32, {}};
+  for (int i = 0; i < n; ++i) {
+    cloud.points.emplace_back(512000.25 + 0.001 * i, 5400000.5 - 0.003 * i, 1e-3 * (i % 977));
+    cloud.normals.emplace_back(0.0f, 0.6f, 0.8f - 1e-6f * i);
+    cloud.colors.push_back({static_cast<std::uint8_t>(i % 256), static_cast<std::uint8_t>(i / 256),
+                            static_cast<std::uint8_t>(7 * i)});
+    count.values.push_back(i % 65536);
+    weight.values.push_back(static_cast<float>(1.0 / (i + 1)));
+    id.values.push_back(-i);
+  }
+  cloud.scalars = {count, weight, id};
+  return cloud;
+}
+
+TEST(PlyStreamWriterTest, SlicesGiveTheBytesOfWritePly) {
+  testing::TempDir dir;
+  struct Case {
+    PlyPointCloud cloud;
+    std::vector<std::size_t> cuts;  // Slice boundaries, from 0 to the size.
+  };
+  // Slices of unequal sizes, one of them empty; the large cloud's cross the chunk boundary.
+  const std::vector<Case> cases = {{FullCloud(), {0, 2, 2, 7}},
+                                   {LargeCloud(150000), {0, 70000, 70000, 150000}}};
+  for (const Case& c : cases) {
+    ASSERT_TRUE(c.cloud.Check());
+    for (PlyFormat format : {PlyFormat::kBinaryLittleEndian, PlyFormat::kAscii}) {
+      SCOPED_TRACE(format == PlyFormat::kAscii ? "ascii" : "binary");
+      const PlyWriteOptions options{.format = format, .comment = "crop4d\nstreamed"};
+      WritePly(dir / "whole.ply", c.cloud, options);
+      std::filesystem::remove(dir / "streamed.ply");
+      {
+        PlyStreamWriter writer(dir / "streamed.ply", LayoutOf(c.cloud), options);
+        for (std::size_t k = 0; k + 1 < c.cuts.size(); ++k) {
+          writer.Append(Slice(c.cloud, c.cuts[k], c.cuts[k + 1]));
+          EXPECT_EQ(writer.size(), c.cuts[k + 1]);
+        }
+        EXPECT_FALSE(std::filesystem::exists(dir / "streamed.ply"));  // Not before Finish.
+        writer.Finish();
+      }
+      const std::string whole = testing::ReadText(dir / "whole.ply");
+      const std::string streamed = testing::ReadText(dir / "streamed.ply");
+      EXPECT_EQ(streamed.size(), whole.size());
+      EXPECT_TRUE(streamed == whole);  // Not EXPECT_EQ: megabytes of output on failure.
+      ExpectSameCloud(c.cloud, ReadPly(dir / "streamed.ply"));
+      // One Append of the whole cloud gives the same bytes too.
+      {
+        PlyStreamWriter writer(dir / "streamed.ply", LayoutOf(c.cloud), options);
+        writer.Append(c.cloud);
+        writer.Finish();
+      }
+      EXPECT_TRUE(testing::ReadText(dir / "streamed.ply") == whole);
+      // No body or temporary file is left.
+      EXPECT_EQ(ListFolder(dir.path()), (std::vector<std::string>{"streamed.ply", "whole.ply"}));
+    }
+  }
+}
+
+TEST(PlyStreamWriterTest, ZeroPointStreamIsAValidEmptyFile) {
+  testing::TempDir dir;
+  PlyLayout layout;
+  layout.scalars = {{"track_length", PlyType::kInt32}, {"error", PlyType::kFloat64}};
+  for (PlyFormat format : {PlyFormat::kBinaryLittleEndian, PlyFormat::kAscii}) {
+    const std::string path = dir / "empty.ply";
+    {
+      PlyStreamWriter writer(path, layout, {.format = format, .comment = ""});
+      writer.Finish();
+    }
+    const PlyPointCloud cloud = ReadPly(path);
+    EXPECT_EQ(cloud.size(), 0u);
+    EXPECT_TRUE(cloud.normals.empty());
+    EXPECT_TRUE(cloud.colors.empty());
+    EXPECT_EQ(LayoutOf(cloud), layout);
+    ASSERT_EQ(cloud.scalars.size(), 2u);
+    EXPECT_EQ(cloud.scalars[1].name, "error");
+    EXPECT_EQ(cloud.scalars[1].type, PlyType::kFloat64);
+  }
+  // With normals and colours in the layout, and parts of no points appended.
+  layout.normals = layout.colors = true;
+  PlyPointCloud none;
+  none.scalars = {{"track_length", PlyType::kInt32, {}}, {"error", PlyType::kFloat64, {}}};
+  {
+    PlyStreamWriter writer(dir / "empty.ply", layout);
+    writer.Append(none);
+    writer.Append(none);
+    EXPECT_EQ(writer.size(), 0u);
+    writer.Finish();
+  }
+  const std::string text = testing::ReadText(dir / "empty.ply");
+  EXPECT_NE(text.find("element vertex 0\n"), std::string::npos);
+  EXPECT_NE(text.find("property float nx\n"), std::string::npos);
+  EXPECT_NE(text.find("property uchar red\n"), std::string::npos);
+  EXPECT_EQ(text.substr(text.size() - 11), "end_header\n");  // Nothing after the header.
+  EXPECT_EQ(ReadPly(dir / "empty.ply").scalars.size(), 2u);
+  EXPECT_EQ(ListFolder(dir.path()), (std::vector<std::string>{"empty.ply"}));
+}
+
+TEST(PlyStreamWriterTest, DestroyedWithoutFinishLeavesNoFile) {
+  testing::TempDir dir;
+  const PlyPointCloud cloud = FullCloud();
+  const std::string path = dir / "cloud.ply";
+  try {
+    PlyStreamWriter writer(path, LayoutOf(cloud));
+    writer.Append(Slice(cloud, 0, 3));
+    // Meanwhile the only file is the hidden body, named like AtomicFile's temporary files.
+    const std::vector<std::string> names = ListFolder(dir.path());
+    EXPECT_EQ(names.size(), 1u);
+    EXPECT_EQ(names.at(0).rfind(".cloud.ply.body.tmp.", 0), 0u) << names.at(0);
+    throw std::runtime_error("unwinding");
+  } catch (const std::runtime_error&) {
+  }
+  EXPECT_EQ(ListFolder(dir.path()), std::vector<std::string>{});
+
+  // An existing file is left as it was.
+  testing::WriteText(path, "old");
+  {
+    PlyStreamWriter writer(path, LayoutOf(cloud), {.format = PlyFormat::kAscii, .comment = ""});
+    writer.Append(cloud);
+  }
+  EXPECT_EQ(testing::ReadText(path), "old");
+  EXPECT_EQ(ListFolder(dir.path()), (std::vector<std::string>{"cloud.ply"}));
+
+  // A body that a killed writer would leave is a stale temporary file.
+  {
+    PlyStreamWriter writer(path, LayoutOf(cloud));
+    writer.Append(cloud);
+    EXPECT_EQ(RemoveStaleTemporaryFiles(dir.path()), 1);
+  }
+  EXPECT_EQ(ListFolder(dir.path()), (std::vector<std::string>{"cloud.ply"}));
+}
+
+TEST(PlyStreamWriterTest, DiesOnMisuse) {
+  testing::TempDir dir;
+  const PlyPointCloud cloud = FullCloud();
+  PlyStreamWriter writer(dir / "a.ply", LayoutOf(cloud));
+  writer.Append(Slice(cloud, 0, 1));
+
+  PlyPointCloud part = Slice(cloud, 1, 3);
+  part.normals.clear();
+  EXPECT_DEATH(writer.Append(part), "the part has no normals, the writer's layout has them");
+  part = Slice(cloud, 1, 3);
+  part.colors.clear();
+  EXPECT_DEATH(writer.Append(part), "the part has no colours, the writer's layout has them");
+  part = Slice(cloud, 1, 3);
+  part.scalars[1].type = PlyType::kFloat64;
+  EXPECT_DEATH(writer.Append(part), "scalar field 2 of the part is \"reprojection_error\" .double");
+  part = Slice(cloud, 1, 3);
+  part.scalars.pop_back();
+  EXPECT_DEATH(writer.Append(part), "scalar field 5 of the part is none");
+  part = Slice(cloud, 1, 1);  // No points: the scalars still count.
+  std::swap(part.scalars[0], part.scalars[1]);
+  EXPECT_DEATH(writer.Append(part), "scalar field 1 of the part");
+  part = Slice(cloud, 1, 3);
+  part.colors.pop_back();
+  EXPECT_DEATH(writer.Append(part), "1 colours for 2 points");  // Fails Check().
+  part = Slice(cloud, 1, 3);
+  part.scalars[0].values[0] = 1e10;
+  EXPECT_DEATH(writer.Append(part), "does not fit a int");
+
+  PlyStreamWriter plain(dir / "plain.ply", PlyLayout());
+  EXPECT_DEATH(plain.Append(cloud), "the part has normals, the writer's layout has none");
+
+  PlyLayout bad;
+  bad.scalars = {{"red", PlyType::kUint8}};
+  EXPECT_DEATH(PlyStreamWriter(dir / "b.ply", bad), "\"red\" is reserved");
+  bad.scalars = {{"n", PlyType::kUint8}, {"n", PlyType::kInt8}};
+  EXPECT_DEATH(PlyStreamWriter(dir / "b.ply", bad), "two scalar fields named \"n\"");
+
+  writer.Append(Slice(cloud, 1, 7));
+  writer.Finish();
+  EXPECT_EQ(ReadPly(dir / "a.ply").size(), 7u);
+  EXPECT_DEATH(writer.Append(cloud), "Append after Finish");
+  EXPECT_DEATH(writer.Finish(), "Finish called twice");
+}
+
+TEST(PlyStreamWriterTest, UnwritableFolderThrowsInputError) {
+  testing::TempDir dir;
+  auto expect_error = [](const std::string& path) {
+    try {
+      PlyStreamWriter writer(path, PlyLayout());
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), path) << e.what();
+    }
+  };
+  // A "folder" that is a file.
+  testing::WriteText(dir / "file", "x");
+  expect_error(dir / "file/cloud.ply");
+  // The output path is a folder.
+  std::filesystem::create_directories(dir / "folder.ply");
+  expect_error(dir / "folder.ply");
+  // A read-only folder (root may write into it anyway).
+  if (::geteuid() != 0) {
+    std::filesystem::create_directories(dir / "readonly");
+    std::filesystem::permissions(
+        dir / "readonly", std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+    expect_error(dir / "readonly/cloud.ply");
+    std::filesystem::permissions(dir / "readonly", std::filesystem::perms::owner_all);
+  }
+  // Nothing was created.
+  EXPECT_EQ(testing::ReadText(dir / "file"), "x");
+  EXPECT_EQ(ListFolder(dir / "folder.ply"), std::vector<std::string>{});
+  if (std::filesystem::exists(dir / "readonly")) {
+    EXPECT_EQ(ListFolder(dir / "readonly"), std::vector<std::string>{});
+  }
+}
+
+// The vertices read a slice at a time are those ReadPly reads, whatever the slices: binary
+// (seeking to the slice) and ASCII (read whole once), a file with an element before the vertices
+// and one with lists after them.
+TEST(PlyVertexReaderTest, SlicesAreThoseOfReadPly) {
+  testing::TempDir dir;
+  const PlyPointCloud cloud = FullCloud();
+  const auto expect_slices = [&](const std::string& path) {
+    SCOPED_TRACE(path);
+    const PlyPointCloud whole = ReadPly(path);
+    PlyVertexReader reader(path);
+    ASSERT_EQ(reader.size(), whole.size());
+    EXPECT_TRUE(reader.layout() == LayoutOf(whole));
+    for (const std::size_t step : {std::size_t{1}, std::size_t{2}, whole.size() + 5}) {
+      PlyPointCloud joined;
+      for (std::size_t start = 0; start < reader.size(); start += step) {
+        const PlyPointCloud part = reader.Read(start, step);
+        ASSERT_EQ(part.size(), std::min(step, reader.size() - start));
+        EXPECT_TRUE(LayoutOf(part) == LayoutOf(whole) || part.size() == 0);
+        joined.points.insert(joined.points.end(), part.points.begin(), part.points.end());
+        joined.normals.insert(joined.normals.end(), part.normals.begin(), part.normals.end());
+        joined.colors.insert(joined.colors.end(), part.colors.begin(), part.colors.end());
+        joined.scalars.resize(part.scalars.size());
+        for (std::size_t k = 0; k < part.scalars.size(); ++k) {
+          joined.scalars[k].name = part.scalars[k].name;
+          joined.scalars[k].type = part.scalars[k].type;
+          joined.scalars[k].values.insert(joined.scalars[k].values.end(),
+                                          part.scalars[k].values.begin(),
+                                          part.scalars[k].values.end());
+        }
+      }
+      EXPECT_EQ(joined.points, whole.points);
+      EXPECT_EQ(joined.normals, whole.normals);
+      EXPECT_EQ(joined.colors, whole.colors);
+      ASSERT_EQ(joined.scalars.size(), whole.scalars.size());
+      for (std::size_t k = 0; k < whole.scalars.size(); ++k) {
+        EXPECT_EQ(joined.scalars[k].values, whole.scalars[k].values) << whole.scalars[k].name;
+      }
+    }
+    // Past the end: nothing.
+    EXPECT_EQ(reader.Read(reader.size(), 3).size(), 0u);
+    EXPECT_EQ(reader.Read(reader.size() + 10, 3).size(), 0u);
+  };
+  WritePly(dir / "binary.ply", cloud);
+  expect_slices(dir / "binary.ply");
+  PlyWriteOptions ascii;
+  ascii.format = PlyFormat::kAscii;
+  WritePly(dir / "ascii.ply", cloud, ascii);
+  expect_slices(dir / "ascii.ply");
+  // An element of fixed-size records before the vertices: still seekable.
+  std::string text =
+      "ply\nformat binary_little_endian 1.0\nelement camera 1\nproperty float view_px\n"
+      "property short id\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+      "property ushort label\nend_header\n";
+  Put(1.5f, &text);
+  Put<std::int16_t>(-3, &text);
+  for (int i = 0; i < 3; ++i) {
+    for (int k = 0; k < 3; ++k) Put(0.25f * (i + k), &text);
+    for (int k = 0; k < 3; ++k) Put<std::uint8_t>(static_cast<std::uint8_t>(10 * i + k), &text);
+    Put<std::uint16_t>(static_cast<std::uint16_t>(60000 + i), &text);
+  }
+  testing::WriteText(dir / "camera_first.ply", text);
+  expect_slices(dir / "camera_first.ply");
+}
+
+// ReadPlyWhere keeps the vertices its test keeps, with all their properties.
+TEST(PlyVertexReaderTest, ReadPlyWhereKeepsWhatItsTestKeeps) {
+  testing::TempDir dir;
+  const PlyPointCloud cloud = FullCloud();
+  WritePly(dir / "c.ply", cloud);
+  const auto above = [](const Eigen::Vector3d& p) { return p.y() > -5000; };
+  const PlyPointCloud kept = ReadPlyWhere(dir / "c.ply", above);
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!above(cloud.points[i])) continue;
+    ASSERT_LT(n, kept.size());
+    EXPECT_EQ(kept.points[n], cloud.points[i]);
+    EXPECT_EQ(kept.normals[n], cloud.normals[i]);
+    EXPECT_EQ(kept.colors[n], cloud.colors[i]);
+    for (std::size_t k = 0; k < cloud.scalars.size(); ++k) {
+      EXPECT_EQ(kept.scalars[k].values[n], cloud.scalars[k].values[i]);
+    }
+    ++n;
+  }
+  EXPECT_EQ(kept.size(), n);
+  EXPECT_GT(n, 0u);
+  EXPECT_LT(n, cloud.size());
+  EXPECT_TRUE(LayoutOf(kept) == LayoutOf(cloud));
+  // None kept: no point, the scalar fields named all the same.
+  const PlyPointCloud none =
+      ReadPlyWhere(dir / "c.ply", [](const Eigen::Vector3d&) { return false; });
+  EXPECT_EQ(none.size(), 0u);
+  EXPECT_EQ(none.scalars.size(), cloud.scalars.size());
+}
+
+// A file shorter than its header says, or longer, is refused when the reader opens it, naming
+// the file; so is a file that is not PLY.
+TEST(PlyVertexReaderTest, RefusesTruncatedOrOverlongFiles) {
+  testing::TempDir dir;
+  const std::string path = dir / "bad.ply";
+  const std::string body = BinaryBody();
+  const auto expect_error = [&](const std::string& what) {
+    try {
+      PlyVertexReader reader(path);
+      ADD_FAILURE() << "no error for " << what;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), path);
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    }
+  };
+  testing::WriteText(path, BinaryHeader() + body.substr(0, body.size() - 1));
+  expect_error("truncated data: the file holds 1 of the 2 vertices");
+  testing::WriteText(path, BinaryHeader(1) + body);
+  expect_error("27 bytes after the last element");
+  testing::WriteText(path, "not a ply file\n");
+  expect_error("not a PLY file");
+  EXPECT_THROW(PlyVertexReader(dir / "missing.ply"), InputError);
+  testing::WriteText(path, BinaryHeader() + body);
+  PlyVertexReader reader(path);
+  EXPECT_EQ(reader.size(), 2u);
+  EXPECT_EQ(reader.Read(1, 1).points[0], Eigen::Vector3d(1, 2, 3));
 }
 
 }  // namespace

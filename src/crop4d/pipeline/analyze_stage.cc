@@ -140,9 +140,12 @@ std::string InputsFingerprint(const AnalyzeStageOptions& options,
   return std::to_string(fingerprint.hash());
 }
 
-// The points of a session's cloud within `area`, with their colours.
+// The points of a session's cloud within `area`, with their colours. The cloud is read a slice
+// at a time: a dense cloud is never held whole beside the points kept.
 analysis::SessionCloud LoadCloud(const SessionInput& s, const Eigen::AlignedBox2d& area) {
-  const io::PlyPointCloud ply = io::ReadPly(s.cloud.string());
+  io::PlyPointCloud ply = io::ReadPlyWhere(s.cloud.string(), [&](const Eigen::Vector3d& p) {
+    return p.allFinite() && area.contains(p.head<2>());
+  });
   if (ply.colors.size() != ply.points.size()) {
     throw InputError(s.cloud.string(), 0,
                      "the cloud has no colours: vegetation is found by colour (red, green, blue "
@@ -150,12 +153,8 @@ analysis::SessionCloud LoadCloud(const SessionInput& s, const Eigen::AlignedBox2
   }
   analysis::SessionCloud cloud;
   cloud.session = s.id;
-  for (std::size_t i = 0; i < ply.points.size(); ++i) {
-    const Eigen::Vector3d& p = ply.points[i];
-    if (!p.allFinite() || !area.contains(p.head<2>())) continue;
-    cloud.points.push_back(p);
-    cloud.colors.push_back(ply.colors[i]);
-  }
+  cloud.points = std::move(ply.points);
+  cloud.colors = std::move(ply.colors);
   return cloud;
 }
 

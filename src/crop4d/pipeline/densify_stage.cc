@@ -41,7 +41,7 @@ using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 // Changes whenever the stage's outputs for the same inputs change.
-constexpr int kDensifyStageRevision = 1;
+constexpr int kDensifyStageRevision = 2;
 
 json BoxJson(const Eigen::AlignedBox2d& box) {
   if (box.isEmpty()) return json::array();
@@ -249,7 +249,8 @@ json DenseSummaryJson(const DensifySessionReport& report, const std::string& sta
                       {"low_score", s.num_low_score},
                       {"not_unique", s.num_not_unique},
                       {"at_range_edge", s.num_at_range_edge},
-                      {"isolated", s.num_isolated}};
+                      {"isolated", s.num_isolated},
+                      {"held_at_most", s.max_cells_held}};
   summary["tiles"] = s.num_tiles;
   summary["images"] = {{"used", s.num_images_used},
                        {"failed", s.num_images_failed},
@@ -325,6 +326,21 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
   }
   const dense::HeightFieldStereo stereo(stereo_options);
   dense::HeightFieldStereo::Result result;
+  // The cloud is written as its points come, a band of the region at a time: it is never all in
+  // memory (on the paper's 150 m rows, tens of millions of points per session).
+  io::PlyWriteOptions ply;
+  ply.comment =
+      "crop4d dense cloud of session " + id + " (height-field stereo), field ENU frame (metres)";
+  io::PlyStreamWriter cloud(report.ply_path, dense::HeightFieldStereo::CloudLayout(), ply);
+  const bool count_near_ceiling =
+      options.adaptive_ceiling && report.ceiling.ceiling_m < options.stereo.max_canopy_height_m;
+  const auto write = [&](const io::PlyPointCloud& part) {
+    cloud.Append(part);
+    if (count_near_ceiling) {
+      report.ceiling.dense_points_near += dense::PointsNearCeiling(
+          part.points, ground, report.ceiling.ceiling_m, options.ceiling.near_band_m);
+    }
+  };
   arena->execute([&] {
     result = stereo.Run(
         camera, views,
@@ -339,20 +355,14 @@ DensifySessionReport DensifySession(const io::Field& field, const workspace::Lay
           out.rgb.assign(rgb.data, rgb.data + static_cast<std::size_t>(rgb.total()) * 3);
           return out;
         },
-        region, ground);
+        region, ground, write);
   });
+  cloud.Finish();
   report.stereo = result.summary;
-  if (options.adaptive_ceiling && report.ceiling.ceiling_m < options.stereo.max_canopy_height_m) {
-    report.ceiling.dense_points_near = dense::PointsNearCeiling(
-        result.cloud.points, ground, report.ceiling.ceiling_m, options.ceiling.near_band_m);
+  if (count_near_ceiling) {
     WarnIfCeilingReached(id, report.ceiling, options.ceiling.near_band_m,
                          result.summary.num_points);
   }
-
-  io::PlyWriteOptions ply;
-  ply.comment =
-      "crop4d dense cloud of session " + id + " (height-field stereo), field ENU frame (metres)";
-  io::WritePly(report.ply_path, result.cloud, ply);
   report.seconds = SecondsSince(start);
   json summary = DenseSummaryJson(report, stamp, options_json, region, ground);
   workspace::RecordOutputs(&summary, layout.DenseDir(),

@@ -344,16 +344,15 @@ Section Builder::CrossSectionSection() {
     const fs::path dense = layout_.DenseCloud(session);
     if (opt_.cross_section_dense && IsFile(dense)) {
       try {
-        io::PlyPointCloud all = io::ReadPly(dense.string());
+        // Read a slice at a time: only the points near the slice are held.
+        io::PlyPointCloud near = io::ReadPlyWhere(dense.string(), [&](const Eigen::Vector3d& p) {
+          const Eigen::Vector2d d = p.head<2>() - slice.center;
+          return std::abs(d.dot(left)) <= slice.thickness_m &&
+                 std::abs(d.dot(dir)) <= slice.half_length_m + slice.thickness_m;
+        });
         SessionCloud c{session, {}, RelToWs(dense), {RelToWs(dense)}};
-        for (std::size_t i = 0; i < all.points.size(); ++i) {
-          const Eigen::Vector2d d = all.points[i].head<2>() - slice.center;
-          if (std::abs(d.dot(left)) <= slice.thickness_m &&
-              std::abs(d.dot(dir)) <= slice.half_length_m + slice.thickness_m) {
-            c.cloud.points.push_back(all.points[i]);
-            if (all.colors.size() == all.points.size()) c.cloud.colors.push_back(all.colors[i]);
-          }
-        }
+        c.cloud.points = std::move(near.points);
+        c.cloud.colors = std::move(near.colors);
         clouds.push_back(std::move(c));
         ++dense_count;
         continue;

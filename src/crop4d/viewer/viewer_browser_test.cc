@@ -1,8 +1,8 @@
 // The viewer page in headless Chromium against `crop4d view` on a small workspace
-// (viewer_data_test_util.h) and on the tiny simulated field's workspace: no console error, every
-// date in the page's state, the time slider switches dates, two dates overlay, change colouring and
-// measuring work (viewer/test/browser_check.cjs). Fails, never skips, when node or chromium is
-// missing.
+// (viewer_data_test_util.h) and on the tiny simulated field's workspace with its dense clouds: no
+// console error, every date in the page's state, the time slider switches dates, two dates overlay,
+// change colouring and measuring work (viewer/test/browser_check.cjs). Fails, never skips, when
+// node or chromium is missing.
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -20,8 +20,7 @@
 #include <utility>
 
 #include "crop4d/io/test_helpers.h"
-#include "crop4d/sim/cached_field_test_util.h"
-#include "crop4d/sim/sim_config.h"
+#include "crop4d/pipeline/serial_reference_test_util.h"
 #include "crop4d/viewer/viewer_data_test_util.h"
 
 extern char** environ;
@@ -122,23 +121,16 @@ TEST(ViewerBrowserTest, LoadsWithoutErrorAndTheSliderSwitchesDates) {
   CheckInBrowser(ws, R"(["2016-06-10","2016-06-24"])", "2 measurement sites");
 }
 
-// The same checks on what the pipeline writes: `crop4d run` on the tiny simulated field (sparse
-// clouds, --no-densify, to keep the test short), then `crop4d view` on its workspace.
+// The same checks on what the pipeline writes: the workspace of `crop4d run` on the tiny
+// simulated field's first two sessions, dense clouds included (the end-to-end tests' serial
+// reference run, made once per build of crop4d), copied so that nothing can change it.
 TEST(ViewerBrowserTest, ShowsTheTinyFieldAsThePipelineWroteIt) {
-  sim::SimConfig config = sim::PresetConfig("tiny");
-  // The tiny preset as it is (cached under the name the fusion tests give it, so it is
-  // simulated once per build tree).
-  const std::string field = sim::testing::CachedSimulatedField("tiny_rain", config);
+  const pipeline::testing::SerialReference& reference = pipeline::testing::TheSerialReference();
+  ASSERT_TRUE(fs::exists(reference.ws / "dense")) << reference.ws;
   TempDir dir;
-  const std::string ws = dir / "ws";
-  const io::testing::CommandResult run = io::testing::RunCommand(
-      dir, io::testing::Crop4dBinary(),
-      "run " + ShellQuote(field) + " --workspace " + ShellQuote(ws) + " --no-densify -q");
-  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
-  std::string dates;
-  for (const sim::SessionSpec& session : config.sessions)
-    dates += (dates.empty() ? "[\"" : ",\"") + session.date + "\"";
-  CheckInBrowser(ws, dates + "]", "measurement sites");
+  const fs::path ws = dir / "ws";
+  fs::copy(reference.ws, ws, fs::copy_options::recursive);
+  CheckInBrowser(ws.string(), R"(["2016-06-10","2016-06-24"])", "measurement sites");
 }
 
 // Runs `command` through the shell; its output (stdout and stderr) and exit code.

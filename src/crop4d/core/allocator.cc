@@ -21,4 +21,13 @@ bool KeepFreedMemoryForReuse() {
 #endif
 }
 
+bool ReturnFreedMemory() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+  return true;
+#else
+  return false;
+#endif
+}
+
 }  // namespace crop4d

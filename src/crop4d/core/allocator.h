@@ -17,4 +17,10 @@ namespace crop4d {
 // refused a setting (then its defaults stay; nothing else changes).
 bool KeepFreedMemoryForReuse();
 
+// Returns the memory freed so far to the kernel (glibc's malloc_trim), where the kept memory
+// would otherwise stay with the process: between the stages of a run, so that what one stage
+// freed neither stays resident through the next nor counts in its peak. The next stage's first
+// buffers then fault in fresh pages once. Returns false where it does nothing (not glibc).
+bool ReturnFreedMemory();
+
 }  // namespace crop4d

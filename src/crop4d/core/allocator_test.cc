@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <vector>
 
 namespace crop4d {
@@ -59,6 +62,38 @@ TEST(Allocator, FreedLargeBlocksAreReusedWithoutPageFaults) {
   for (int round = 0; round < 5; ++round) later += Round(kBlock, kBlocks);
   // ...the later ones reuse them (glibc's defaults fault in every page again each round).
   EXPECT_LT(later, pages_per_round / 20) << "first round " << first << " faults";
+}
+
+// The resident size of this process, bytes (/proc/self/statm).
+double ResidentBytes() {
+  std::ifstream statm("/proc/self/statm");
+  double size = 0, resident = 0;
+  statm >> size >> resident;
+  return resident * static_cast<double>(sysconf(_SC_PAGESIZE));
+}
+
+// Freed blocks the allocator keeps for reuse go back to the kernel when asked.
+TEST(Allocator, FreedMemoryIsReturnedWhenAsked) {
+  if (kSanitized) GTEST_SKIP() << "AddressSanitizer has its own allocator";
+  ASSERT_TRUE(KeepFreedMemoryForReuse());
+  constexpr std::size_t kBlock = 5u << 20;
+  constexpr int kBlocks = 24;  // 120 MiB
+  std::vector<char*> buffers;
+  for (int b = 0; b < kBlocks; ++b) {
+    buffers.push_back(static_cast<char*>(std::malloc(kBlock)));
+    std::memset(buffers.back(), 1, kBlock);
+  }
+  // One block allocated last stays: the freed ones are not at the top of the heap.
+  char* last = static_cast<char*>(std::malloc(4096));
+  std::memset(last, 1, 4096);
+  for (char* p : buffers) std::free(p);
+  const double kept = ResidentBytes();
+  ASSERT_TRUE(ReturnFreedMemory());
+  const double returned = ResidentBytes();
+  std::free(last);
+  std::printf("resident %.0f MB with the freed blocks kept, %.0f MB once returned\n", kept / 1e6,
+              returned / 1e6);
+  EXPECT_GT(kept - returned, 0.8 * kBlock * kBlocks);
 }
 
 }  // namespace

@@ -111,12 +111,13 @@ CellFilters::CellFilters(const HeightFieldStereo::Options& options, const DenseR
   band_cells_ = std::max(1, o_.tile_cells);
   num_bands_ = (w_.along_size() + band_cells_ - 1) / band_cells_;
   // A ray walks from its point towards the reference camera, no further than the camera's
-  // horizontal distance (+ a cell for the rounding to cells).
+  // horizontal distance (+ 2 cells for the rounding to cells).
   occlusion_reach_ =
       o_.max_blocked_rays > 0 ? static_cast<int>(std::ceil(reference_reach_m / s)) + 2 : 0;
-  // An island has fewer than min_island_cells_ cells, so it reaches no further along; its
-  // neighbourhood adds island_radius_m, and telling whether a cell there is in an island
-  // another island's extent. Beyond that, a connected set is large whatever it holds.
+  // An island has fewer than min_island_cells_ cells, so it spans fewer cells than that along;
+  // the neighbourhood it is compared with adds island_radius_m, and telling whether a cell of
+  // that neighbourhood is itself in an island looks one island extent further. A connected set
+  // that reaches beyond is larger than an island.
   min_island_cells_ = static_cast<int>(std::ceil(o_.island_area_m2 / (s * s)));
   island_reach_ =
       o_.island_area_m2 > 0

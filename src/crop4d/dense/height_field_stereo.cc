@@ -763,10 +763,11 @@ TileViews PickTileViews(const Options& o, const std::vector<ViewGeometry>& geome
   return views;
 }
 
-// A band of blocks across the region: the blocks (each its tiles, indices into `tiles`, in
-// their order) whose tiles start below `along_end`, and after the bands before it.
+// The blocks of one band across the region (each block: its tiles, indices into `tiles`, in
+// their order). Once they and the bands before them are matched, every cell below `along_end`
+// is.
 struct BlockBand {
-  int along_end = 0;  // every cell below it is in a block of this band or of one before
+  int along_end = 0;
   std::vector<std::vector<int>> blocks;
 };
 
@@ -783,17 +784,17 @@ std::vector<BlockBand> TileBlocks(const CellWindow& grid, const std::vector<Tile
     blocks[{ba, bc}].push_back(static_cast<int>(t));
   }
   std::vector<BlockBand> bands;
+  int band = -1;
   for (auto& [key, block] : blocks) {
-    if (bands.empty() || key.first != bands.back().along_end) {
-      bands.push_back({key.first, {}});
+    if (key.first != band) {
+      band = key.first;
+      // The tiles start at multiples of tile_cells: those of the next band at the first one at
+      // or past this band's end, so every cell below it lies in this band's tiles or before.
+      const int end = (band + 1) * block_cells;
+      bands.push_back(
+          {std::min(grid.along_size(), (end + tile_cells - 1) / tile_cells * tile_cells), {}});
     }
     bands.back().blocks.push_back(std::move(block));
-  }
-  // The tiles start at multiples of tile_cells: the cells below the first tile start at or
-  // above the band's end lie in the band's tiles (or before).
-  for (BlockBand& band : bands) {
-    const int end = (band.along_end + 1) * block_cells;
-    band.along_end = std::min(grid.along_size(), (end + tile_cells - 1) / tile_cells * tile_cells);
   }
   return bands;
 }

@@ -14,6 +14,7 @@
 #include <optional>
 #include <set>
 
+#include "crop4d/core/allocator.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/logging.h"
 #include "crop4d/core/progress.h"
@@ -168,6 +169,9 @@ void SeasonRun::Stage(const std::string& name, const std::function<void(StageRec
   collector_->Take(0);  // messages of earlier stages are theirs
   const auto start = std::chrono::steady_clock::now();
   const double cpu_start = ProcessCpuSeconds();
+  // What the stages before freed goes back to the kernel: the stage's peak is then its own (and
+  // what is still live), and its memory is not crowded by an earlier stage's.
+  ReturnFreedMemory();
   const bool peak_restarted = ResetPeakResidentMemory();
   try {
     body(stage);

@@ -912,24 +912,36 @@ PlyVertexReader::PlyVertexReader(const std::string& path) : path_(path) {
   if (vertex == header.elements.end()) {
     throw InputError(path, 0, "the PLY file has no \"vertex\" element");
   }
-  const VertexLayout layout = MakeLayout(path, *vertex, &empty_);
-  Resize(layout, 0, &empty_);
-  if (layout.has_normals) empty_.normals.clear();
-  if (layout.has_colors) empty_.colors.clear();
+  const VertexLayout layout = MakeLayout(path, *vertex, &empty_);  // (its scalar fields)
   layout_ = LayoutOf(empty_);
   layout_.normals = layout.has_normals;
   layout_.colors = layout.has_colors;
 
+  std::error_code ec;
+  const std::uintmax_t file_size = std::filesystem::file_size(path, ec);
+  if (ec) throw InputError(path, 0, "cannot read the PLY file: " + ec.message());
+  const auto truncated = [&](const Element& e, std::uintmax_t held) {
+    return InputError(path, 0,
+                      fmt::format("truncated data: the file holds {} of the {} \"{}\" records "
+                                  "its header announces",
+                                  held, e.count, e.name));
+  };
+
   // Seekable: binary, fixed-size records before and in the vertex element.
   bool seekable = header.format == PlyFormat::kBinaryLittleEndian;
-  std::size_t offset = header.data_offset;
+  std::uintmax_t offset = header.data_offset;
   for (auto e = header.elements.begin(); seekable && e != vertex; ++e) {
-    std::size_t record = 0;
+    std::uintmax_t record = 0;
     for (const Property& p : e->properties) {
       seekable = seekable && !p.is_list;
       record += TypeSize(p.type);
     }
-    offset += static_cast<std::size_t>(e->count) * record;
+    const std::uintmax_t left = file_size > offset ? file_size - offset : 0;
+    const std::uintmax_t held = record > 0 ? left / record : 0;
+    if (seekable && record > 0 && static_cast<std::uintmax_t>(e->count) > held) {
+      throw truncated(*e, held);
+    }
+    offset += static_cast<std::uintmax_t>(e->count) * record;
   }
   for (const Property& p : vertex->properties) {
     seekable = seekable && !p.is_list;
@@ -943,25 +955,16 @@ PlyVertexReader::PlyVertexReader(const std::string& path) : path_(path) {
     return;
   }
   slots_ = layout.slots;
-  data_offset_ = offset;
+  data_offset_ = static_cast<std::size_t>(offset);
   size_ = static_cast<std::size_t>(vertex->count);
-  std::error_code ec;
-  const std::uintmax_t file_size = std::filesystem::file_size(path, ec);
-  if (ec) throw InputError(path, 0, "cannot read the PLY file: " + ec.message());
+  const std::uintmax_t left = file_size > offset ? file_size - offset : 0;
+  if (left / record_size_ < size_) throw truncated(*vertex, left / record_size_);
   const bool last = vertex + 1 == header.elements.end();
-  if (last && file_size > data_offset_ + size_ * record_size_) {
+  if (last && left > size_ * record_size_) {
     throw InputError(path, 0,
                      fmt::format("{} bytes after the last element: the data does not match the "
                                  "element counts of the header",
-                                 file_size - data_offset_ - size_ * record_size_));
-  }
-  if (file_size < data_offset_ || (file_size - data_offset_) / record_size_ < size_) {
-    throw InputError(
-        path, 0,
-        fmt::format("truncated data: the file holds {} of the {} vertices its "
-                    "header announces",
-                    file_size < data_offset_ ? 0 : (file_size - data_offset_) / record_size_,
-                    size_));
+                                 left - size_ * record_size_));
   }
 }
 

@@ -776,7 +776,9 @@ TEST(PlyVertexReaderTest, RefusesTruncatedOrOverlongFiles) {
     }
   };
   testing::WriteText(path, BinaryHeader() + body.substr(0, body.size() - 1));
-  expect_error("truncated data: the file holds 1 of the 2 vertices");
+  expect_error("truncated data: the file holds 1 of the 2 \"vertex\" records");
+  testing::WriteText(path, BinaryHeader(1000000000) + body);
+  expect_error("truncated data: the file holds 2 of the 1000000000 \"vertex\" records");
   testing::WriteText(path, BinaryHeader(1) + body);
   expect_error("27 bytes after the last element");
   testing::WriteText(path, "not a ply file\n");

@@ -351,10 +351,14 @@ void CellFilters::Emit(int band) {
 // along-major order; the others are counted in the summary by why they were not kept.
 void CellFilters::Collect(int band) {
   HeightFieldStereo::Summary& summary = *summary_;
+  // The fields of HeightFieldStereo::CloudLayout: score, num_views, uniqueness.
   io::PlyPointCloud part;
-  io::PlyScalarField score_field{"score", io::PlyType::kFloat32, {}};
-  io::PlyScalarField views_field{"num_views", io::PlyType::kUint8, {}};
-  io::PlyScalarField unique_field{"uniqueness", io::PlyType::kFloat32, {}};
+  for (const auto& [name, type] : HeightFieldStereo::CloudLayout().scalars) {
+    part.scalars.push_back({name, type, {}});
+  }
+  std::vector<double>& score = part.scalars.at(0).values;
+  std::vector<double>& views = part.scalars.at(1).values;
+  std::vector<double>& uniqueness = part.scalars.at(2).values;
   ForCellsInOrder(w_, Start(band), End(band), [&](int i, int j, std::size_t g) {
     std::uint8_t& state = w_.state[g];
     if (state == kOutside) return;
@@ -387,25 +391,15 @@ void CellFilters::Collect(int band) {
     const Eigen::Vector2d xy = w_.Centre(i, j);
     part.points.emplace_back(xy.x(), xy.y(), w_.height[g]);
     part.colors.push_back(w_.rgb[g]);
-    score_field.values.push_back(w_.score[g]);
-    views_field.values.push_back(w_.num_views[g]);
-    unique_field.values.push_back(w_.unique[g]);
+    score.push_back(w_.score[g]);
+    views.push_back(w_.num_views[g]);
+    uniqueness.push_back(w_.unique[g]);
   });
   summary.num_points += static_cast<std::int64_t>(part.points.size());
-  part.scalars = {std::move(score_field), std::move(views_field), std::move(unique_field)};
   if (sink_) {
     sink_(part);
-    return;
-  }
-  io::PlyPointCloud& cloud = *cloud_;
-  cloud.points.insert(cloud.points.end(), part.points.begin(), part.points.end());
-  cloud.colors.insert(cloud.colors.end(), part.colors.begin(), part.colors.end());
-  if (cloud.scalars.empty()) {
-    for (const io::PlyScalarField& f : part.scalars) cloud.scalars.push_back({f.name, f.type, {}});
-  }
-  for (std::size_t k = 0; k < part.scalars.size(); ++k) {
-    std::vector<double>& values = cloud.scalars[k].values;
-    values.insert(values.end(), part.scalars[k].values.begin(), part.scalars[k].values.end());
+  } else {
+    cloud_->Append(part);
   }
 }
 

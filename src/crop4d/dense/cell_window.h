@@ -9,7 +9,7 @@
 // of a band (a point's reference ray, the 8 neighbours, an island and the neighbourhood it is
 // compared with), so a band's points are final, and written, as soon as the cells within that
 // reach are matched and filtered, and the cells no filter needs any more are dropped. Memory
-// then holds a window of the region whose depth along it is set by those reaches (about 12 m
+// then holds a window of the region whose depth along it is set by those reaches (10.8–12.4 m
 // on the simulated fields), not the region: the cells held do not grow with the row length
 // (the same at 20 and 40 m rows; bench/RESULTS.md).
 // The points are the same, to the bit and in the same order, as if the whole region were held:

@@ -1336,8 +1336,9 @@ HeightFieldStereo::Result HeightFieldStereo::Run(const geometry::PinholeRadTan& 
   });
   std::vector<Eigen::Vector3d> centres;
   for (const ViewGeometry& g : geometry) centres.push_back(g.center);
-  CellFilters filters(o, region, &cells, std::move(centres), ReferenceReach(cells, geometry, tiles),
-                      sink, &result.cloud, &summary);
+  summary.reference_reach_m = ReferenceReach(cells, geometry, tiles);
+  CellFilters filters(o, region, &cells, std::move(centres), summary.reference_reach_m, sink,
+                      &result.cloud, &summary);
 
   // The sweeps, band by band and block by block: the images of a block's tiles loaded, then its
   // tiles matched; after each band, the filters and the points of what is final.

@@ -226,6 +226,9 @@ class HeightFieldStereo {
     int num_image_loads = 0;          // images loaded, counting one loaded for two blocks twice
     int max_images_loaded = 0;        // the most images in memory at once
     std::int64_t max_cells_held = 0;  // the most cells of the region in memory at once
+    // The farthest a cell lies, horizontally, from a reference camera of its tile, m: the reach
+    // of the visibility test, which sets how many cells are held.
+    double reference_reach_m = 0;
     double mean_views_per_tile = 0;
     double load_seconds = 0;
     double match_seconds = 0;

@@ -741,6 +741,32 @@ const PlyScalarField* PlyPointCloud::FindScalar(const std::string& name) const {
   return nullptr;
 }
 
+void PlyPointCloud::Append(const PlyPointCloud& part) {
+  std::string why;
+  CROP4D_CHECK_MSG(part.Check(&why), why);
+  if (points.empty() && scalars.empty()) {
+    for (const PlyScalarField& field : part.scalars)
+      scalars.push_back({field.name, field.type, {}});
+  }
+  CROP4D_CHECK_MSG(scalars.size() == part.scalars.size(),
+                   "appending a cloud of other scalar fields");
+  if (!points.empty() && !part.points.empty()) {
+    CROP4D_CHECK_MSG(
+        normals.empty() == part.normals.empty() && colors.empty() == part.colors.empty(),
+        "appending a cloud with other normals or colours");
+  }
+  points.insert(points.end(), part.points.begin(), part.points.end());
+  normals.insert(normals.end(), part.normals.begin(), part.normals.end());
+  colors.insert(colors.end(), part.colors.begin(), part.colors.end());
+  for (std::size_t k = 0; k < scalars.size(); ++k) {
+    CROP4D_CHECK_MSG(
+        scalars[k].name == part.scalars[k].name && scalars[k].type == part.scalars[k].type,
+        "appending a cloud of other scalar fields");
+    scalars[k].values.insert(scalars[k].values.end(), part.scalars[k].values.begin(),
+                             part.scalars[k].values.end());
+  }
+}
+
 bool PlyPointCloud::Check(std::string* why) const {
   auto fail = [&](const std::string& what) {
     if (why != nullptr) *why = what;

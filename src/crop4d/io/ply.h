@@ -57,6 +57,11 @@ struct PlyPointCloud {
   // Consistent sizes, and scalar names that are single words (no whitespace), unique, and none
   // of x y z nx ny nz red green blue. On failure, `why` (if not null) says what is wrong.
   bool Check(std::string* why = nullptr) const;
+  // Appends the points of `part` (which passes Check()) with their normals, colours and scalar
+  // values. A cloud with no points and no scalar fields takes `part`'s fields; otherwise the
+  // scalar fields must be the same, by name and type, and normals and colours present in both
+  // or in neither (CHECK).
+  void Append(const PlyPointCloud& part);
 };
 
 struct PlyWriteOptions {

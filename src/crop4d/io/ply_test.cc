@@ -683,17 +683,7 @@ TEST(PlyVertexReaderTest, SlicesAreThoseOfReadPly) {
         const PlyPointCloud part = reader.Read(start, step);
         ASSERT_EQ(part.size(), std::min(step, reader.size() - start));
         EXPECT_TRUE(LayoutOf(part) == LayoutOf(whole) || part.size() == 0);
-        joined.points.insert(joined.points.end(), part.points.begin(), part.points.end());
-        joined.normals.insert(joined.normals.end(), part.normals.begin(), part.normals.end());
-        joined.colors.insert(joined.colors.end(), part.colors.begin(), part.colors.end());
-        joined.scalars.resize(part.scalars.size());
-        for (std::size_t k = 0; k < part.scalars.size(); ++k) {
-          joined.scalars[k].name = part.scalars[k].name;
-          joined.scalars[k].type = part.scalars[k].type;
-          joined.scalars[k].values.insert(joined.scalars[k].values.end(),
-                                          part.scalars[k].values.begin(),
-                                          part.scalars[k].values.end());
-        }
+        joined.Append(part);
       }
       EXPECT_EQ(joined.points, whole.points);
       EXPECT_EQ(joined.normals, whole.normals);
@@ -728,6 +718,29 @@ TEST(PlyVertexReaderTest, SlicesAreThoseOfReadPly) {
   }
   testing::WriteText(dir / "camera_first.ply", text);
   expect_slices(dir / "camera_first.ply");
+}
+
+// Append concatenates clouds of one layout and refuses another.
+TEST(PlyTest, AppendJoinsCloudsOfOneLayout) {
+  const PlyPointCloud cloud = FullCloud();
+  PlyPointCloud joined;
+  joined.Append(cloud);
+  PlyPointCloud none;  // no points, the same fields
+  for (const PlyScalarField& f : cloud.scalars) none.scalars.push_back({f.name, f.type, {}});
+  joined.Append(none);
+  joined.Append(cloud);
+  ASSERT_EQ(joined.size(), 2 * cloud.size());
+  EXPECT_EQ(joined.points[cloud.size() + 2], cloud.points[2]);
+  EXPECT_EQ(joined.colors.size(), joined.size());
+  EXPECT_EQ(joined.scalars[4].values[cloud.size() + 6], cloud.scalars[4].values[6]);
+  std::string why;
+  EXPECT_TRUE(joined.Check(&why)) << why;
+  PlyPointCloud other = cloud;
+  other.scalars[1].name = "error";
+  EXPECT_DEATH(joined.Append(other), "other scalar fields");
+  PlyPointCloud no_colours = cloud;
+  no_colours.colors.clear();
+  EXPECT_DEATH(joined.Append(no_colours), "other normals or colours");
 }
 
 // ReadPlyWhere keeps the vertices its test keeps, with all their properties.

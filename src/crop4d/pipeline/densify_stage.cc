@@ -250,7 +250,8 @@ json DenseSummaryJson(const DensifySessionReport& report, const std::string& sta
                       {"not_unique", s.num_not_unique},
                       {"at_range_edge", s.num_at_range_edge},
                       {"isolated", s.num_isolated},
-                      {"held_at_most", s.max_cells_held}};
+                      {"held_at_most", s.max_cells_held},
+                      {"reference_reach_m", s.reference_reach_m}};
   summary["tiles"] = s.num_tiles;
   summary["images"] = {{"used", s.num_images_used},
                        {"failed", s.num_images_failed},

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
 
 #include "crop4d/core/error.h"
 
@@ -183,6 +184,51 @@ void CrownTopsHeight(const SiteCells& cells, const std::vector<int>& inside, dou
 
 }  // namespace
 
+double SiteReach(const io::Site& site, const CanopyOptions& o) {
+  return site.radius_m + std::max(o.crown_radius_m, o.top_radius_m) + o.cell_m;
+}
+
+SessionCloud SitePoints(const SessionCloud& cloud, const std::vector<io::Site>& sites,
+                        const CanopyOptions& options) {
+  CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size() &&
+               cloud.colors.size() == cloud.points.size());
+  SessionCloud out;
+  out.session = cloud.session;
+  if (sites.empty()) return out;
+  // The sites whose square touches each cell of a grid of the largest reach: a point is tested
+  // against those of its cell only (a field has hundreds of sites, a cloud millions of points).
+  double cell = 0.0;
+  for (const io::Site& s : sites) cell = std::max(cell, SiteReach(s, options));
+  const auto index = [cell](double v) { return static_cast<std::int64_t>(std::floor(v / cell)); };
+  const auto key = [](std::int64_t i, std::int64_t j) { return (i << 32) ^ (j & 0xffffffffLL); };
+  std::unordered_map<std::int64_t, std::vector<std::size_t>> near;
+  for (std::size_t n = 0; n < sites.size(); ++n) {
+    const Eigen::Vector2d& c = sites[n].center_enu;
+    const double r = SiteReach(sites[n], options);
+    for (std::int64_t i = index(c.x() - r); i <= index(c.x() + r); ++i) {
+      for (std::int64_t j = index(c.y() - r); j <= index(c.y() + r); ++j) {
+        near[key(i, j)].push_back(n);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    const Eigen::Vector3d& p = cloud.points[i];
+    const auto it = near.find(key(index(p.x()), index(p.y())));
+    if (it == near.end()) continue;
+    for (const std::size_t n : it->second) {
+      const Eigen::Vector2d d = p.head<2>() - sites[n].center_enu;
+      const double r = SiteReach(sites[n], options);
+      if (std::abs(d.x()) <= r && std::abs(d.y()) <= r) {
+        out.points.push_back(p);
+        out.colors.push_back(cloud.colors[i]);
+        out.is_vegetation.push_back(cloud.is_vegetation[i]);
+        break;
+      }
+    }
+  }
+  return out;
+}
+
 SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
                        const io::Site& site, const CanopyOptions& o,
                        const std::vector<Eigen::Vector2d>* stems,
@@ -192,7 +238,7 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
   SiteCanopy result;
   const double radius = site.radius_m;
-  const double reach = radius + std::max(o.crown_radius_m, o.top_radius_m) + o.cell_m;
+  const double reach = SiteReach(site, o);
   const SiteCells cells = RasteriseCanopy(cloud, ground, site, o, reach);
 
   // Cover, volume and the canopy heights of the cells of the site with points.

@@ -126,6 +126,15 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
                        const std::vector<Eigen::Vector2d>* stems = nullptr,
                        const std::vector<double>* max_tops = nullptr);
 
+// The half side of the square around a site's centre whose points MeasureSite reads, metres.
+double SiteReach(const io::Site& site, const CanopyOptions& options);
+
+// The points of `cloud` (with their colours and vegetation flags, in their order) within
+// SiteReach of any of `sites`' centres: MeasureSite and FitSiteGroundPlane give on them what
+// they give on the whole cloud, so a session's sites can be kept while its cloud is freed.
+SessionCloud SitePoints(const SessionCloud& cloud, const std::vector<io::Site>& sites,
+                        const CanopyOptions& options);
+
 // The canopy height model of a session over `num_cells` raster cells, `cell_of` giving the cell
 // of an ENU xy (−1 outside the raster): per cell the highest canopy point above `ground`, 0 where
 // the cell holds only ground points, NaN where it holds none (or the ground is unknown there).

@@ -122,6 +122,66 @@ TEST(MeasureSiteTest, SiteWithoutPointsIsAClearResult) {
             "no points within the site");
 }
 
+TEST(SitePointsTest, TheSitesMeasureOnTheirPointsAsOnTheWholeCloud) {
+  // Boxes over the field; sites of different radii, two overlapping, one across the field's
+  // edge and one far from any point. The grid of SitePoints has the largest reach as its cell,
+  // so the small sites' squares straddle its cell edges.
+  const std::vector<Box> boxes = {{{0.31, 0.41}, 0.04, 0.12},
+                                  {{0.92, 1.01}, 0.05, 0.20},
+                                  {{1.05, 1.2}, 0.03, 0.3},
+                                  {{1.7, 1.6}, 0.06, 0.18},
+                                  {{1.95, 0.2}, 0.04, 0.1}};
+  const SessionCloud cloud = BoxField(boxes, 7);
+  const std::vector<io::Site> sites = {MakeSite(0.3, 0.4, 0.1),    MakeSite(0.91, 1.0, 0.35),
+                                       MakeSite(1.1, 1.2, 0.15),   MakeSite(1.7, 1.6, 0.2),
+                                       MakeSite(1.97, 0.18, 0.12), MakeSite(5.0, 5.0, 0.2)};
+  CanopyOptions options;
+  options.max_shrink_m = -1;
+  const SessionCloud kept = SitePoints(cloud, sites, options);
+  EXPECT_EQ(kept.session, cloud.session);
+  ASSERT_EQ(kept.colors.size(), kept.points.size());
+  ASSERT_EQ(kept.is_vegetation.size(), kept.points.size());
+  EXPECT_LT(kept.points.size(), cloud.points.size() / 2);
+  // Every point within a site's reach is kept, and only those.
+  std::size_t within = 0;
+  for (const Eigen::Vector3d& p : cloud.points) {
+    for (const io::Site& s : sites) {
+      if ((p.head<2>() - s.center_enu).cwiseAbs().maxCoeff() <= SiteReach(s, options)) {
+        ++within;
+        break;
+      }
+    }
+  }
+  EXPECT_EQ(kept.points.size(), within);
+  const std::vector<Eigen::Vector2d> stems = {
+      {0.31, 0.41}, {0.92, 1.01}, {1.05, 1.2}, {1.7, 1.6}, {1.95, 0.2}};
+  for (const CanopyTop top : {CanopyTop::kPlantTops, CanopyTop::kCrownPeaks}) {
+    options.top = top;
+    for (const io::Site& site : sites) {
+      SCOPED_TRACE(site.center_enu.transpose());
+      const SiteCanopy whole = MeasureSite(cloud, Truth(), site, options, &stems);
+      const SiteCanopy part = MeasureSite(kept, Truth(), site, options, &stems);
+      EXPECT_EQ(part.n_cells, whole.n_cells);
+      EXPECT_EQ(part.n_points, whole.n_points);
+      EXPECT_EQ(part.n_peaks, whole.n_peaks);
+      EXPECT_EQ(part.note, whole.note);
+      EXPECT_TRUE(part.height_m == whole.height_m ||
+                  (std::isnan(part.height_m) && std::isnan(whole.height_m)));
+      EXPECT_TRUE(part.cover == whole.cover || (std::isnan(part.cover) && std::isnan(whole.cover)));
+      const std::optional<GroundPlane> a =
+          FitSiteGroundPlane(cloud.AsGround(), site.center_enu, site.radius_m, PlaneOptions{});
+      const std::optional<GroundPlane> b =
+          FitSiteGroundPlane(kept.AsGround(), site.center_enu, site.radius_m, PlaneOptions{});
+      ASSERT_EQ(a.has_value(), b.has_value());
+      if (a) {
+        EXPECT_EQ(a->a, b->a);
+        EXPECT_EQ(a->inliers, b->inliers);
+      }
+    }
+  }
+  EXPECT_TRUE(SitePoints(cloud, {}, options).points.empty());
+}
+
 TEST(MeasureSiteTest, LowGreenPointsAreNotCanopy) {
   // Green points 1 cm above the ground (moss, misclassified soil) stay below min_height_m.
   SessionCloud cloud = BoxField({}, 4);

@@ -49,23 +49,21 @@ SiteSeries MeasureSiteSeries(const std::vector<SessionCloud>& clouds,
   return series;
 }
 
-std::vector<SiteResult> MeasureSeasonSites(
-    const std::vector<io::Site>& sites, const std::vector<SeasonSession>& sessions,
-    const std::vector<SessionCloud>& clouds, const GroundFunction& ground,
-    const Eigen::AlignedBox2d& area, const std::vector<io::RowDeclaration>& rows,
-    const CanopyOptions& canopy, const PlantDetectionOptions& plant_options,
-    const PlaneOptions& plane, std::vector<std::size_t>* plants_found) {
-  CROP4D_CHECK(clouds.size() == sessions.size());
-  // Plants: islands of canopy in each session; young plants are separate islands.
-  std::vector<std::vector<DetectedPlant>> detected(clouds.size());
-  tbb::parallel_for(std::size_t{0}, clouds.size(), [&](std::size_t k) {
-    detected[k] = PlantsOnRows(DetectPlants(clouds[k], ground, area, canopy, plant_options), rows,
-                               plant_options);
-  });
-  if (plants_found != nullptr) {
-    plants_found->clear();
-    for (const auto& found : detected) plants_found->push_back(found.size());
-  }
+std::vector<DetectedPlant> SessionPlants(const SessionCloud& cloud, const GroundFunction& ground,
+                                         const Eigen::AlignedBox2d& area,
+                                         const std::vector<io::RowDeclaration>& rows,
+                                         const CanopyOptions& canopy,
+                                         const PlantDetectionOptions& plants) {
+  return PlantsOnRows(DetectPlants(cloud, ground, area, canopy, plants), rows, plants);
+}
+
+std::vector<SiteResult> MeasureSeasonSites(const std::vector<io::Site>& sites,
+                                           const std::vector<SeasonSession>& sessions,
+                                           const std::vector<SessionCloud>& clouds,
+                                           const std::vector<std::vector<DetectedPlant>>& detected,
+                                           const GroundFunction& ground,
+                                           const CanopyOptions& canopy, const PlaneOptions& plane) {
+  CROP4D_CHECK(clouds.size() == sessions.size() && detected.size() == sessions.size());
   std::vector<bool> trusted;
   for (const SeasonSession& s : sessions) trusted.push_back(s.trusted);
   std::vector<SiteResult> results(sites.size() * clouds.size());

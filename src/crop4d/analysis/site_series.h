@@ -63,16 +63,23 @@ struct SeasonSession {
   bool trusted = true;
 };
 
-// Every site in every session: plants found in each session (DetectPlants over `area`, those
-// off the declared `rows` left out: PlantsOnRows), then MeasureSiteSeries per site. Site-major:
-// result i * sessions.size() + k is site i in session k. `plants_found` (if given) gets the number
-// of plants found per session.
-std::vector<SiteResult> MeasureSeasonSites(
-    const std::vector<io::Site>& sites, const std::vector<SeasonSession>& sessions,
-    const std::vector<SessionCloud>& clouds, const GroundFunction& ground,
-    const Eigen::AlignedBox2d& area, const std::vector<io::RowDeclaration>& rows,
-    const CanopyOptions& canopy, const PlantDetectionOptions& plants, const PlaneOptions& plane,
-    std::vector<std::size_t>* plants_found = nullptr);
+// The plants of one session for the sites: DetectPlants over `area`, those off the declared
+// `rows` left out (PlantsOnRows).
+std::vector<DetectedPlant> SessionPlants(const SessionCloud& cloud, const GroundFunction& ground,
+                                         const Eigen::AlignedBox2d& area,
+                                         const std::vector<io::RowDeclaration>& rows,
+                                         const CanopyOptions& canopy,
+                                         const PlantDetectionOptions& plants);
+
+// Every site in every session: MeasureSiteSeries per site. `clouds` hold each session's points
+// at the sites at least (SitePoints), `plants` its SessionPlants. Site-major: result
+// i * sessions.size() + k is site i in session k.
+std::vector<SiteResult> MeasureSeasonSites(const std::vector<io::Site>& sites,
+                                           const std::vector<SeasonSession>& sessions,
+                                           const std::vector<SessionCloud>& clouds,
+                                           const std::vector<std::vector<DetectedPlant>>& plants,
+                                           const GroundFunction& ground,
+                                           const CanopyOptions& canopy, const PlaneOptions& plane);
 
 // A growth curve per site (FitGrowth) over the trusted sessions' heights above the DTM, days
 // since the first session; `results` as MeasureSeasonSites returns them.

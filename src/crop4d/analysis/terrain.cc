@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <deque>
 #include <limits>
 #include <random>
@@ -116,29 +117,55 @@ NodeFit FitNode(const Eigen::Vector2d& node, const std::vector<Eigen::Vector3d>&
   return fit;
 }
 
-// One point per `cell` × `cell` square (the one of median height); all when cell <= 0.
-std::vector<Eigen::Vector3d> Thin(const std::vector<Eigen::Vector3d>& points, double cell) {
-  if (cell <= 0.0 || points.empty()) return points;
+void Append(const WeightedPoints& from, WeightedPoints* to) {
+  to->points.insert(to->points.end(), from.points.begin(), from.points.end());
+  to->weights.insert(to->weights.end(), from.weights.begin(), from.weights.end());
+}
+
+WeightedPoints Unweighted(std::vector<Eigen::Vector3d> points) {
+  WeightedPoints out;
+  out.weights.assign(points.size(), 1);
+  out.points = std::move(points);
+  return out;
+}
+
+// One point per `cell` × `cell` square: the weighted median by height (the lowest whose
+// cumulative weight passes half the cell's; with unit weights the middle point, the upper of the
+// two middle ones of an even count), standing for the cell's total weight. All when cell <= 0.
+// Thinning each session's points and then their union with these weights gives nearly the median
+// of all the sessions' points, without holding them.
+WeightedPoints Thin(const WeightedPoints& in, double cell) {
+  if (cell <= 0.0 || in.points.empty()) return in;
   struct Entry {
     std::int64_t key;
     double z;
     std::uint32_t index;
   };
   std::vector<Entry> entries;
-  entries.reserve(points.size());
-  for (std::uint32_t i = 0; i < points.size(); ++i) {
-    const std::int64_t cx = static_cast<std::int64_t>(std::floor(points[i].x() / cell));
-    const std::int64_t cy = static_cast<std::int64_t>(std::floor(points[i].y() / cell));
-    entries.push_back({(cx << 32) ^ (cy & 0xffffffffLL), points[i].z(), i});
+  entries.reserve(in.points.size());
+  for (std::uint32_t i = 0; i < in.points.size(); ++i) {
+    const Eigen::Vector3d& p = in.points[i];
+    const std::int64_t cx = static_cast<std::int64_t>(std::floor(p.x() / cell));
+    const std::int64_t cy = static_cast<std::int64_t>(std::floor(p.y() / cell));
+    entries.push_back({(cx << 32) ^ (cy & 0xffffffffLL), p.z(), i});
   }
   std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
     return a.key != b.key ? a.key < b.key : (a.z != b.z ? a.z < b.z : a.index < b.index);
   });
-  std::vector<Eigen::Vector3d> out;
+  WeightedPoints out;
   for (std::size_t b = 0; b < entries.size();) {
     std::size_t e = b;
-    while (e < entries.size() && entries[e].key == entries[b].key) ++e;
-    out.push_back(points[entries[b + (e - b) / 2].index]);
+    std::uint64_t total = 0;
+    for (; e < entries.size() && entries[e].key == entries[b].key; ++e) {
+      total += in.weights[entries[e].index];
+    }
+    std::size_t m = b;
+    for (std::uint64_t below = 0; m + 1 < e; ++m) {
+      below += in.weights[entries[m].index];
+      if (2 * below > total) break;
+    }
+    out.points.push_back(in.points[entries[m].index]);
+    out.weights.push_back(static_cast<std::uint32_t>(std::min<std::uint64_t>(total, UINT32_MAX)));
     b = e;
   }
   return out;
@@ -290,63 +317,65 @@ OptionCheck TerrainOptions::Check() const {
   return c.Result();
 }
 
-TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
-                          const Eigen::AlignedBox2d& bounds, const TerrainOptions& options,
-                          TerrainSummary* summary) {
-  CROP4D_CHECK_OPTIONS(options, "BuildTerrain");
+TerrainBuilder::TerrainBuilder(const Eigen::AlignedBox2d& bounds, const TerrainOptions& options)
+    : options_(options) {
+  CROP4D_CHECK_OPTIONS(options_, "TerrainBuilder");
+  grid_ = GridSpec::Covering(bounds, options_.cell_m);
+  summary_.nodes = grid_.size();
+  reach_ = bounds;
+  reach_.extend(bounds.min() - Eigen::Vector2d::Constant(options_.fit_radius_m));
+  reach_.extend(bounds.max() + Eigen::Vector2d::Constant(options_.fit_radius_m));
+}
+
+void TerrainBuilder::AddSession(const GroundCloud& c) {
+  if (c.points == nullptr || c.points->empty()) return;
+  if (have_first_ && !options_.use_later_sessions) return;
   const auto t0 = std::chrono::steady_clock::now();
-  TerrainSummary s;
-  const GridSpec grid = GridSpec::Covering(bounds, options.cell_m);
-  s.nodes = grid.size();
-  Eigen::AlignedBox2d reach = bounds;
-  reach.extend(bounds.min() - Eigen::Vector2d::Constant(options.fit_radius_m));
-  reach.extend(bounds.max() + Eigen::Vector2d::Constant(options.fit_radius_m));
-
-  // The earliest session with points gives the first ground.
-  std::size_t first = 0;
-  while (first < sessions.size() &&
-         (sessions[first].points == nullptr || sessions[first].points->empty())) {
-    ++first;
-  }
-  std::vector<Eigen::Vector3d> ground;
-  if (first < sessions.size()) {
-    ground = GroundCandidates(sessions[first], reach, options);
-  }
-  ground = Thin(ground, options.thin_cell_m);
-  s.ground_points_first = ground.size();
-  std::vector<float> scales;
-  std::vector<float> heights = FitAllNodes(grid, ground, options, &scales);
-
-  if (options.use_later_sessions && first + 1 < sessions.size()) {
+  if (!have_first_) {
+    // The earliest session with points gives the first ground.
+    have_first_ = true;
+    ground_ = Thin(Unweighted(GroundCandidates(c, reach_, options_)), options_.thin_cell_m);
+    summary_.ground_points_first = ground_.points.size();
+    first_heights_ = FitAllNodes(grid_, ground_.points, options_, &first_scales_);
+  } else {
     // Where the first model is unknown (the first session did not see the ground there), a
     // later soil point is taken on the clearance test alone.
-    const TerrainModel model(grid, heights);
-    for (std::size_t k = first + 1; k < sessions.size(); ++k) {
-      const GroundCloud& c = sessions[k];
-      if (c.points == nullptr || c.points->empty()) continue;
-      std::vector<Eigen::Vector3d> vegetation;
-      for (std::size_t i = 0; i < c.points->size(); ++i) {
-        if (IsVegetation(c, i)) vegetation.push_back((*c.points)[i]);
-      }
-      const double clearance = std::max(options.vegetation_clearance_m, 1e-3);
-      const PointBuckets veg_buckets(vegetation, clearance);
-      for (const Eigen::Vector3d& p : GroundCandidates(c, reach, options)) {
-        const double z = model.Height(p.x(), p.y());
-        if (std::isfinite(z) && std::abs(p.z() - z) > options.later_tolerance_m) continue;
-        if (options.vegetation_clearance_m > 0.0 &&
-            veg_buckets.Any(p.head<2>(), options.vegetation_clearance_m, vegetation)) {
-          continue;
-        }
-        ground.push_back(p);
-        ++s.ground_points_later;
-      }
+    const TerrainModel model(grid_, first_heights_);
+    std::vector<Eigen::Vector3d> vegetation;
+    for (std::size_t i = 0; i < c.points->size(); ++i) {
+      if (IsVegetation(c, i)) vegetation.push_back((*c.points)[i]);
     }
-    if (s.ground_points_later > 0) {
-      ground = Thin(ground, options.thin_cell_m);
-      heights = FitAllNodes(grid, ground, options, &scales);
+    const double clearance = std::max(options_.vegetation_clearance_m, 1e-3);
+    const PointBuckets veg_buckets(vegetation, clearance);
+    std::vector<Eigen::Vector3d> accepted;
+    for (const Eigen::Vector3d& p : GroundCandidates(c, reach_, options_)) {
+      const double z = model.Height(p.x(), p.y());
+      if (std::isfinite(z) && std::abs(p.z() - z) > options_.later_tolerance_m) continue;
+      if (options_.vegetation_clearance_m > 0.0 &&
+          veg_buckets.Any(p.head<2>(), options_.vegetation_clearance_m, vegetation)) {
+        continue;
+      }
+      accepted.push_back(p);
     }
+    const WeightedPoints thinned = Thin(Unweighted(std::move(accepted)), options_.thin_cell_m);
+    summary_.ground_points_later += thinned.points.size();
+    Append(thinned, &ground_);
   }
+  seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
+TerrainModel TerrainBuilder::Finish(TerrainSummary* summary) {
+  const auto t0 = std::chrono::steady_clock::now();
+  TerrainSummary s = summary_;
+  std::vector<float> heights = std::move(first_heights_);
+  std::vector<float> scales = std::move(first_scales_);
+  if (!have_first_) {
+    heights.assign(grid_.size(), kNaN);
+    scales.assign(grid_.size(), kNaN);
+  } else if (s.ground_points_later > 0) {
+    heights = FitAllNodes(grid_, Thin(ground_, options_.thin_cell_m).points, options_, &scales);
+  }
+  ground_ = WeightedPoints();
   std::vector<double> fitted_scales;
   for (std::size_t k = 0; k < heights.size(); ++k) {
     if (std::isfinite(heights[k])) {
@@ -355,10 +384,19 @@ TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
     }
   }
   s.residual_scale_m = fitted_scales.empty() ? 0.0 : Median(fitted_scales);
-  s.nodes_filled = FillHoles(grid, options.max_fill_distance_m, &heights);
-  s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s.nodes_filled = FillHoles(grid_, options_.max_fill_distance_m, &heights);
+  s.seconds =
+      seconds_ + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (summary) *summary = s;
-  return TerrainModel(grid, std::move(heights));
+  return TerrainModel(grid_, std::move(heights));
+}
+
+TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
+                          const Eigen::AlignedBox2d& bounds, const TerrainOptions& options,
+                          TerrainSummary* summary) {
+  TerrainBuilder builder(bounds, options);
+  for (const GroundCloud& c : sessions) builder.AddSession(c);
+  return builder.Finish(summary);
 }
 
 OptionCheck PlaneOptions::Check() const {

@@ -21,9 +21,12 @@
 // of the soil is visible. Later sessions then add their ground points where the vegetation does
 // not cover them: points that the colour test calls soil, that lie within
 // `later_tolerance_m` of the first model, and that have no vegetation point of their own
-// session within `vegetation_clearance_m`. The model is fitted again with all of them. Holes
-// (nodes without enough surrounding points) are filled by harmonic interpolation from their
-// neighbours up to `max_fill_distance_m` from a fitted node, and stay NaN beyond.
+// session within `vegetation_clearance_m`, each session's thinned to one per cell of
+// `thin_cell_m` (its median, weighted by the points it stands for when the sessions are thinned
+// together), so that a session can be added and its cloud freed (TerrainBuilder). The model is
+// fitted again with all of them. Holes (nodes without enough surrounding points) are filled by
+// harmonic interpolation from their neighbours up to `max_fill_distance_m` from a fitted node, and
+// stay NaN beyond.
 //
 // Points are given as GroundCloud (one per session, time order), with a vegetation flag per
 // point from analysis/vegetation.h.
@@ -120,8 +123,8 @@ struct TerrainOptions {
 };
 
 struct TerrainSummary {
-  std::size_t ground_points_first = 0;  // ground points of the earliest session
-  std::size_t ground_points_later = 0;  // ground points added from later sessions
+  std::size_t ground_points_first = 0;  // ground points of the earliest session, thinned
+  std::size_t ground_points_later = 0;  // ground points added by later sessions, each thinned
   std::size_t nodes = 0;                // nodes of the grid
   std::size_t nodes_fitted = 0;         // nodes with a surface fit
   std::size_t nodes_filled = 0;         // nodes filled by interpolation
@@ -129,8 +132,46 @@ struct TerrainSummary {
   double seconds = 0.0;
 };
 
-// Fits the DTM over `bounds` from `sessions` (time order; the first is the earliest). Sessions
-// without points are skipped; with no ground points at all the model has no value anywhere.
+// Points, each standing for `weights` points (the count of the cell it was thinned from).
+struct WeightedPoints {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::uint32_t> weights;  // one per point
+};
+
+// Builds the DTM over `bounds` one session at a time, so that no session's cloud needs to stay
+// in memory after it was added: the earliest session with points fits the first model; each
+// later session's ground points (soil, near the first model, clear of its own vegetation) are
+// thinned to one per `thin_cell_m` cell of that session (the cell's median) and kept with the
+// number of points it stands for; Finish thins the first session's and the later sessions' kept
+// points together (the median weighted by those numbers: nearly the median of all their points)
+// and fits again. What is kept grows with the sessions by at most one point per cell of soil per
+// session (28 bytes per 2 × 2 cm).
+class TerrainBuilder {
+ public:
+  TerrainBuilder(const Eigen::AlignedBox2d& bounds, const TerrainOptions& options);
+
+  // Adds the next session (time order). A session without points is skipped; so is every
+  // session after the first when options.use_later_sessions is false.
+  void AddSession(const GroundCloud& session);
+  // The model of the sessions added. Call once.
+  TerrainModel Finish(TerrainSummary* summary = nullptr);
+
+ private:
+  TerrainOptions options_;
+  GridSpec grid_;
+  Eigen::AlignedBox2d reach_;  // bounds + fit radius: the points any node's fit can use
+  bool have_first_ = false;
+  // The first session's thinned ground points, then the later ones'.
+  WeightedPoints ground_;
+  std::vector<float> first_heights_;  // the first model's nodes
+  std::vector<float> first_scales_;
+  TerrainSummary summary_;
+  double seconds_ = 0.0;
+};
+
+// Fits the DTM over `bounds` from `sessions` (time order; the first is the earliest) with a
+// TerrainBuilder. Sessions without points are skipped; with no ground points at all the model
+// has no value anywhere.
 TerrainModel BuildTerrain(const std::vector<GroundCloud>& sessions,
                           const Eigen::AlignedBox2d& bounds, const TerrainOptions& options,
                           TerrainSummary* summary = nullptr);

@@ -140,6 +140,41 @@ TEST(BuildTerrainTest, LaterSessionsFillHolesWithUncoveredSoil) {
   EXPECT_NEAR(b.Height(2.5, 1.5), BedHeight(2.5, 1.5), 0.005);
 }
 
+// A session added to a TerrainBuilder can be freed: what the builder keeps of each later
+// session is at most one point per thinning cell, however dense the session's cloud, and the
+// model stays on the ground.
+TEST(TerrainBuilderTest, KeepsAtMostOnePointPerCellOfEachLaterSession) {
+  std::mt19937_64 rng(5);
+  const Eigen::AlignedBox2d all(Eigen::Vector2d(0, 0), Eigen::Vector2d(2, 2));
+  const Eigen::AlignedBox2d bounds(Eigen::Vector2d(0.3, 0.3), Eigen::Vector2d(1.7, 1.7));
+  TerrainOptions options;
+  TerrainBuilder builder(bounds, options);
+  std::vector<Eigen::Vector3d> first;
+  std::vector<std::uint8_t> first_veg;
+  SampleGround(all, 2000, 0.002, &rng, &first, &first_veg);
+  builder.AddSession({&first, &first_veg});
+  // Three later sessions of 40 000 points per m², 16 per 2 cm cell: each is freed once added.
+  const double cells = (1.4 + 2 * options.fit_radius_m) * (1.4 + 2 * options.fit_radius_m) /
+                       (options.thin_cell_m * options.thin_cell_m);
+  for (int k = 0; k < 3; ++k) {
+    std::vector<Eigen::Vector3d> later;
+    std::vector<std::uint8_t> later_veg;
+    SampleGround(all, 40000, 0.002, &rng, &later, &later_veg);
+    builder.AddSession({&later, &later_veg});
+  }
+  TerrainSummary summary;
+  const TerrainModel dtm = builder.Finish(&summary);
+  EXPECT_GT(summary.ground_points_later, 2.0 * cells);
+  EXPECT_LE(summary.ground_points_later, 3.0 * (cells + 2 * (1.8 / options.thin_cell_m) + 1));
+  double worst = 0.0;
+  for (double x = 0.35; x < 1.65; x += 0.1) {
+    for (double y = 0.35; y < 1.65; y += 0.1) {
+      worst = std::max(worst, std::abs(dtm.Height(x, y) - BedHeight(x, y)));
+    }
+  }
+  EXPECT_LT(worst, 0.003);
+}
+
 // A late session alone (the earliest one missing or left out): the canopy hides the bed crests,
 // and soil-coloured points (shaded leaves, stems) lie at its height. The ground filter keeps them
 // out, and the crests are fitted from the soil on both sides.

@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
@@ -11,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "crop4d/analysis/lone_points.h"
@@ -38,8 +38,9 @@ using json = nlohmann::json;
 
 // Bump when the stage's outputs change for the same inputs and options.
 // 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out;
-// 5: ground filter; 6: Cloud-Optimized GeoTIFFs and the height-change rasters.
-constexpr int kAnalyzeStageRevision = 6;
+// 5: ground filter; 6: Cloud-Optimized GeoTIFFs and the height-change rasters; 7: the sessions
+// read one at a time, the later sessions' ground points thinned per session.
+constexpr int kAnalyzeStageRevision = 7;
 
 // A session to analyse: its id, date and cloud.
 struct SessionInput {
@@ -173,44 +174,59 @@ std::size_t DropLonePoints(double radius_m, analysis::SessionCloud* cloud) {
   return flags.size() - kept;
 }
 
-// Step 1: every session's cloud within the area, lone points of dense clouds left out, its
-// points classified as vegetation or not; their statistics into `sessions`.
-std::vector<analysis::SessionCloud> LoadSessions(const std::vector<SessionInput>& inputs,
-                                                 const Eigen::AlignedBox2d& area,
-                                                 const workspace::Layout& ws,
-                                                 const AnalyzeStageOptions& options,
-                                                 std::vector<AnalyzeSessionReport>* sessions) {
-  std::vector<analysis::SessionCloud> clouds(inputs.size());
-  sessions->resize(inputs.size());
-  tbb::parallel_for(std::size_t{0}, inputs.size(), [&](std::size_t k) {
-    clouds[k] = LoadCloud(inputs[k], area);
-    std::size_t lone = 0;
-    if (inputs[k].dense && options.lone_point_radius_m > 0) {
-      lone = DropLonePoints(options.lone_point_radius_m, &clouds[k]);
-    }
-    analysis::VegetationClassification veg =
-        analysis::ClassifyVegetation(clouds[k].colors, options.vegetation);
-    clouds[k].is_vegetation = veg.is_vegetation;
-    veg.is_vegetation.clear();
-    veg.index.clear();
-    AnalyzeSessionReport& r = (*sessions)[k];
-    r.session = inputs[k].id;
-    r.date = inputs[k].date;
-    r.cloud_path = fs::relative(inputs[k].cloud, ws.root()).string();
-    r.dense = inputs[k].dense;
-    r.points = clouds[k].points.size();
-    r.lone_points = lone;
-    r.vegetation = std::move(veg);
-  });
-  for (const AnalyzeSessionReport& r : *sessions) {
+// One session's cloud within the area, lone points of a dense cloud left out, its points
+// classified as vegetation or not; their statistics into `report`.
+analysis::SessionCloud LoadSession(const SessionInput& input, const Eigen::AlignedBox2d& area,
+                                   const workspace::Layout& ws, const AnalyzeStageOptions& options,
+                                   AnalyzeSessionReport* report) {
+  analysis::SessionCloud cloud = LoadCloud(input, area);
+  std::size_t lone = 0;
+  if (input.dense && options.lone_point_radius_m > 0) {
+    lone = DropLonePoints(options.lone_point_radius_m, &cloud);
+  }
+  analysis::VegetationClassification veg =
+      analysis::ClassifyVegetation(cloud.colors, options.vegetation);
+  cloud.is_vegetation = std::move(veg.is_vegetation);
+  veg.is_vegetation.clear();
+  veg.index.clear();
+  veg.index.shrink_to_fit();
+  report->session = input.id;
+  report->date = input.date;
+  report->cloud_path = fs::relative(input.cloud, ws.root()).string();
+  report->dense = input.dense;
+  report->points = cloud.points.size();
+  report->lone_points = lone;
+  report->vegetation = std::move(veg);
+  return cloud;
+}
+
+// Step 1, the first pass over the clouds, a session at a time in date order (a session's cloud
+// is freed before the next is read): the sessions' statistics, the terrain from the trusted
+// sessions' ground points, and each session's points at the sites.
+analysis::TerrainModel FirstPass(const std::vector<SessionInput>& inputs,
+                                 const std::vector<analysis::SeasonSession>& sessions,
+                                 const std::vector<io::Site>& sites,
+                                 const Eigen::AlignedBox2d& area, const workspace::Layout& ws,
+                                 const AnalyzeStageOptions& options,
+                                 std::vector<analysis::SessionCloud>* site_clouds,
+                                 AnalyzeReport* report) {
+  report->sessions.resize(inputs.size());
+  site_clouds->resize(inputs.size());
+  analysis::TerrainBuilder terrain(area, options.terrain);
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    const analysis::SessionCloud cloud =
+        LoadSession(inputs[k], area, ws, options, &report->sessions[k]);
+    const AnalyzeSessionReport& r = report->sessions[k];
     spdlog::info(
         "analyze: {} {} cloud, {} points in the area ({} lone points left out), "
         "{:.1f}% vegetation (ExG > {:.3f})",
         r.session, r.dense ? "dense" : "sparse", r.points, r.lone_points,
         100.0 * r.vegetation.num_vegetation / std::max<std::size_t>(1, r.points),
         r.vegetation.threshold);
+    if (sessions[k].trusted) terrain.AddSession(cloud.AsGround());
+    (*site_clouds)[k] = analysis::SitePoints(cloud, sites, options.canopy);
   }
-  return clouds;
+  return terrain.Finish(&report->terrain);
 }
 
 // Says how many plant tops each session's successor bounded (CanopyOptions::max_shrink_m): a
@@ -271,39 +287,84 @@ std::function<std::ptrdiff_t(const Eigen::Vector2d&)> UtmCellOf(const io::FieldU
   };
 }
 
-// Step 5 (rasters): the terrain model, every session's canopy height model and the change of
-// the canopy height from each session to the next (dates in order), on one UTM grid. Only the
-// previous CHM is kept in memory.
-void WriteRasters(const io::FieldInfo& info, const Eigen::AlignedBox2d& area,
-                  const analysis::TerrainModel& dtm,
-                  const std::vector<analysis::SeasonSession>& sessions,
-                  const std::vector<analysis::SessionCloud>& clouds,
-                  const AnalyzeStageOptions& options, const workspace::Layout& ws,
-                  std::vector<std::string>* outputs) {
-  const io::FieldUtm utm(info.origin);
-  const io::UtmGrid grid = utm.GridCovering(area, options.raster_cell_m);
-  const std::vector<Eigen::Vector2d> centres = utm.EnuCellCentres(grid);
-  std::vector<float> heights(centres.size());
-  for (std::size_t c = 0; c < centres.size(); ++c) {
-    heights[c] = static_cast<float>(dtm.Height(centres[c].x(), centres[c].y()) + info.origin.alt_m);
-  }
-  workspace::WriteDtm(ws, info.name, grid, heights);
-  outputs->push_back(WorkspaceRelative(ws, ws.Dtm()));
-  const auto cell_of = UtmCellOf(utm, grid);
-  const analysis::GroundFunction ground = [&](double x, double y) { return dtm.Height(x, y); };
-  std::vector<float> previous;
-  for (std::size_t k = 0; k < clouds.size(); ++k) {
-    std::vector<float> chm =
-        analysis::CanopyHeightModel(clouds[k], ground, grid.num_cells(), cell_of, options.canopy);
-    workspace::WriteChm(ws, info.name, grid, sessions[k], chm);
-    outputs->push_back(WorkspaceRelative(ws, ws.Chm(sessions[k].id)));
-    if (k > 0) {
-      workspace::WriteChmChange(ws, info.name, grid, sessions[k - 1], sessions[k],
-                                io::RasterDifference(chm, previous));
-      outputs->push_back(WorkspaceRelative(ws, ws.ChmChange(sessions[k - 1].id, sessions[k].id)));
+// The rasters (step 3): the terrain model, every session's canopy height model and the change
+// of the canopy height from each session to the next (dates in order), on one UTM grid. Sessions
+// are added in date order; only the previous CHM is kept.
+class RasterWriter {
+ public:
+  RasterWriter(const io::FieldInfo& info, const Eigen::AlignedBox2d& area,
+               const analysis::TerrainModel& dtm, const AnalyzeStageOptions& options,
+               const workspace::Layout& ws)
+      : info_(info),
+        utm_(info.origin),
+        grid_(utm_.GridCovering(area, options.raster_cell_m)),
+        cell_of_(UtmCellOf(utm_, grid_)),
+        dtm_(dtm),
+        options_(options),
+        ws_(ws) {
+    const std::vector<Eigen::Vector2d> centres = utm_.EnuCellCentres(grid_);
+    std::vector<float> heights(centres.size());
+    for (std::size_t c = 0; c < centres.size(); ++c) {
+      heights[c] =
+          static_cast<float>(dtm.Height(centres[c].x(), centres[c].y()) + info.origin.alt_m);
     }
-    previous = std::move(chm);
+    workspace::WriteDtm(ws, info.name, grid_, heights);
+    outputs_.push_back(WorkspaceRelative(ws, ws.Dtm()));
   }
+
+  void AddSession(const analysis::SeasonSession& session, const analysis::SessionCloud& cloud) {
+    const analysis::GroundFunction ground = [&](double x, double y) { return dtm_.Height(x, y); };
+    std::vector<float> chm =
+        analysis::CanopyHeightModel(cloud, ground, grid_.num_cells(), cell_of_, options_.canopy);
+    workspace::WriteChm(ws_, info_.name, grid_, session, chm);
+    outputs_.push_back(WorkspaceRelative(ws_, ws_.Chm(session.id)));
+    if (previous_session_) {
+      workspace::WriteChmChange(ws_, info_.name, grid_, *previous_session_, session,
+                                io::RasterDifference(chm, previous_));
+      outputs_.push_back(WorkspaceRelative(ws_, ws_.ChmChange(previous_session_->id, session.id)));
+    }
+    previous_ = std::move(chm);
+    previous_session_ = session;
+  }
+
+  const std::vector<std::string>& outputs() const { return outputs_; }
+
+ private:
+  const io::FieldInfo& info_;
+  io::FieldUtm utm_;
+  io::UtmGrid grid_;
+  std::function<std::ptrdiff_t(const Eigen::Vector2d&)> cell_of_;
+  const analysis::TerrainModel& dtm_;
+  const AnalyzeStageOptions& options_;
+  const workspace::Layout& ws_;
+  std::vector<float> previous_;
+  std::optional<analysis::SeasonSession> previous_session_;
+  std::vector<std::string> outputs_;
+};
+
+// Step 3, the second pass over the clouds, a session at a time, now that the terrain is known:
+// each session's plants (returned) and, when asked, its rasters (their paths into
+// `raster_outputs`).
+std::vector<std::vector<analysis::DetectedPlant>> SecondPass(
+    const std::vector<SessionInput>& inputs, const std::vector<analysis::SeasonSession>& sessions,
+    const io::FieldInfo& info, const Eigen::AlignedBox2d& area, const analysis::TerrainModel& dtm,
+    const workspace::Layout& ws, const AnalyzeStageOptions& options,
+    std::vector<std::string>* raster_outputs) {
+  std::optional<RasterWriter> rasters;
+  if (options.write_rasters) rasters.emplace(info, area, dtm, options, ws);
+  const analysis::GroundFunction ground = [&](double x, double y) { return dtm.Height(x, y); };
+  std::vector<std::vector<analysis::DetectedPlant>> plants(inputs.size());
+  for (std::size_t k = 0; k < inputs.size(); ++k) {
+    AnalyzeSessionReport again;  // the same as the first pass's
+    const analysis::SessionCloud cloud = LoadSession(inputs[k], area, ws, options, &again);
+    plants[k] =
+        analysis::SessionPlants(cloud, ground, area, info.rows, options.canopy, options.plants);
+    if (rasters) rasters->AddSession(sessions[k], cloud);
+    spdlog::info("analyze: {}: {} plants found{}", inputs[k].id, plants[k].size(),
+                 rasters ? ", its canopy rasters written" : "");
+  }
+  if (rasters) *raster_outputs = rasters->outputs();
+  return plants;
 }
 
 // The stage's record (written last: its fingerprint marks a complete run).
@@ -389,18 +450,11 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
     fs::remove_all(ws.AnalysisDir());
   }
 
-  // 1. Clouds and vegetation.
+  // 1. Clouds, vegetation, terrain and the points at the sites.
   const Eigen::AlignedBox2d area = analysis::AnalysedArea(field.info(), sites, options.margin_m);
-  const std::vector<analysis::SessionCloud> clouds =
-      LoadSessions(inputs, area, ws, options, &report.sessions);
-
-  // 2. Terrain.
-  std::vector<analysis::GroundCloud> ground;
-  for (std::size_t k = 0; k < clouds.size(); ++k) {
-    ground.push_back(sessions[k].trusted ? clouds[k].AsGround() : analysis::GroundCloud{});
-  }
+  std::vector<analysis::SessionCloud> site_clouds;
   const analysis::TerrainModel dtm =
-      analysis::BuildTerrain(ground, area, options.terrain, &report.terrain);
+      FirstPass(inputs, sessions, sites, area, ws, options, &site_clouds, &report);
   spdlog::info(
       "analyze: terrain {}×{} nodes of {:.0f} cm, {:.1f}% fitted, {:.1f}% filled, "
       "residual scale {:.1f} mm, {:.1f} s",
@@ -409,20 +463,23 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
       100.0 * report.terrain.nodes_filled / std::max<std::size_t>(1, report.terrain.nodes),
       1000 * report.terrain.residual_scale_m, report.terrain.seconds);
 
+  // 2. Plants and rasters (the clouds read again).
+  fs::create_directories(ws.AnalysisDir());
+  std::vector<std::string> raster_outputs;
+  const std::vector<std::vector<analysis::DetectedPlant>> plants =
+      SecondPass(inputs, sessions, field.info(), area, dtm, ws, options, &raster_outputs);
+  for (std::size_t k = 0; k < plants.size(); ++k) report.sessions[k].plants = plants[k].size();
+
   // 3. Sites: ours above the DTM, the paper's above one plane per site.
   const analysis::GroundFunction dtm_ground = [&](double x, double y) { return dtm.Height(x, y); };
-  std::vector<std::size_t> plants_found;
-  report.sites =
-      analysis::MeasureSeasonSites(sites, sessions, clouds, dtm_ground, area, field.info().rows,
-                                   options.canopy, options.plants, options.plane, &plants_found);
-  for (std::size_t k = 0; k < clouds.size(); ++k) report.sessions[k].plants = plants_found[k];
+  report.sites = analysis::MeasureSeasonSites(sites, sessions, site_clouds, plants, dtm_ground,
+                                              options.canopy, options.plane);
   LogLoweredTops(sessions, options, &report);
 
   // 4. Growth: days since the first session.
   report.growth = analysis::FitSeasonGrowth(sites, sessions, report.sites, options.growth);
 
   // 5. Outputs.
-  fs::create_directories(ws.AnalysisDir());
   workspace::WriteSiteHeights(ws.SiteHeights(), workspace::SiteHeightRows(report.sites, true));
   workspace::WriteSiteHeights(ws.SiteHeightsSinglePlane(),
                               workspace::SiteHeightRows(report.sites, false));
@@ -432,9 +489,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
        {ws.SiteHeights(), ws.SiteHeightsSinglePlane(), ws.SitePlants(), ws.Growth()}) {
     report.outputs.push_back(WorkspaceRelative(ws, p));
   }
-  if (options.write_rasters) {
-    WriteRasters(field.info(), area, dtm, sessions, clouds, options, ws, &report.outputs);
-  }
+  report.outputs.insert(report.outputs.end(), raster_outputs.begin(), raster_outputs.end());
   if (options.write_plots) {
     const std::vector<std::string> plots =
         WriteHeightPlots(ws.PlotsDir(), sites, report.sites, inputs.size(),

@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <memory>
 #include <string_view>
 #include <unordered_map>
 #include <unordered_set>
@@ -44,7 +46,7 @@ std::vector<double> ColmapParams(const geometry::PinholeRadTan& c) {
 // Buffers formatted text and hands it to an AtomicFile stream in large pieces.
 class TextWriter {
  public:
-  explicit TextWriter(const std::string& path) : file_(path) {}
+  explicit TextWriter(const std::string& path) : path_(path), file_(path) {}
 
   template <typename... Args>
   void Print(fmt::format_string<Args...> format, Args&&... args) {
@@ -55,6 +57,22 @@ class TextWriter {
     Flush();
     file_.Commit();
   }
+  // Appends the file at `from` (read in blocks: it may be larger than memory).
+  void AppendFile(const std::string& from) {
+    Flush();
+    std::ifstream in(from, std::ios::binary);
+    if (!in) {
+      throw InputError(path_, 0,
+                       "cannot read the temporary file " + from + ": " + std::strerror(errno));
+    }
+    std::vector<char> block(1 << 20);
+    while (file_.stream()) {
+      in.read(block.data(), static_cast<std::streamsize>(block.size()));
+      if (in.gcount() == 0) break;
+      file_.stream().write(block.data(), in.gcount());
+    }
+    if (in.bad()) throw InputError(path_, 0, "cannot read the temporary file " + from);
+  }
 
  private:
   void Flush() {
@@ -62,6 +80,7 @@ class TextWriter {
     buffer_.clear();
   }
 
+  std::string path_;
   AtomicFile file_;
   fmt::memory_buffer buffer_;
 };
@@ -452,77 +471,264 @@ bool ColmapModel::Check(std::string* why) const {
   return true;
 }
 
-void WriteColmapText(const std::string& folder, const ColmapModel& model) {
-  for (const ColmapImage& image : model.images) {
-    if (image.name.empty() || HasWhitespace(image.name)) {
-      throw InputError(Join(folder, "images.txt"), 0,
-                       fmt::format("image {}: the name '{}' is empty or holds whitespace, which "
-                                   "COLMAP's text format cannot store",
-                                   image.image_id, image.name));
+namespace {
+
+// The files' parts, shared by WriteColmapText and ColmapTextWriter (the same bytes).
+
+void CheckImageName(const std::string& folder, const ColmapImage& image) {
+  if (image.name.empty() || HasWhitespace(image.name)) {
+    throw InputError(Join(folder, "images.txt"), 0,
+                     fmt::format("image {}: the name '{}' is empty or holds whitespace, which "
+                                 "COLMAP's text format cannot store",
+                                 image.image_id, image.name));
+  }
+}
+
+void WriteCamerasFile(const std::string& folder, const std::vector<ColmapCamera>& cameras) {
+  TextWriter out(Join(folder, "cameras.txt"));
+  out.Print("# Camera list with one line of data per camera:\n");
+  out.Print("#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n");
+  out.Print("# Number of cameras: {}\n", cameras.size());
+  out.Print(
+      "# crop4d: principal point in COLMAP's pixel convention (top-left pixel centre at "
+      "(0.5, 0.5))\n");
+  for (const ColmapCamera& c : cameras) {
+    out.Print("{} {} {} {}", c.camera_id, ColmapCameraModelName(c.intrinsics), c.intrinsics.width,
+              c.intrinsics.height);
+    for (double p : ColmapParams(c.intrinsics)) out.Print(" {}", p);
+    out.Print("\n");
+  }
+  out.Commit();
+}
+
+template <typename Writer>
+void PrintImagesHeader(std::size_t num_images, std::size_t num_observations, Writer* out) {
+  const double mean_observations =
+      num_images == 0 ? 0.0 : double(num_observations) / double(num_images);
+  out->Print("# Image list with two lines of data per image:\n");
+  out->Print("#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n");
+  out->Print("#   POINTS2D[] as (X, Y, POINT3D_ID)\n");
+  out->Print("# Number of images: {}, mean observations per image: {}\n", num_images,
+             mean_observations);
+  out->Print("# crop4d: pose = camera_from_world; 2D points in COLMAP's pixel convention\n");
+}
+
+template <typename Writer>
+void PrintImage(const ColmapImage& image, Writer* out) {
+  const geometry::Rigid3 camera_from_world = image.world_from_camera.Inverse();
+  const Eigen::Quaterniond& q = camera_from_world.rotation();
+  const Eigen::Vector3d& t = camera_from_world.translation();
+  out->Print("{} {} {} {} {} {} {} {} {} {}\n", image.image_id, q.w(), q.x(), q.y(), q.z(), t.x(),
+             t.y(), t.z(), image.camera_id, image.name);
+  for (std::size_t k = 0; k < image.points2d.size(); ++k) {
+    const ColmapPoint2D& p = image.points2d[k];
+    out->Print("{}{} {} {}", k == 0 ? "" : " ", p.xy.x() + kPixelOffset, p.xy.y() + kPixelOffset,
+               p.point3d_id);
+  }
+  out->Print("\n");
+}
+
+template <typename Writer>
+void PrintPointsHeader(std::size_t num_points, std::size_t track_sum, Writer* out) {
+  const double mean_track = num_points == 0 ? 0.0 : double(track_sum) / double(num_points);
+  out->Print("# 3D point list with one line of data per point:\n");
+  out->Print("#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n");
+  out->Print("# Number of points: {}, mean track length: {}\n", num_points, mean_track);
+}
+
+template <typename Writer>
+void PrintPoint(const ColmapPoint3D& p, Writer* out) {
+  out->Print("{} {} {} {} {} {} {} {}", p.point3d_id, p.xyz.x(), p.xyz.y(), p.xyz.z(),
+             int{p.rgb[0]}, int{p.rgb[1]}, int{p.rgb[2]}, p.error);
+  for (const ColmapTrackElement& e : p.track) out->Print(" {} {}", e.image_id, e.point2d_idx);
+  out->Print("\n");
+}
+
+// Buffers formatted text for a plain (temporary) file; Close() reports a failed write.
+class SpillWriter {
+ public:
+  SpillWriter(const std::string& path, const std::string& target) : path_(path), target_(target) {
+    file_.open(path_, std::ios::binary | std::ios::trunc);
+    if (!file_) {
+      throw InputError(target_, 0,
+                       "cannot create the temporary file " + path_ + ": " + std::strerror(errno));
     }
   }
+  template <typename... Args>
+  void Print(fmt::format_string<Args...> format, Args&&... args) {
+    fmt::format_to(std::back_inserter(buffer_), format, std::forward<Args>(args)...);
+    if (buffer_.size() > (1u << 20)) Flush();
+  }
+  void Write(const void* data, std::size_t size) {
+    const char* bytes = static_cast<const char*>(data);
+    buffer_.append(bytes, bytes + size);
+    if (buffer_.size() > (1u << 20)) Flush();
+  }
+  void Close() {
+    Flush();
+    file_.close();
+    if (file_.fail()) {
+      throw InputError(target_, 0, "cannot write the temporary file " + path_ + " (disk full?)");
+    }
+  }
+
+ private:
+  void Flush() {
+    file_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
+    buffer_.clear();
+  }
+
+  std::string path_, target_;
+  std::ofstream file_;
+  fmt::memory_buffer buffer_;
+};
+
+// One observation of a 3D point, as it waits in its image group's temporary file.
+struct SpilledPoint2D {
+  std::uint32_t image = 0;   // index into the writer's images
+  std::uint32_t unused = 0;  // no padding: every byte written is set
+  double x = 0.0, y = 0.0;
+  std::int64_t point3d_id = -1;
+};
+
+}  // namespace
+
+void WriteColmapText(const std::string& folder, const ColmapModel& model) {
+  for (const ColmapImage& image : model.images) CheckImageName(folder, image);
   std::string why;
   CROP4D_CHECK_MSG(model.Check(&why), why);
-
+  WriteCamerasFile(folder, model.cameras);
   {
-    TextWriter out(Join(folder, "cameras.txt"));
-    out.Print("# Camera list with one line of data per camera:\n");
-    out.Print("#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n");
-    out.Print("# Number of cameras: {}\n", model.cameras.size());
-    out.Print(
-        "# crop4d: principal point in COLMAP's pixel convention (top-left pixel centre at "
-        "(0.5, 0.5))\n");
-    for (const ColmapCamera& c : model.cameras) {
-      out.Print("{} {} {} {}", c.camera_id, ColmapCameraModelName(c.intrinsics), c.intrinsics.width,
-                c.intrinsics.height);
-      for (double p : ColmapParams(c.intrinsics)) out.Print(" {}", p);
-      out.Print("\n");
-    }
-    out.Commit();
-  }
-
-  {
-    const std::size_t num_observations = model.NumObservations();
-    const double mean_observations =
-        model.images.empty() ? 0.0 : double(num_observations) / double(model.images.size());
     TextWriter out(Join(folder, "images.txt"));
-    out.Print("# Image list with two lines of data per image:\n");
-    out.Print("#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n");
-    out.Print("#   POINTS2D[] as (X, Y, POINT3D_ID)\n");
-    out.Print("# Number of images: {}, mean observations per image: {}\n", model.images.size(),
-              mean_observations);
-    out.Print("# crop4d: pose = camera_from_world; 2D points in COLMAP's pixel convention\n");
-    for (const ColmapImage& image : model.images) {
-      const geometry::Rigid3 camera_from_world = image.world_from_camera.Inverse();
-      const Eigen::Quaterniond& q = camera_from_world.rotation();
-      const Eigen::Vector3d& t = camera_from_world.translation();
-      out.Print("{} {} {} {} {} {} {} {} {} {}\n", image.image_id, q.w(), q.x(), q.y(), q.z(),
-                t.x(), t.y(), t.z(), image.camera_id, image.name);
-      for (std::size_t k = 0; k < image.points2d.size(); ++k) {
-        const ColmapPoint2D& p = image.points2d[k];
-        out.Print("{}{} {} {}", k == 0 ? "" : " ", p.xy.x() + kPixelOffset, p.xy.y() + kPixelOffset,
-                  p.point3d_id);
-      }
-      out.Print("\n");
-    }
+    PrintImagesHeader(model.images.size(), model.NumObservations(), &out);
+    for (const ColmapImage& image : model.images) PrintImage(image, &out);
     out.Commit();
   }
-
   {
     std::size_t track_sum = 0;
     for (const ColmapPoint3D& p : model.points) track_sum += p.track.size();
-    const double mean_track =
-        model.points.empty() ? 0.0 : double(track_sum) / double(model.points.size());
     TextWriter out(Join(folder, "points3D.txt"));
-    out.Print("# 3D point list with one line of data per point:\n");
-    out.Print("#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n");
-    out.Print("# Number of points: {}, mean track length: {}\n", model.points.size(), mean_track);
-    for (const ColmapPoint3D& p : model.points) {
-      out.Print("{} {} {} {} {} {} {} {}", p.point3d_id, p.xyz.x(), p.xyz.y(), p.xyz.z(),
-                int{p.rgb[0]}, int{p.rgb[1]}, int{p.rgb[2]}, p.error);
-      for (const ColmapTrackElement& e : p.track) out.Print(" {} {}", e.image_id, e.point2d_idx);
-      out.Print("\n");
+    PrintPointsHeader(model.points.size(), track_sum, &out);
+    for (const ColmapPoint3D& p : model.points) PrintPoint(p, &out);
+    out.Commit();
+  }
+}
+
+struct ColmapTextWriter::Spill {
+  std::unique_ptr<SpillWriter> points;               // points3D.txt's lines
+  std::vector<std::unique_ptr<SpillWriter>> groups;  // each image group's 2D points
+};
+
+ColmapTextWriter::ColmapTextWriter(const std::string& folder, std::vector<ColmapCamera> cameras,
+                                   std::vector<ColmapImage> images,
+                                   std::vector<std::uint32_t> image_groups)
+    : folder_(folder),
+      cameras_(std::move(cameras)),
+      images_(std::move(images)),
+      groups_(std::move(image_groups)),
+      points2d_(images_.size(), 0),
+      spill_(std::make_unique<Spill>()) {
+  CROP4D_CHECK(groups_.size() == images_.size());
+  std::unordered_set<std::uint32_t> camera_ids;
+  for (const ColmapCamera& c : cameras_) {
+    const std::string why = c.intrinsics.Check();
+    CROP4D_CHECK_MSG(why.empty(), why);
+    CROP4D_CHECK_MSG(camera_ids.insert(c.camera_id).second, "duplicate camera id");
+  }
+  std::unordered_set<std::uint32_t> image_ids;
+  for (std::size_t i = 0; i < images_.size(); ++i) {
+    CheckImageName(folder_, images_[i]);
+    CROP4D_CHECK_MSG(camera_ids.count(images_[i].camera_id), "an image's camera is missing");
+    CROP4D_CHECK_MSG(image_ids.insert(images_[i].image_id).second, "duplicate image id");
+    CROP4D_CHECK_MSG(i == 0 || groups_[i] >= groups_[i - 1], "image groups out of order");
+    images_[i].points2d.clear();
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(folder_, ec);
+  if (ec) throw InputError(folder_, 0, "cannot create the folder: " + ec.message());
+  spill_->points =
+      std::make_unique<SpillWriter>(SpillPath("points3D"), Join(folder_, "points3D.txt"));
+  const std::uint32_t num_groups = groups_.empty() ? 0 : groups_.back() + 1;
+  for (std::uint32_t g = 0; g < num_groups; ++g) {
+    spill_->groups.push_back(std::make_unique<SpillWriter>(SpillPath("group-" + std::to_string(g)),
+                                                           Join(folder_, "images.txt")));
+  }
+}
+
+ColmapTextWriter::~ColmapTextWriter() {
+  spill_.reset();
+  std::error_code ec;
+  std::filesystem::remove(SpillPath("points3D"), ec);
+  const std::uint32_t num_groups = groups_.empty() ? 0 : groups_.back() + 1;
+  for (std::uint32_t g = 0; g < num_groups; ++g) {
+    std::filesystem::remove(SpillPath("group-" + std::to_string(g)), ec);
+  }
+}
+
+std::string ColmapTextWriter::SpillPath(const std::string& part) const {
+  return (std::filesystem::path(folder_) / (".crop4d-colmap-" + part + ".tmp")).string();
+}
+
+void ColmapTextWriter::AddPoint(std::int64_t point3d_id, const Eigen::Vector3d& xyz,
+                                const std::array<std::uint8_t, 3>& rgb, double error,
+                                const std::vector<ColmapObservation>& observations) {
+  CROP4D_CHECK_MSG(!finished_, "ColmapTextWriter::AddPoint after Finish");
+  CROP4D_CHECK(point3d_id >= 0 && xyz.allFinite() && std::isfinite(error));
+  ColmapPoint3D point;
+  point.point3d_id = point3d_id;
+  point.xyz = xyz;
+  point.rgb = rgb;
+  point.error = error;
+  for (const ColmapObservation& o : observations) {
+    CROP4D_CHECK(o.image < images_.size() && o.pixel.allFinite());
+    point.track.push_back({images_[o.image].image_id, points2d_[o.image]++});
+    const SpilledPoint2D record{static_cast<std::uint32_t>(o.image), 0, o.pixel.x(), o.pixel.y(),
+                                point3d_id};
+    spill_->groups[groups_[o.image]]->Write(&record, sizeof(record));
+  }
+  track_sum_ += point.track.size();
+  ++num_points_;
+  PrintPoint(point, spill_->points.get());
+}
+
+void ColmapTextWriter::Finish() {
+  CROP4D_CHECK_MSG(!finished_, "ColmapTextWriter::Finish called twice");
+  finished_ = true;
+  WriteCamerasFile(folder_, cameras_);
+  spill_->points->Close();
+  for (auto& group : spill_->groups) group->Close();
+  {
+    // A group's 2D points are read back and put in their images, in the order they came.
+    std::size_t num_observations = 0;
+    for (const std::uint32_t n : points2d_) num_observations += n;
+    TextWriter out(Join(folder_, "images.txt"));
+    PrintImagesHeader(images_.size(), num_observations, &out);
+    std::size_t begin = 0;
+    while (begin < images_.size()) {
+      std::size_t end = begin;
+      while (end < images_.size() && groups_[end] == groups_[begin]) ++end;
+      for (std::size_t i = begin; i < end; ++i) images_[i].points2d.reserve(points2d_[i]);
+      const std::string path = SpillPath("group-" + std::to_string(groups_[begin]));
+      std::ifstream in(path, std::ios::binary);
+      SpilledPoint2D record;
+      while (in.read(reinterpret_cast<char*>(&record), sizeof(record))) {
+        CROP4D_CHECK(record.image >= begin && record.image < end);
+        images_[record.image].points2d.push_back({{record.x, record.y}, record.point3d_id});
+      }
+      if (in.bad()) throw InputError(Join(folder_, "images.txt"), 0, "cannot read " + path);
+      for (std::size_t i = begin; i < end; ++i) {
+        CROP4D_CHECK(images_[i].points2d.size() == points2d_[i]);
+        PrintImage(images_[i], &out);
+        images_[i].points2d = {};
+      }
+      begin = end;
     }
+    out.Commit();
+  }
+  {
+    TextWriter out(Join(folder_, "points3D.txt"));
+    PrintPointsHeader(num_points_, track_sum_, &out);
+    out.AppendFile(SpillPath("points3D"));
     out.Commit();
   }
 }

@@ -34,6 +34,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -106,6 +107,56 @@ std::string ColmapImageName(std::string name);
 // image name is empty or holds whitespace (COLMAP's text format cannot hold it) or a file
 // cannot be written; any other inconsistency (Check) is a programmer error (CHECK).
 void WriteColmapText(const std::string& folder, const ColmapModel& model);
+
+// An observation of a 3D point for ColmapTextWriter: the image (its index in the writer's
+// images) and the pixel (crop4d's convention).
+struct ColmapObservation {
+  std::size_t image = 0;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+};
+
+// Writes a COLMAP text model whose 3D points come one at a time, so that their tracks are never
+// all in memory (the fused season's landmarks; pipeline/fuse_outputs.h): the same files as
+// WriteColmapText for the model whose images have, in order, the 2D points of the points added
+// (each image's numbered in the order its points came). points3D.txt's lines and each image
+// group's 2D points wait in temporary files in `folder` (its header counts the points, and an
+// image's 2D points come from every point that sees it); Finish writes the files, reading back
+// one group at a time: a group (e.g. a session's images) is what is held in memory then.
+class ColmapTextWriter {
+ public:
+  // `images` without 2D points (any are dropped), `image_groups` one per image, nondecreasing.
+  // Throws InputError for an image name COLMAP cannot store or a folder that cannot be made;
+  // other inconsistencies (missing camera, duplicate ids, invalid camera) are CHECKed.
+  ColmapTextWriter(const std::string& folder, std::vector<ColmapCamera> cameras,
+                   std::vector<ColmapImage> images, std::vector<std::uint32_t> image_groups);
+  // Removes the temporary files; without Finish() the model's files are left as they were.
+  ~ColmapTextWriter();
+  ColmapTextWriter(const ColmapTextWriter&) = delete;
+  ColmapTextWriter& operator=(const ColmapTextWriter&) = delete;
+
+  // The next 3D point (id ≥ 0, finite values; CHECKed) and its observations, its track in their
+  // order. Throws InputError when a temporary file cannot be written.
+  void AddPoint(std::int64_t point3d_id, const Eigen::Vector3d& xyz,
+                const std::array<std::uint8_t, 3>& rgb, double error,
+                const std::vector<ColmapObservation>& observations);
+  // Writes cameras.txt, images.txt and points3D.txt, each atomically. Once, and no AddPoint
+  // after it (CHECK).
+  void Finish();
+
+ private:
+  struct Spill;
+  std::string SpillPath(const std::string& part) const;
+
+  std::string folder_;
+  std::vector<ColmapCamera> cameras_;
+  std::vector<ColmapImage> images_;
+  std::vector<std::uint32_t> groups_;
+  std::vector<std::uint32_t> points2d_;  // 2D points of each image so far
+  std::unique_ptr<Spill> spill_;
+  std::size_t num_points_ = 0;
+  std::size_t track_sum_ = 0;
+  bool finished_ = false;
+};
 
 // Reads the three files of `folder`, in file order. Throws InputError naming the file and line
 // for anything malformed: a missing file, a line with the wrong number of fields or a field that

@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <random>
 #include <sstream>
 
 #include "crop4d/core/error.h"
@@ -132,6 +135,89 @@ TEST(ColmapTextTest, RoundTripIsExact) {
   // Writing again replaces the files (atomic rename), byte for byte the same.
   WriteColmapText(dir / "fused/colmap", back);
   EXPECT_EQ(testing::ReadText(dir / "fused/colmap/points3D.txt"), points);
+}
+
+std::string FileText(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Points given one at a time to ColmapTextWriter give the files WriteColmapText writes for the
+// whole model, whatever the image groups; the temporary files go; and without Finish nothing is
+// written.
+TEST(ColmapTextWriterTest, PointByPointGivesTheWholeModelsFiles) {
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  ColmapModel model;
+  model.cameras = {{1, TestCamera(0.0)}, {2, TestCamera(0.0021)}};
+  for (std::uint32_t i = 0; i < 9; ++i) {
+    ColmapImage image;
+    image.image_id = 10 + i;
+    image.camera_id = i < 5 ? 1 : 2;
+    image.name = "s" + std::to_string(i / 3) + "/row/" + std::to_string(i) + ".png";
+    image.world_from_camera =
+        geometry::Rigid3(geometry::ExpQuat(Eigen::Vector3d(u(rng), u(rng), u(rng))),
+                         Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    model.images.push_back(image);
+  }
+  // 40 points, each seen by 0 to 4 images (image 4 by none); an image's 2D points in the order
+  // of the points, as the writer numbers them.
+  std::vector<std::vector<ColmapObservation>> seen;
+  for (std::int64_t id = 0; id < 40; ++id) {
+    ColmapPoint3D point;
+    point.point3d_id = 3 * id + 1;
+    point.xyz = {u(rng) * 10, u(rng), 1e-3 * id};
+    point.rgb = {std::uint8_t(id), 7, std::uint8_t(250 - id)};
+    point.error = u(rng);
+    std::vector<ColmapObservation> observations;
+    const int n = static_cast<int>(id % 5);
+    for (int k = 0; k < n; ++k) {
+      const std::size_t i = (id * 7 + k * 2) % 9;
+      if (i == 4) continue;
+      const Eigen::Vector2d pixel(u(rng) * 1280, u(rng) * 960);
+      observations.push_back({i, pixel});
+      point.track.push_back(
+          {model.images[i].image_id, static_cast<std::uint32_t>(model.images[i].points2d.size())});
+      model.images[i].points2d.push_back({pixel, point.point3d_id});
+    }
+    seen.push_back(observations);
+    model.points.push_back(point);
+  }
+  std::string why;
+  ASSERT_TRUE(model.Check(&why)) << why;
+  testing::TempDir dir;
+  const std::filesystem::path root = dir.path();
+  WriteColmapText((root / "whole").string(), model);
+  for (const std::vector<std::uint32_t>& groups :
+       {std::vector<std::uint32_t>(9, 0), std::vector<std::uint32_t>{0, 0, 0, 1, 1, 1, 2, 2, 2},
+        std::vector<std::uint32_t>{0, 1, 2, 3, 4, 5, 6, 7, 9}}) {
+    const std::filesystem::path out = root / ("parts" + std::to_string(groups.back()));
+    {
+      ColmapTextWriter writer(out.string(), model.cameras, model.images, groups);
+      for (std::size_t p = 0; p < model.points.size(); ++p) {
+        const ColmapPoint3D& point = model.points[p];
+        writer.AddPoint(point.point3d_id, point.xyz, point.rgb, point.error, seen[p]);
+      }
+      writer.Finish();
+    }
+    for (const char* file : {"cameras.txt", "images.txt", "points3D.txt"}) {
+      EXPECT_EQ(FileText(out / file), FileText(root / "whole" / file)) << file;
+    }
+    std::size_t entries = 0;
+    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(out)) ++entries;
+    EXPECT_EQ(entries, 3u);  // the temporary files are gone
+  }
+  {
+    ColmapTextWriter writer((root / "unfinished").string(), model.cameras, model.images,
+                            std::vector<std::uint32_t>(9, 0));
+    writer.AddPoint(1, {0, 0, 0}, {1, 2, 3}, 0.5, seen[3]);
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(root / "unfinished"));
+  ColmapImage spaced = model.images[0];
+  spaced.name = "a b.png";
+  EXPECT_THROW(ColmapTextWriter((root / "bad").string(), model.cameras, {spaced}, {0}), InputError);
 }
 
 TEST(ColmapTextTest, ReadsHandWrittenModel) {

@@ -615,8 +615,17 @@ void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
     }
   }
 
-  // The landmarks of every step, their observations on the season's passes.
-  std::vector<fusion::JointLandmark> landmarks;
+  // landmarks.ply and the COLMAP model from the landmarks of every step, a step at a time (their
+  // observations on the season's passes): the season's are never all in memory.
+  if (options.write_colmap) {
+    // The image names only: the rest of the measurements is dropped pass by pass.
+    for (auto& pass : season.passes) {
+      workspace::PassData data = workspace::LoadPassData(layout.root().string(), pass->data.session,
+                                                         pass->data.pass, {.measurements = true});
+      pass->data.measurements.camera = std::move(data.measurements.camera);
+    }
+  }
+  SeasonLandmarkWriter writer(season.passes, cameras, intrinsics, options.write_colmap, layout);
   for (const FuseStep& step : steps) {
     const fs::path path = steps_dir / season.sessions[step.last] / "landmarks.bin";
     StepLandmarks owned = ReadStepLandmarks(path);
@@ -638,23 +647,12 @@ void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
                            " (rerun `crop4d fuse --force`)");
         }
       }
-      result.landmark_ids.push_back(static_cast<int>(landmarks.size()));
-      result.observations_kept.emplace_back(owned.landmarks[l].observations.size(), true);
-      result.landmarks_world.push_back(owned.positions[l]);
-      landmarks.push_back(std::move(owned.landmarks[l]));
+      writer.Add(owned.landmarks[l], owned.positions[l],
+                 std::vector<bool>(owned.landmarks[l].observations.size(), true));
     }
   }
-  WriteJointLandmarks(season.passes, landmarks, result, layout);
-  if (options.write_colmap) {
-    // The image names only: the rest of the measurements is dropped pass by pass.
-    for (auto& pass : season.passes) {
-      workspace::PassData data = workspace::LoadPassData(layout.root().string(), pass->data.session,
-                                                         pass->data.pass, {.measurements = true});
-      pass->data.measurements.camera = std::move(data.measurements.camera);
-    }
-    WriteColmap(season.passes, cameras, intrinsics, landmarks, result, layout);
-    for (auto& pass : season.passes) pass->data.measurements.camera.reset();
-  }
+  writer.Finish();
+  for (auto& pass : season.passes) pass->data.measurements.camera.reset();
 
   json summary = FuseSummaryJson(*report, result, stamp, options, season.sessions);
   summary["ground_ties"] = ground_ties;

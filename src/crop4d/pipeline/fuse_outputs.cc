@@ -96,86 +96,125 @@ void WriteSessionOutputs(const std::vector<std::unique_ptr<LoadedPass>>& passes,
 }
 
 // WS/fused/landmarks.ply: the joint landmarks, with how many passes and sessions see each.
-void WriteJointLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
-                         const std::vector<fusion::JointLandmark>& landmarks,
-                         const fusion::JointOptimiser::Result& result,
-                         const workspace::Layout& layout) {
-  io::PlyPointCloud cloud;
-  io::PlyScalarField num_passes{"passes", io::PlyType::kInt32, {}};
-  io::PlyScalarField num_sessions{"sessions", io::PlyType::kInt32, {}};
-  for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
-    std::set<int> seen_passes;
-    std::set<std::string> seen_sessions;
-    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-      if (!result.observations_kept[l][o]) continue;
-      seen_passes.insert(landmark.observations[o].pass);
-      seen_sessions.insert(passes[landmark.observations[o].pass]->data.session);
-    }
-    cloud.points.push_back(result.landmarks_world[l]);
-    cloud.colors.push_back(landmark.color);
-    num_passes.values.push_back(static_cast<double>(seen_passes.size()));
-    num_sessions.values.push_back(static_cast<double>(seen_sessions.size()));
-  }
-  cloud.scalars = {num_passes, num_sessions};
-  io::PlyWriteOptions ply;
-  ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
-  io::WritePly(layout.FusedLandmarks().string(), cloud, ply);
+namespace {
+
+// Landmarks appended to landmarks.ply at a time.
+constexpr std::size_t kPlyPart = 1 << 16;
+
+io::PlyLayout LandmarkLayout() {
+  io::PlyLayout layout;
+  layout.colors = true;
+  layout.scalars = {{"passes", io::PlyType::kInt32}, {"sessions", io::PlyType::kInt32}};
+  return layout;
 }
 
-// WS/fused/colmap: the whole 4D reconstruction as a COLMAP text model (one camera per session,
-// images named <session>/<pass>/<image file>, the joint landmarks as 3D points).
-void WriteColmap(const std::vector<std::unique_ptr<LoadedPass>>& passes,
-                 const std::vector<std::vector<geometry::Rigid3>>& cameras,
-                 const std::vector<workspace::FusedCamera>& intrinsics,
-                 const std::vector<fusion::JointLandmark>& landmarks,
-                 const fusion::JointOptimiser::Result& result, const workspace::Layout& layout) {
-  io::ColmapModel model;
+io::PlyPointCloud EmptyLandmarkPart() {
+  io::PlyPointCloud part;
+  part.scalars = {{"passes", io::PlyType::kInt32, {}}, {"sessions", io::PlyType::kInt32, {}}};
+  return part;
+}
+
+}  // namespace
+
+SeasonLandmarkWriter::SeasonLandmarkWriter(
+    const std::vector<std::unique_ptr<LoadedPass>>& passes,
+    const std::vector<std::vector<geometry::Rigid3>>& cameras,
+    const std::vector<workspace::FusedCamera>& intrinsics, bool colmap,
+    const workspace::Layout& layout)
+    : passes_(passes), cameras_(cameras), intrinsics_(intrinsics), part_(EmptyLandmarkPart()) {
+  io::PlyWriteOptions ply;
+  ply.comment = "crop4d joint 4D landmarks (all sessions), field ENU frame (metres)";
+  ply_ = std::make_unique<io::PlyStreamWriter>(layout.FusedLandmarks().string(), LandmarkLayout(),
+                                               ply);
+  if (!colmap) return;
+  std::vector<io::ColmapCamera> colmap_cameras;
+  std::vector<io::ColmapImage> images;
+  std::vector<std::uint32_t> groups;  // the run of passes of one session: a group of images
   std::map<std::string, std::uint32_t> camera_of_session;
-  std::vector<std::vector<std::uint32_t>> image_ids(passes.size());
+  std::uint32_t group = 0;
   for (std::size_t p = 0; p < passes.size(); ++p) {
     const std::string& session = passes[p]->data.session;
+    if (p > 0 && session != passes[p - 1]->data.session) ++group;
     if (!camera_of_session.count(session)) {
-      const auto id = static_cast<std::uint32_t>(model.cameras.size() + 1);
+      const auto id = static_cast<std::uint32_t>(colmap_cameras.size() + 1);
       camera_of_session[session] = id;
-      model.cameras.push_back({id, intrinsics[p].intrinsics});
+      colmap_cameras.push_back({id, intrinsics[p].intrinsics});
     }
+    first_image_.push_back(images.size());
     const std::map<Timestamp, std::string> names = ImageNames(*passes[p]);
     for (std::size_t k = 0; k < cameras[p].size(); ++k) {
       io::ColmapImage image;
-      image.image_id = static_cast<std::uint32_t>(model.images.size() + 1);
+      image.image_id = static_cast<std::uint32_t>(images.size() + 1);
       image.camera_id = camera_of_session[session];
       const auto it = names.find(passes[p]->data.times[k]);
       const std::string file =
           it != names.end() ? it->second : std::to_string(passes[p]->data.times[k]) + ".png";
       image.name = io::ColmapImageName(session + "/" + passes[p]->data.pass.id + "/" + file);
       image.world_from_camera = cameras[p][k];
-      image_ids[p].push_back(image.image_id);
-      model.images.push_back(std::move(image));
+      images.push_back(std::move(image));
+      groups.push_back(group);
     }
   }
+  colmap_ = std::make_unique<io::ColmapTextWriter>(layout.FusedColmapDir().string(),
+                                                   std::move(colmap_cameras), std::move(images),
+                                                   std::move(groups));
+}
+
+SeasonLandmarkWriter::~SeasonLandmarkWriter() = default;
+
+void SeasonLandmarkWriter::Add(const fusion::JointLandmark& landmark,
+                               const Eigen::Vector3d& position, const std::vector<bool>& kept) {
+  std::set<int> seen_passes;
+  std::set<std::string> seen_sessions;
+  std::vector<io::ColmapObservation> observations;
+  double error_sum = 0;
+  for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
+    if (!kept[o]) continue;
+    const fusion::JointObservation& obs = landmark.observations[o];
+    seen_passes.insert(obs.pass);
+    seen_sessions.insert(passes_[obs.pass]->data.session);
+    if (!colmap_) continue;
+    observations.push_back({first_image_[obs.pass] + obs.state, obs.pixel});
+    // From the fused camera (at its capture instant, with the fused intrinsics).
+    const double e = slam::ReprojectionError(intrinsics_[obs.pass].intrinsics, geometry::Rigid3(),
+                                             cameras_[obs.pass][obs.state], position, obs.pixel);
+    error_sum += std::isfinite(e) ? e : 0.0;
+  }
+  part_.points.push_back(position);
+  part_.colors.push_back(landmark.color);
+  part_.scalars[0].values.push_back(static_cast<double>(seen_passes.size()));
+  part_.scalars[1].values.push_back(static_cast<double>(seen_sessions.size()));
+  if (part_.size() >= kPlyPart) AppendPly();
+  if (colmap_) {
+    const double error = observations.empty() ? 0.0 : error_sum / observations.size();
+    colmap_->AddPoint(count_, position, landmark.color, error, observations);
+  }
+  ++count_;
+}
+
+void SeasonLandmarkWriter::AppendPly() {
+  ply_->Append(part_);
+  part_ = EmptyLandmarkPart();
+}
+
+void SeasonLandmarkWriter::Finish() {
+  AppendPly();
+  ply_->Finish();
+  if (colmap_) colmap_->Finish();
+}
+
+void WriteSeasonLandmarks(const std::vector<std::unique_ptr<LoadedPass>>& passes,
+                          const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                          const std::vector<workspace::FusedCamera>& intrinsics,
+                          const std::vector<fusion::JointLandmark>& landmarks,
+                          const fusion::JointOptimiser::Result& result, bool colmap,
+                          const workspace::Layout& layout) {
+  SeasonLandmarkWriter writer(passes, cameras, intrinsics, colmap, layout);
   for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
-    const fusion::JointLandmark& landmark = landmarks[result.landmark_ids[l]];
-    io::ColmapPoint3D point;
-    point.point3d_id = static_cast<std::int64_t>(l);
-    point.xyz = result.landmarks_world[l];
-    point.rgb = landmark.color;
-    double error_sum = 0;
-    for (std::size_t o = 0; o < landmark.observations.size(); ++o) {
-      if (!result.observations_kept[l][o]) continue;
-      const fusion::JointObservation& obs = landmark.observations[o];
-      io::ColmapImage& image = model.images[image_ids[obs.pass][obs.state] - 1];
-      point.track.push_back({image.image_id, static_cast<std::uint32_t>(image.points2d.size())});
-      image.points2d.push_back({obs.pixel, point.point3d_id});
-      // From the fused camera (at its capture instant, with the fused intrinsics).
-      const double e = slam::ReprojectionError(intrinsics[obs.pass].intrinsics, geometry::Rigid3(),
-                                               cameras[obs.pass][obs.state], point.xyz, obs.pixel);
-      error_sum += std::isfinite(e) ? e : 0.0;
-    }
-    point.error = point.track.empty() ? 0.0 : error_sum / point.track.size();
-    model.points.push_back(std::move(point));
+    writer.Add(landmarks[result.landmark_ids[l]], result.landmarks_world[l],
+               result.observations_kept[l]);
   }
-  io::WriteColmapText(layout.FusedColmapDir().string(), model);
+  writer.Finish();
 }
 
 using json = nlohmann::json;

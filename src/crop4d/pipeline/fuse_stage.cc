@@ -98,10 +98,8 @@ FuseReport RunFullFuse(fuse::SeasonPasses& season, const std::string& workspace,
       fuse::FusedCameras(passes, result, &report);
   const std::vector<workspace::FusedCamera> intrinsics = fuse::FusedIntrinsics(passes, result);
   fuse::WriteSessionOutputs(passes, cameras, intrinsics, sessions, options, layout);
-  fuse::WriteJointLandmarks(passes, landmarks, result, layout);
-  if (options.write_colmap) {
-    fuse::WriteColmap(passes, cameras, intrinsics, landmarks, result, layout);
-  }
+  fuse::WriteSeasonLandmarks(passes, cameras, intrinsics, landmarks, result, options.write_colmap,
+                             layout);
   report.seconds = SecondsSince(start);
 
   json summary = fuse::FuseSummaryJson(report, result, stamp, options, sessions);

@@ -120,15 +120,12 @@ json BuildSession(const fs::path& cloud_path, const fs::path& folder,
     }
   }
   *rebuilt = true;
-  const io::PlyPointCloud cloud = io::ReadPly(cloud_path.string());
-  std::vector<Eigen::Vector3d> points;
-  std::vector<std::array<std::uint8_t, 3>> colors;
-  points.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (!cloud.points[i].allFinite()) continue;
-    points.push_back(cloud.points[i]);
-    if (!cloud.colors.empty()) colors.push_back(cloud.colors[i]);
-  }
+  // Read a slice at a time, keeping the finite points only: the file is never held beside them.
+  io::PlyPointCloud cloud =
+      io::ReadPlyWhere(cloud_path.string(), [](const Eigen::Vector3d& p) { return p.allFinite(); });
+  const std::vector<Eigen::Vector3d> points = std::move(cloud.points);
+  const std::vector<std::array<std::uint8_t, 3>> colors = std::move(cloud.colors);
+  cloud = io::PlyPointCloud();
   if (points.empty()) throw InputError(cloud_path.string(), 0, "the cloud has no finite point");
   const Octree tree = BuildOctree(points, options.octree);
   const fs::path tmp = folder.string() + ".tmp." + std::to_string(::getpid());

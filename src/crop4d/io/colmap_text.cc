@@ -655,7 +655,9 @@ ColmapTextWriter::ColmapTextWriter(const std::string& folder, std::vector<Colmap
   }
 }
 
-ColmapTextWriter::~ColmapTextWriter() {
+ColmapTextWriter::~ColmapTextWriter() { RemoveSpills(); }
+
+void ColmapTextWriter::RemoveSpills() {
   spill_.reset();
   std::error_code ec;
   std::filesystem::remove(SpillPath("points3D"), ec);
@@ -731,6 +733,7 @@ void ColmapTextWriter::Finish() {
     out.AppendFile(SpillPath("points3D"));
     out.Commit();
   }
+  RemoveSpills();
 }
 
 ColmapModel ReadColmapText(const std::string& folder) {

@@ -139,13 +139,14 @@ class ColmapTextWriter {
   void AddPoint(std::int64_t point3d_id, const Eigen::Vector3d& xyz,
                 const std::array<std::uint8_t, 3>& rgb, double error,
                 const std::vector<ColmapObservation>& observations);
-  // Writes cameras.txt, images.txt and points3D.txt, each atomically. Once, and no AddPoint
-  // after it (CHECK).
+  // Writes cameras.txt, images.txt and points3D.txt, each atomically, and removes the temporary
+  // files. Once, and no AddPoint after it (CHECK).
   void Finish();
 
  private:
   struct Spill;
   std::string SpillPath(const std::string& part) const;
+  void RemoveSpills();
 
   std::string folder_;
   std::vector<ColmapCamera> cameras_;

@@ -201,13 +201,13 @@ TEST(ColmapTextWriterTest, PointByPointGivesTheWholeModelsFiles) {
         writer.AddPoint(point.point3d_id, point.xyz, point.rgb, point.error, seen[p]);
       }
       writer.Finish();
+      std::size_t entries = 0;
+      for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(out)) ++entries;
+      EXPECT_EQ(entries, 3u);  // the temporary files go with Finish
     }
     for (const char* file : {"cameras.txt", "images.txt", "points3D.txt"}) {
       EXPECT_EQ(FileText(out / file), FileText(root / "whole" / file)) << file;
     }
-    std::size_t entries = 0;
-    for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(out)) ++entries;
-    EXPECT_EQ(entries, 3u);  // the temporary files are gone
   }
   {
     ColmapTextWriter writer((root / "unfinished").string(), model.cameras, model.images,

@@ -434,8 +434,15 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
   const std::vector<std::string> methods = options.method == "both"
                                                ? std::vector<std::string>{"robust", "naive"}
                                                : std::vector<std::string>{options.method};
-  // Passes are loaded once, when first needed.
+  // Passes are loaded once, when first needed, and freed after the last pair that needs them:
+  // the pairs come session by session, so about two sessions' passes are held at a time,
+  // however long the season.
   std::map<association::PassRef, std::unique_ptr<PassContext>> loaded;
+  std::map<association::PassRef, std::size_t> last_use;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    last_use[pairs[i].a] = i;
+    last_use[pairs[i].b] = i;
+  }
   auto get = [&](const association::PassRef& ref) -> PassContext& {
     auto& slot = loaded[ref];
     if (!slot) {
@@ -463,7 +470,8 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
     }
     throw InputError(workspace, 0, "pass " + ref.session + "/" + ref.pass + " missing");
   };
-  for (const PassPair& pair : pairs) {
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const PassPair& pair = pairs[i];
     for (const std::string& method : methods) {
       const fs::path out_dir = workspace::Layout(workspace).AssociationsDir(method);
       const std::string fingerprint =
@@ -484,6 +492,9 @@ std::vector<PassPairReport> RunAssociateStage(const std::string& field_folder,
                     pair.a.pass, pair.b.session, pair.b.pass, method, r.image_pairs, r.matches,
                     r.seconds, r.skipped ? " (up to date)" : "");
       progress.Add();
+    }
+    for (const association::PassRef& ref : {pair.a, pair.b}) {
+      if (last_use.at(ref) == i) loaded.erase(ref);
     }
   }
   progress.Finish();

@@ -102,4 +102,19 @@ int RemoveStaleTemporaryFiles(const std::string& folder) {
   return removed;
 }
 
+void AppendFileTo(const std::string& from, const std::string& target, std::ostream& out) {
+  std::ifstream in(from, std::ios::binary);
+  if (!in) {
+    throw InputError(target, 0,
+                     "cannot read the temporary file " + from + ": " + std::strerror(errno));
+  }
+  std::vector<char> block(1 << 20);
+  while (out) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    if (in.gcount() == 0) break;
+    out.write(block.data(), in.gcount());
+  }
+  if (in.bad()) throw InputError(target, 0, "cannot read the temporary file " + from);
+}
+
 }  // namespace crop4d::io

@@ -37,4 +37,8 @@ void WriteFileAtomic(const std::string& path, const std::string& content);
 // Returns how many were removed.
 int RemoveStaleTemporaryFiles(const std::string& folder);
 
+// Appends the file at `from` to `out`, read in blocks (it may be larger than memory). Throws
+// InputError naming `target` (the file being written) when `from` cannot be opened or read.
+void AppendFileTo(const std::string& from, const std::string& target, std::ostream& out);
+
 }  // namespace crop4d::io

@@ -57,21 +57,10 @@ class TextWriter {
     Flush();
     file_.Commit();
   }
-  // Appends the file at `from` (read in blocks: it may be larger than memory).
+  // Appends the file at `from` (it may be larger than memory).
   void AppendFile(const std::string& from) {
     Flush();
-    std::ifstream in(from, std::ios::binary);
-    if (!in) {
-      throw InputError(path_, 0,
-                       "cannot read the temporary file " + from + ": " + std::strerror(errno));
-    }
-    std::vector<char> block(1 << 20);
-    while (file_.stream()) {
-      in.read(block.data(), static_cast<std::streamsize>(block.size()));
-      if (in.gcount() == 0) break;
-      file_.stream().write(block.data(), in.gcount());
-    }
-    if (in.bad()) throw InputError(path_, 0, "cannot read the temporary file " + from);
+    AppendFileTo(from, path_, file_.stream());
   }
 
  private:

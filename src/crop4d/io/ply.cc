@@ -876,21 +876,8 @@ void PlyStreamWriter::Finish() {
   AtomicFile file(path_);
   std::ofstream& out = file.stream();
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
-  std::ifstream body(body_path_, std::ios::binary);
-  if (!body) {
-    throw InputError(path_, 0,
-                     "cannot read the temporary file " + body_path_ + ": " + std::strerror(errno));
-  }
-  // In blocks: the body may be larger than memory.
-  std::vector<char> block(1 << 20);
-  while (out) {
-    body.read(block.data(), static_cast<std::streamsize>(block.size()));
-    if (body.gcount() == 0) break;
-    out.write(block.data(), body.gcount());
-  }
-  if (body.bad()) throw InputError(path_, 0, "cannot read the temporary file " + body_path_);
-  body.close();
-  file.Commit();  // Throws when a write failed.
+  AppendFileTo(body_path_, path_, out);  // In blocks: the body may be larger than memory.
+  file.Commit();                         // Throws when a write failed.
   std::error_code ec;
   std::filesystem::remove(body_path_, ec);
   body_path_.clear();

@@ -184,17 +184,33 @@ void CrownTopsHeight(const SiteCells& cells, const std::vector<int>& inside, dou
 
 }  // namespace
 
+SessionCloud SessionCloud::Take(const std::vector<std::size_t>& positions) const {
+  SessionCloud out;
+  out.session = session;
+  out.points.reserve(positions.size());
+  out.colors.reserve(positions.size());
+  out.is_vegetation.reserve(positions.size());
+  for (const std::size_t i : positions) {
+    out.points.push_back(points[i]);
+    out.colors.push_back(colors[i]);
+    out.is_vegetation.push_back(is_vegetation[i]);
+  }
+  return out;
+}
+
 double SiteReach(const io::Site& site, const CanopyOptions& o) {
   return site.radius_m + std::max(o.crown_radius_m, o.top_radius_m) + o.cell_m;
 }
 
 SessionCloud SitePoints(const SessionCloud& cloud, const std::vector<io::Site>& sites,
-                        const CanopyOptions& options) {
+                        const CanopyOptions& options, std::vector<std::size_t>* taken) {
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size() &&
                cloud.colors.size() == cloud.points.size());
-  SessionCloud out;
-  out.session = cloud.session;
-  if (sites.empty()) return out;
+  std::vector<std::size_t> positions;
+  if (sites.empty()) {
+    if (taken) taken->clear();
+    return cloud.Take(positions);
+  }
   // The sites whose square touches each cell of a grid of the largest reach: a point is tested
   // against those of its cell only (a field has hundreds of sites, a cloud millions of points).
   double cell = 0.0;
@@ -219,13 +235,13 @@ SessionCloud SitePoints(const SessionCloud& cloud, const std::vector<io::Site>& 
       const Eigen::Vector2d d = p.head<2>() - sites[n].center_enu;
       const double r = SiteReach(sites[n], options);
       if (std::abs(d.x()) <= r && std::abs(d.y()) <= r) {
-        out.points.push_back(p);
-        out.colors.push_back(cloud.colors[i]);
-        out.is_vegetation.push_back(cloud.is_vegetation[i]);
+        positions.push_back(i);
         break;
       }
     }
   }
+  SessionCloud out = cloud.Take(positions);
+  if (taken) *taken = std::move(positions);
   return out;
 }
 
@@ -293,21 +309,28 @@ SiteCanopy MeasureSite(const SessionCloud& cloud, const GroundFunction& ground,
 std::vector<float> CanopyHeightModel(
     const SessionCloud& cloud, const GroundFunction& ground, std::size_t num_cells,
     const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of, const CanopyOptions& o) {
+  std::vector<float> chm(num_cells, std::numeric_limits<float>::quiet_NaN());
+  AddToCanopyHeightModel(cloud, ground, cell_of, o, &chm);
+  return chm;
+}
+
+void AddToCanopyHeightModel(const SessionCloud& cloud, const GroundFunction& ground,
+                            const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of,
+                            const CanopyOptions& o, std::vector<float>* chm) {
   CROP4D_CHECK_OPTIONS(o, "CanopyHeightModel");
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
-  std::vector<float> chm(num_cells, std::numeric_limits<float>::quiet_NaN());
+  const std::size_t num_cells = chm->size();
   for (std::size_t n = 0; n < cloud.points.size(); ++n) {
     const Eigen::Vector3d& p = cloud.points[n];
     const std::ptrdiff_t c = cell_of(p.head<2>());
     if (c < 0 || static_cast<std::size_t>(c) >= num_cells) continue;
     const double g = ground(p.x(), p.y());
     if (!std::isfinite(g)) continue;
-    float& cell = chm[c];
+    float& cell = (*chm)[c];
     if (!std::isfinite(cell)) cell = 0.0f;
     const double h = p.z() - g;
     if (o.IsCanopy(cloud.is_vegetation[n], h)) cell = std::max(cell, static_cast<float>(h));
   }
-  return chm;
 }
 
 std::vector<float> CanopyHeightModel(const SessionCloud& cloud, const TerrainModel& terrain,

@@ -48,6 +48,8 @@ struct SessionCloud {
   std::vector<std::uint8_t> is_vegetation;          // one per point (vegetation.h)
 
   GroundCloud AsGround() const { return {&points, &is_vegetation}; }
+  // The points at `positions`, in that order, with their colours and flags.
+  SessionCloud Take(const std::vector<std::size_t>& positions) const;
 };
 
 // The ground height at (x, y), NaN where unknown.
@@ -132,8 +134,9 @@ double SiteReach(const io::Site& site, const CanopyOptions& options);
 // The points of `cloud` (with their colours and vegetation flags, in their order) within
 // SiteReach of any of `sites`' centres: MeasureSite and FitSiteGroundPlane give on them what
 // they give on the whole cloud, so a session's sites can be kept while its cloud is freed.
+// Their positions in `cloud` into `taken` when not null.
 SessionCloud SitePoints(const SessionCloud& cloud, const std::vector<io::Site>& sites,
-                        const CanopyOptions& options);
+                        const CanopyOptions& options, std::vector<std::size_t>* taken = nullptr);
 
 // The canopy height model of a session over `num_cells` raster cells, `cell_of` giving the cell
 // of an ENU xy (−1 outside the raster): per cell the highest canopy point above `ground`, 0 where
@@ -142,6 +145,13 @@ std::vector<float> CanopyHeightModel(
     const SessionCloud& cloud, const GroundFunction& ground, std::size_t num_cells,
     const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of,
     const CanopyOptions& options);
+
+// Adds `cloud` to a canopy height model made so (`chm`: NaN where no point was added yet):
+// each cell keeps a maximum, so adding the parts of a cloud, each point once, gives the model
+// of the whole cloud.
+void AddToCanopyHeightModel(const SessionCloud& cloud, const GroundFunction& ground,
+                            const std::function<std::ptrdiff_t(const Eigen::Vector2d&)>& cell_of,
+                            const CanopyOptions& options, std::vector<float>* chm);
 
 // The same on the nodes of `grid` (the cell of a node spans ± half a cell around it).
 std::vector<float> CanopyHeightModel(const SessionCloud& cloud, const TerrainModel& terrain,

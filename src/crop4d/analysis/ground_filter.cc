@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <deque>
 #include <limits>
 
@@ -57,10 +58,22 @@ OptionCheck GroundFilterOptions::Check() const {
   return c.Result();
 }
 
+namespace {
+
+int HalfWindowCells(const GroundFilterOptions& options) {
+  return static_cast<int>(std::lround(0.5 * options.window_m / options.cell_m));
+}
+
+}  // namespace
+
+double GroundFilterReach(const GroundFilterOptions& options) {
+  return (2 * std::max(HalfWindowCells(options), 0) + 1) * options.cell_m;
+}
+
 std::vector<std::uint8_t> GroundBelowOpening(const std::vector<Eigen::Vector3d>& points,
                                              const GroundFilterOptions& options) {
   std::vector<std::uint8_t> keep(points.size(), 1);
-  const int half = static_cast<int>(std::lround(0.5 * options.window_m / options.cell_m));
+  const int half = HalfWindowCells(options);
   if (half <= 0) return keep;
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector2d hi = -lo;
@@ -70,12 +83,19 @@ std::vector<std::uint8_t> GroundBelowOpening(const std::vector<Eigen::Vector3d>&
     hi = hi.cwiseMax(p.head<2>());
   }
   if (!(lo.x() <= hi.x())) return keep;
-  const int width = static_cast<int>(std::floor((hi.x() - lo.x()) / options.cell_m)) + 1;
-  const int height = static_cast<int>(std::floor((hi.y() - lo.y()) / options.cell_m)) + 1;
+  // The cells are those of one grid of the plane (cell k spans [k, k + 1) · cell_m), whatever
+  // points are given: a part of a cloud (the analysis reads a session in tiles) gets the cells,
+  // and so the opened surface, that the whole cloud gets there.
+  const auto index = [&](double v) {
+    return static_cast<std::int64_t>(std::floor(v / options.cell_m));
+  };
+  const std::int64_t i0 = index(lo.x()), j0 = index(lo.y());
+  const int width = static_cast<int>(index(hi.x()) - i0) + 1;
+  const int height = static_cast<int>(index(hi.y()) - j0) + 1;
   const auto cell_of = [&](const Eigen::Vector3d& p) {
-    const int i = std::min(width - 1, static_cast<int>((p.x() - lo.x()) / options.cell_m));
-    const int j = std::min(height - 1, static_cast<int>((p.y() - lo.y()) / options.cell_m));
-    return static_cast<std::size_t>(j) * width + i;
+    const auto i = static_cast<std::size_t>(index(p.x()) - i0);
+    const auto j = static_cast<std::size_t>(index(p.y()) - j0);
+    return j * static_cast<std::size_t>(width) + i;
   };
   // The median height per cell (+inf: empty), eroded: empty cells never win a minimum. The
   // median, not the lowest point: a dense cloud's soil has outliers below the ground, and the

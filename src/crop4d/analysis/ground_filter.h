@@ -33,6 +33,12 @@ struct GroundFilterOptions {
   OptionCheck Check() const;
 };
 
+// How far (horizontally) the points that decide a point's test can lie from it, m: the opened
+// surface of a cell depends on the medians of the cells within twice the window's half width.
+// A part of a cloud holding every point within this reach of a point tests that point as the
+// whole cloud does (the cells are one grid of the plane).
+double GroundFilterReach(const GroundFilterOptions& options);
+
 // 1 for the points of `points` that pass the test, 0 for those above the opened surface.
 std::vector<std::uint8_t> GroundBelowOpening(const std::vector<Eigen::Vector3d>& points,
                                              const GroundFilterOptions& options);

@@ -26,26 +26,6 @@ OptionCheck PlantDetectionOptions::Check() const {
 
 namespace {
 
-// The canopy height of each cell of the area's raster (0: none).
-cv::Mat CanopyRaster(const SessionCloud& cloud, const GroundFunction& ground,
-                     const Eigen::AlignedBox2d& area, const CanopyOptions& canopy, double cell_m,
-                     int rows, int cols) {
-  cv::Mat height(rows, cols, CV_32F, cv::Scalar(0));
-  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
-    const Eigen::Vector3d& p = cloud.points[i];
-    const int c = static_cast<int>((p.x() - area.min().x()) / cell_m);
-    const int r = static_cast<int>((p.y() - area.min().y()) / cell_m);
-    if (c < 0 || r < 0 || c >= cols || r >= rows) continue;
-    const double g = ground(p.x(), p.y());
-    if (!std::isfinite(g)) continue;
-    const double h = p.z() - g;
-    if (!canopy.IsCanopy(cloud.is_vegetation[i], h)) continue;
-    float& cell = height.at<float>(r, c);
-    cell = std::max(cell, static_cast<float>(h));
-  }
-  return height;
-}
-
 // The peaks of the islands after the split at their saddles (see DetectPlants).
 struct Peaks {
   cv::Mat filled;                // heights, the cells the closing filled at their highest neighbour
@@ -173,18 +153,39 @@ std::vector<DetectedPlant> PlantsOfPeaks(const Peaks& peaks, const cv::Mat& heig
 
 }  // namespace
 
-std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
-                                        const Eigen::AlignedBox2d& area,
-                                        const CanopyOptions& canopy,
-                                        const PlantDetectionOptions& o) {
-  CROP4D_CHECK_OPTIONS(o, "DetectPlants");
-  CROP4D_CHECK_OPTIONS(canopy, "DetectPlants");
+PlantRaster::PlantRaster(const Eigen::AlignedBox2d& area, const CanopyOptions& canopy,
+                         const PlantDetectionOptions& options)
+    : area_(area), canopy_(canopy), options_(options) {
+  CROP4D_CHECK_OPTIONS(options_, "PlantRaster");
+  CROP4D_CHECK_OPTIONS(canopy_, "PlantRaster");
+  if (area_.isEmpty()) return;
+  cols_ = static_cast<int>(std::ceil(area_.sizes().x() / options_.cell_m)) + 1;
+  rows_ = static_cast<int>(std::ceil(area_.sizes().y() / options_.cell_m)) + 1;
+  height_.assign(static_cast<std::size_t>(rows_) * cols_, 0.0f);
+}
+
+void PlantRaster::Add(const SessionCloud& cloud, const GroundFunction& ground) {
   CROP4D_CHECK(cloud.is_vegetation.size() == cloud.points.size());
+  for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+    const Eigen::Vector3d& p = cloud.points[i];
+    const int c = static_cast<int>((p.x() - area_.min().x()) / options_.cell_m);
+    const int r = static_cast<int>((p.y() - area_.min().y()) / options_.cell_m);
+    if (c < 0 || r < 0 || c >= cols_ || r >= rows_) continue;
+    const double g = ground(p.x(), p.y());
+    if (!std::isfinite(g)) continue;
+    const double h = p.z() - g;
+    if (!canopy_.IsCanopy(cloud.is_vegetation[i], h)) continue;
+    float& cell = height_[static_cast<std::size_t>(r) * cols_ + c];
+    cell = std::max(cell, static_cast<float>(h));
+  }
+}
+
+std::vector<DetectedPlant> PlantRaster::Detect() const {
   std::vector<DetectedPlant> plants;
-  if (area.isEmpty()) return plants;
-  const int cols = static_cast<int>(std::ceil(area.sizes().x() / o.cell_m)) + 1;
-  const int rows = static_cast<int>(std::ceil(area.sizes().y() / o.cell_m)) + 1;
-  const cv::Mat height = CanopyRaster(cloud, ground, area, canopy, o.cell_m, rows, cols);
+  if (height_.empty()) return plants;
+  const PlantDetectionOptions& o = options_;
+  // A header on the raster, read only.
+  const cv::Mat height(rows_, cols_, CV_32F, const_cast<float*>(height_.data()));
   // Islands: the mask closed by one cell (a sparse or dense cloud leaves gaps inside a plant),
   // 8-connected.
   cv::Mat mask = height > 0.0f;
@@ -198,7 +199,7 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
   // PlantDetectionOptions for the prominence). Cells the closing filled take the highest of
   // their neighbours, so that a gap in the cloud is no saddle.
   const Peaks peaks = SplitAtSaddles(height, mask, o);
-  plants = PlantsOfPeaks(peaks, height, labels, stats, area, o);
+  plants = PlantsOfPeaks(peaks, height, labels, stats, area_, o);
   // Largest plants first, then drop those within min_spacing_m of a kept one.
   std::sort(plants.begin(), plants.end(),
             [](const DetectedPlant& a, const DetectedPlant& b) { return a.area_m2 > b.area_m2; });
@@ -210,6 +211,15 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
     if (!near) kept.push_back(p);
   }
   return kept;
+}
+
+std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundFunction& ground,
+                                        const Eigen::AlignedBox2d& area,
+                                        const CanopyOptions& canopy,
+                                        const PlantDetectionOptions& o) {
+  PlantRaster raster(area, canopy, o);
+  raster.Add(cloud, ground);
+  return raster.Detect();
 }
 
 std::vector<DetectedPlant> PlantsOnRows(std::vector<DetectedPlant> plants,

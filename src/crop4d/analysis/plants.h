@@ -63,6 +63,26 @@ std::vector<DetectedPlant> DetectPlants(const SessionCloud& cloud, const GroundF
                                         const CanopyOptions& canopy,
                                         const PlantDetectionOptions& options);
 
+// The canopy raster that DetectPlants reads (per cell of `cell_m` over the area, the highest
+// canopy above the ground), filled a part of a cloud at a time: each cell keeps a maximum, so
+// adding the parts of a cloud (each point once) gives the raster of the whole cloud, and the
+// same plants. Its memory follows the area (4 bytes a cell), not the points.
+class PlantRaster {
+ public:
+  PlantRaster(const Eigen::AlignedBox2d& area, const CanopyOptions& canopy,
+              const PlantDetectionOptions& options);
+  void Add(const SessionCloud& cloud, const GroundFunction& ground);
+  // The plants of the points added (DetectPlants).
+  std::vector<DetectedPlant> Detect() const;
+
+ private:
+  Eigen::AlignedBox2d area_;
+  CanopyOptions canopy_;
+  PlantDetectionOptions options_;
+  int rows_ = 0, cols_ = 0;
+  std::vector<float> height_;  // row-major, 0: no canopy
+};
+
 // The plants whose stems lie within max_row_offset_m of the centre line (the segment from start
 // to end) of one of `rows`; all of them when `rows` is empty or max_row_offset_m is 0.
 std::vector<DetectedPlant> PlantsOnRows(std::vector<DetectedPlant> plants,

@@ -131,6 +131,36 @@ TEST(DetectPlantsTest, ALowBumpOnAPlantIsNotAPlant) {
 
 // Plants off the declared rows are weeds or noise between them: the stems beyond
 // max_row_offset_m from every row's segment go, those beside a row or past its end by less stay.
+// The raster filled a part of the cloud at a time (each point once) finds the plants of the
+// whole cloud.
+TEST(PlantRasterTest, PartsOfACloudGiveThePlantsOfTheWhole) {
+  const SessionCloud cloud =
+      Domes({{0.4, 0.5, 0.08}, {0.9, 0.52, 0.1}, {1.02, 0.6, 0.07}, {1.5, 1.4, 0.12}}, 0.06);
+  const Eigen::AlignedBox2d area(Eigen::Vector2d(0.1, 0.1), Eigen::Vector2d(1.9, 1.9));
+  const std::vector<DetectedPlant> whole =
+      DetectPlants(cloud, Truth(), area, CanopyOptions{}, PlantDetectionOptions{});
+  ASSERT_GE(whole.size(), 3u);
+  PlantRaster raster(area, CanopyOptions{}, PlantDetectionOptions{});
+  for (const double lo : {0.0, 0.55, 0.97, 1.3}) {  // strips of x, cutting plants in two
+    const double hi = lo == 1.3 ? 3.0 : (lo == 0.0 ? 0.55 : (lo == 0.55 ? 0.97 : 1.3));
+    SessionCloud part;
+    for (std::size_t i = 0; i < cloud.points.size(); ++i) {
+      if (cloud.points[i].x() < lo || cloud.points[i].x() >= hi) continue;
+      part.points.push_back(cloud.points[i]);
+      part.colors.push_back(cloud.colors[i]);
+      part.is_vegetation.push_back(cloud.is_vegetation[i]);
+    }
+    raster.Add(part, Truth());
+  }
+  const std::vector<DetectedPlant> parts = raster.Detect();
+  ASSERT_EQ(parts.size(), whole.size());
+  for (std::size_t k = 0; k < whole.size(); ++k) {
+    EXPECT_EQ(parts[k].stem, whole[k].stem);
+    EXPECT_EQ(parts[k].height_m, whole[k].height_m);
+    EXPECT_EQ(parts[k].area_m2, whole[k].area_m2);
+  }
+}
+
 TEST(PlantsOnRowsTest, StemsFarFromEveryRowGo) {
   io::RowDeclaration a, b;
   a.start_enu = {0.0, 0.0};

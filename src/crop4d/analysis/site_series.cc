@@ -49,14 +49,6 @@ SiteSeries MeasureSiteSeries(const std::vector<SessionCloud>& clouds,
   return series;
 }
 
-std::vector<DetectedPlant> SessionPlants(const SessionCloud& cloud, const GroundFunction& ground,
-                                         const Eigen::AlignedBox2d& area,
-                                         const std::vector<io::RowDeclaration>& rows,
-                                         const CanopyOptions& canopy,
-                                         const PlantDetectionOptions& plants) {
-  return PlantsOnRows(DetectPlants(cloud, ground, area, canopy, plants), rows, plants);
-}
-
 std::vector<SiteResult> MeasureSeasonSites(const std::vector<io::Site>& sites,
                                            const std::vector<SeasonSession>& sessions,
                                            const std::vector<SessionCloud>& clouds,

@@ -63,16 +63,9 @@ struct SeasonSession {
   bool trusted = true;
 };
 
-// The plants of one session for the sites: DetectPlants over `area`, those off the declared
-// `rows` left out (PlantsOnRows).
-std::vector<DetectedPlant> SessionPlants(const SessionCloud& cloud, const GroundFunction& ground,
-                                         const Eigen::AlignedBox2d& area,
-                                         const std::vector<io::RowDeclaration>& rows,
-                                         const CanopyOptions& canopy,
-                                         const PlantDetectionOptions& plants);
-
 // Every site in every session: MeasureSiteSeries per site. `clouds` hold each session's points
-// at the sites at least (SitePoints), `plants` its SessionPlants. Site-major: result
+// at the sites at least (SitePoints), `plants` its plants (DetectPlants over the
+// analysed area, or PlantRaster, then PlantsOnRows). Site-major: result
 // i * sessions.size() + k is site i in session k.
 std::vector<SiteResult> MeasureSeasonSites(const std::vector<io::Site>& sites,
                                            const std::vector<SeasonSession>& sessions,

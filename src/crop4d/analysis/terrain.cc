@@ -171,6 +171,24 @@ WeightedPoints Thin(const WeightedPoints& in, double cell) {
   return out;
 }
 
+// The points of the cells of `cell` whose lower edge along `axis` lies in [lo, hi) (tiles that
+// partition the axis own each cell once: the cell's index is computed alike in every tile); of
+// the points in [lo, hi) when cell <= 0.
+WeightedPoints InTile(WeightedPoints in, int axis, double lo, double hi, double cell) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < in.points.size(); ++i) {
+    const double v = in.points[i][axis];
+    const double edge = cell > 0.0 ? std::floor(v / cell) * cell : v;
+    if (!(edge >= lo && edge < hi)) continue;
+    in.points[kept] = in.points[i];
+    in.weights[kept] = in.weights[i];
+    ++kept;
+  }
+  in.points.resize(kept);
+  in.weights.resize(kept);
+  return in;
+}
+
 // Fits every node; returns heights (NaN where no fit) and the scales of fitted nodes.
 std::vector<float> FitAllNodes(const GridSpec& grid, const std::vector<Eigen::Vector3d>& ground,
                                const TerrainOptions& o, std::vector<float>* scales) {
@@ -328,19 +346,34 @@ TerrainBuilder::TerrainBuilder(const Eigen::AlignedBox2d& bounds, const TerrainO
 }
 
 void TerrainBuilder::AddSession(const GroundCloud& c) {
+  BeginSession();
+  const double inf = std::numeric_limits<double>::infinity();
+  AddTile(c, 0, -inf, inf);
+  EndSession();
+}
+
+double TerrainBuilder::TileReach(const TerrainOptions& options) {
+  return GroundFilterReach(options.ground_filter) + std::max(options.thin_cell_m, 0.0) +
+         std::max(options.vegetation_clearance_m, 0.0);
+}
+
+void TerrainBuilder::BeginSession() {
+  CROP4D_CHECK(!in_session_);
+  in_session_ = true;
+  first_session_ = !have_first_;
+  session_has_points_ = false;
+}
+
+void TerrainBuilder::AddTile(const GroundCloud& c, int axis, double lo, double hi) {
+  CROP4D_CHECK(in_session_ && (axis == 0 || axis == 1));
   if (c.points == nullptr || c.points->empty()) return;
-  if (have_first_ && !options_.use_later_sessions) return;
+  session_has_points_ = true;
+  if (!first_session_ && !options_.use_later_sessions) return;
   const auto t0 = std::chrono::steady_clock::now();
-  if (!have_first_) {
-    // The earliest session with points gives the first ground.
-    have_first_ = true;
-    ground_ = Thin(Unweighted(GroundCandidates(c, reach_, options_)), options_.thin_cell_m);
-    summary_.ground_points_first = ground_.points.size();
-    first_heights_ = FitAllNodes(grid_, ground_.points, options_, &first_scales_);
-  } else {
+  std::vector<Eigen::Vector3d> ground = GroundCandidates(c, reach_, options_);
+  if (!first_session_) {
     // Where the first model is unknown (the first session did not see the ground there), a
     // later soil point is taken on the clearance test alone.
-    const TerrainModel model(grid_, first_heights_);
     std::vector<Eigen::Vector3d> vegetation;
     for (std::size_t i = 0; i < c.points->size(); ++i) {
       if (IsVegetation(c, i)) vegetation.push_back((*c.points)[i]);
@@ -348,8 +381,8 @@ void TerrainBuilder::AddSession(const GroundCloud& c) {
     const double clearance = std::max(options_.vegetation_clearance_m, 1e-3);
     const PointBuckets veg_buckets(vegetation, clearance);
     std::vector<Eigen::Vector3d> accepted;
-    for (const Eigen::Vector3d& p : GroundCandidates(c, reach_, options_)) {
-      const double z = model.Height(p.x(), p.y());
+    for (const Eigen::Vector3d& p : ground) {
+      const double z = first_model_.Height(p.x(), p.y());
       if (std::isfinite(z) && std::abs(p.z() - z) > options_.later_tolerance_m) continue;
       if (options_.vegetation_clearance_m > 0.0 &&
           veg_buckets.Any(p.head<2>(), options_.vegetation_clearance_m, vegetation)) {
@@ -357,10 +390,27 @@ void TerrainBuilder::AddSession(const GroundCloud& c) {
       }
       accepted.push_back(p);
     }
-    const WeightedPoints thinned = Thin(Unweighted(std::move(accepted)), options_.thin_cell_m);
-    summary_.ground_points_later += thinned.points.size();
-    Append(thinned, &ground_);
+    ground = std::move(accepted);
   }
+  const WeightedPoints thinned = InTile(Thin(Unweighted(std::move(ground)), options_.thin_cell_m),
+                                        axis, lo, hi, options_.thin_cell_m);
+  if (!first_session_) summary_.ground_points_later += thinned.points.size();
+  Append(thinned, &ground_);
+  seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void TerrainBuilder::EndSession() {
+  CROP4D_CHECK(in_session_);
+  in_session_ = false;
+  if (!first_session_ || !session_has_points_) return;
+  // The earliest session with points gives the first ground; its tiles' cells, in the order
+  // of the cells (as from the whole session: the fit does not depend on the tiling).
+  const auto t0 = std::chrono::steady_clock::now();
+  have_first_ = true;
+  ground_ = Thin(ground_, options_.thin_cell_m);
+  summary_.ground_points_first = ground_.points.size();
+  first_heights_ = FitAllNodes(grid_, ground_.points, options_, &first_scales_);
+  first_model_ = TerrainModel(grid_, first_heights_);
   seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

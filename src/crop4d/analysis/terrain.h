@@ -153,6 +153,19 @@ class TerrainBuilder {
   // Adds the next session (time order). A session without points is skipped; so is every
   // session after the first when options.use_later_sessions is false.
   void AddSession(const GroundCloud& session);
+
+  // The same, the session given a tile at a time (the analysis reads a session in tiles, so that
+  // its cloud is never held whole): BeginSession, AddTile for each tile, EndSession. A tile holds
+  // the session's points within its extent along `axis` (0: x, 1: y) and within TileReach of it;
+  // it adds the ground of the thinning cells whose lower edge along the axis lies in [lo, hi)
+  // (of the points there when thin_cell_m is 0). Tiles that partition the axis add the ground
+  // that AddSession adds from the whole session (the same points, up to their order).
+  void BeginSession();
+  void AddTile(const GroundCloud& tile, int axis, double lo, double hi);
+  void EndSession();
+  // How far around its extent a tile must hold the session's points, m: the ground filter's
+  // reach, a thinning cell and the vegetation clearance.
+  static double TileReach(const TerrainOptions& options);
   // The model of the sessions added. Call once.
   TerrainModel Finish(TerrainSummary* summary = nullptr);
 
@@ -161,10 +174,13 @@ class TerrainBuilder {
   GridSpec grid_;
   Eigen::AlignedBox2d reach_;  // bounds + fit radius: the points any node's fit can use
   bool have_first_ = false;
+  // Within BeginSession ... EndSession: whether it is the first session and has points.
+  bool in_session_ = false, first_session_ = false, session_has_points_ = false;
   // The first session's thinned ground points, then the later ones'.
   WeightedPoints ground_;
   std::vector<float> first_heights_;  // the first model's nodes
   std::vector<float> first_scales_;
+  TerrainModel first_model_;  // the first model, which later sessions' points must lie near
   TerrainSummary summary_;
   double seconds_ = 0.0;
 };

@@ -175,6 +175,78 @@ TEST(TerrainBuilderTest, KeepsAtMostOnePointPerCellOfEachLaterSession) {
   EXPECT_LT(worst, 0.003);
 }
 
+// A session given a tile at a time, each tile holding its part of the axis and TileReach
+// around it, adds what the whole session adds: the model is the same.
+TEST(TerrainBuilderTest, SessionsInTilesGiveTheModelOfWholeSessions) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const Eigen::AlignedBox2d all(Eigen::Vector2d(0, 0), Eigen::Vector2d(4, 1.5));
+  std::vector<std::vector<Eigen::Vector3d>> points(2);
+  std::vector<std::vector<std::uint8_t>> veg(2);
+  for (int s = 0; s < 2; ++s) {
+    SampleGround(all, 3000, 0.002, &rng, &points[s], &veg[s]);
+    for (int i = 0; i < 3000; ++i) {  // canopy over the crests: green and soil-coloured leaves
+      const double x = 0.91 * static_cast<int>(5 * u(rng)) + (s + 1) * 0.1 * (u(rng) - 0.5);
+      const double y = 1.5 * u(rng);
+      points[s].emplace_back(x, y, BedHeight(x, y) + 0.05 + 0.1 * s + 0.05 * u(rng));
+      veg[s].push_back(u(rng) < 0.7 ? 1 : 0);
+    }
+  }
+  const Eigen::AlignedBox2d bounds(Eigen::Vector2d(0.2, 0.2), Eigen::Vector2d(3.8, 1.3));
+  const TerrainOptions options;
+  TerrainSummary whole_summary, tiled_summary;
+  const TerrainModel whole =
+      BuildTerrain({{&points[0], &veg[0]}, {&points[1], &veg[1]}}, bounds, options, &whole_summary);
+
+  // The sessions in tiles of 0.87 to 1.03 m along x, each holding the points within `reach`
+  // around its part of the axis.
+  const double edges[] = {-1e9, 1.03, 1.9, 2.87, 1e9};
+  const auto in_tiles = [&](double reach, TerrainSummary* summary) {
+    TerrainBuilder builder(bounds, options);
+    for (int s = 0; s < 2; ++s) {
+      builder.BeginSession();
+      for (int t = 0; t < 4; ++t) {
+        std::vector<Eigen::Vector3d> tile;
+        std::vector<std::uint8_t> tile_veg;
+        for (std::size_t i = 0; i < points[s].size(); ++i) {
+          const double x = points[s][i].x();
+          if (x >= edges[t] - reach && x <= edges[t + 1] + reach) {
+            tile.push_back(points[s][i]);
+            tile_veg.push_back(veg[s][i]);
+          }
+        }
+        builder.AddTile({&tile, &tile_veg}, 0, edges[t], edges[t + 1]);
+      }
+      builder.EndSession();
+    }
+    return builder.Finish(summary);
+  };
+  const auto largest_difference = [&](const TerrainModel& m) {
+    double worst = 0.0;
+    for (std::size_t k = 0; k < whole.heights().size(); ++k) {
+      if (std::isfinite(m.heights()[k]) && std::isfinite(whole.heights()[k])) {
+        worst = std::max(worst, static_cast<double>(std::abs(m.heights()[k] - whole.heights()[k])));
+      }
+    }
+    return worst;
+  };
+  const TerrainModel tiled = in_tiles(TerrainBuilder::TileReach(options), &tiled_summary);
+  EXPECT_EQ(tiled_summary.ground_points_first, whole_summary.ground_points_first);
+  EXPECT_EQ(tiled_summary.ground_points_later, whole_summary.ground_points_later);
+  EXPECT_GT(whole_summary.ground_points_later, 0u);
+  ASSERT_EQ(tiled.heights().size(), whole.heights().size());
+  std::size_t known = 0;
+  for (std::size_t k = 0; k < whole.heights().size(); ++k) {
+    ASSERT_EQ(std::isfinite(tiled.heights()[k]), std::isfinite(whole.heights()[k])) << k;
+    known += std::isfinite(whole.heights()[k]) ? 1 : 0;
+  }
+  EXPECT_GT(known, whole.heights().size() / 2);
+  EXPECT_LT(largest_difference(tiled), 1e-6);
+  // Tiles without the reach around them would not: the ground filter and the clearance test
+  // lose their neighbours at the tiles' ends.
+  EXPECT_GT(largest_difference(in_tiles(0.0, nullptr)), 1e-4);
+}
+
 // A late session alone (the earliest one missing or left out): the canopy hides the bed crests,
 // and soil-coloured points (shaded leaves, stems) lie at its height. The ground filter keeps them
 // out, and the crests are fitted from the soil on both sides.

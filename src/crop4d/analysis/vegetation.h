@@ -17,6 +17,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "crop4d/core/option_check.h"
@@ -51,6 +53,10 @@ struct OtsuResult {
 // spanning their range. The threshold maximises the between-class variance; when several
 // thresholds tie (empty bins between the classes), the middle of the gap is returned.
 OtsuResult OtsuThreshold(const std::vector<float>& values, int bins = 256);
+// The same with a weight per value (each value counted `weights[i]` times; num_values is then
+// the sum of the weights of the finite values).
+OtsuResult OtsuThreshold(const std::vector<float>& values, const std::vector<double>& weights,
+                         int bins = 256);
 
 struct VegetationOptions {
   // The greenness index.
@@ -89,6 +95,33 @@ struct VegetationClassification {
   // num_vegetation / number of points (0 when empty).
   double Fraction() const;
 };
+
+// How many points have each colour: the greenness index is a function of the colour, so the
+// automatic threshold of a cloud follows from these counts, which can be gathered a part of
+// the cloud at a time and hold at most one entry per distinct colour (2^24).
+class ColourHistogram {
+ public:
+  void Add(const std::array<std::uint8_t, 3>& colour, std::uint64_t count = 1);
+  void Add(const std::vector<std::array<std::uint8_t, 3>>& colours);
+  // Points counted.
+  std::uint64_t total() const { return total_; }
+  // The distinct colours (packed 0xRRGGBB, increasing) and their counts.
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> Entries() const;
+
+ private:
+  std::unordered_map<std::uint32_t, std::uint64_t> counts_;
+  std::uint64_t total_ = 0;
+};
+
+// The threshold that ClassifyVegetation applies, from a cloud's colour counts: options.threshold
+// when set, else the automatic one (below). `is_vegetation` and `index` of the result are empty;
+// num_vegetation counts the colours above the threshold.
+VegetationClassification VegetationThreshold(const ColourHistogram& colours,
+                                             const VegetationOptions& options = {});
+
+// Whether `colour` is vegetation under `classification`'s threshold (index > threshold).
+bool IsVegetationColour(const VegetationClassification& classification, GreennessIndex index,
+                        const std::array<std::uint8_t, 3>& colour);
 
 // Classifies each colour as vegetation (index > threshold) or not. The automatic threshold
 // (options.threshold NaN):

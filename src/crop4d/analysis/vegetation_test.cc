@@ -262,6 +262,44 @@ TEST(ClassifyVegetationTest, EmptyAndConstantInput) {
   EXPECT_EQ(ClassifyVegetation(black).num_vegetation, 0u);
 }
 
+// The colours counted a part at a time (a session read in tiles) give the threshold of the
+// whole cloud, and ClassifyVegetation applies it.
+TEST(ColourHistogramTest, PartsGiveTheThresholdOfTheWhole) {
+  std::vector<bool> truth;
+  const std::vector<Color> colors = Mixed(20000, 0.08, 17, &truth);
+  const VegetationClassification whole = ClassifyVegetation(colors);
+  ASSERT_TRUE(whole.automatic);
+  ColourHistogram parts;
+  for (std::size_t start = 0; start < colors.size(); start += 3001) {
+    const std::size_t end = std::min(colors.size(), start + 3001);
+    parts.Add(std::vector<Color>(colors.begin() + start, colors.begin() + end));
+  }
+  EXPECT_EQ(parts.total(), colors.size());
+  const VegetationClassification from_parts = VegetationThreshold(parts);
+  EXPECT_EQ(from_parts.threshold, whole.threshold);
+  EXPECT_EQ(from_parts.separability, whole.separability);
+  EXPECT_EQ(from_parts.automatic, whole.automatic);
+  EXPECT_TRUE(from_parts.is_vegetation.empty());
+  std::size_t vegetation = 0;
+  for (std::size_t i = 0; i < colors.size(); ++i) {
+    const bool v = IsVegetationColour(from_parts, GreennessIndex::kExG, colors[i]);
+    EXPECT_EQ(v, whole.is_vegetation[i] != 0);
+    vegetation += v ? 1 : 0;
+  }
+  EXPECT_EQ(vegetation, whole.num_vegetation);
+  EXPECT_GT(Accuracy(whole, truth), 0.99);
+}
+
+// Weights count a value that many times.
+TEST(OtsuTest, WeightsCountValuesRepeatedly) {
+  const std::vector<float> repeated = {0.1f, 0.1f, 0.1f, 0.2f, 0.8f, 0.8f, 0.9f};
+  const OtsuResult a = OtsuThreshold(repeated, 16);
+  const OtsuResult b = OtsuThreshold({0.1f, 0.2f, 0.8f, 0.9f, 0.5f}, {3.0, 1.0, 2.0, 1.0, 0.0}, 16);
+  EXPECT_EQ(a.threshold, b.threshold);
+  EXPECT_EQ(a.separability, b.separability);
+  EXPECT_EQ(b.num_values, 7u);
+}
+
 TEST(VegetationOptionsTest, CheckRejectsBadOptions) {
   EXPECT_EQ(VegetationOptions().Check(), "");
   VegetationOptions o;

@@ -160,6 +160,11 @@ RunFunction SetupAnalyze(CLI::App& app) {
                  "and left out, m (0: keep every point)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1.0));
+  app.add_option("--tile", o.tile_m,
+                 "Each session's cloud is read in tiles of this length along the analysed area, "
+                 "so that it is never held whole, m (0: one tile)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--raster-cell", o.raster_cell_m, "Cell of the GeoTIFF rasters, m")
       ->capture_default_str();
   app.add_flag(

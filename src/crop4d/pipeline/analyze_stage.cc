@@ -8,12 +8,12 @@
 #include <cmath>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 
-#include "crop4d/analysis/lone_points.h"
 #include "crop4d/core/error.h"
 #include "crop4d/core/hash.h"
 #include "crop4d/core/version.h"
@@ -21,6 +21,7 @@
 #include "crop4d/io/geotiff.h"
 #include "crop4d/io/ply.h"
 #include "crop4d/pipeline/analyze_plots.h"
+#include "crop4d/pipeline/analyze_tiles.h"
 #include "crop4d/pipeline/season_quality.h"
 #include "crop4d/pipeline/stage_option_fields.h"
 #include "crop4d/workspace/analysis_rasters.h"
@@ -39,16 +40,10 @@ using json = nlohmann::json;
 // Bump when the stage's outputs change for the same inputs and options.
 // 2: touching plants split; 3: tops bounded by the next session's; 4: lone points left out;
 // 5: ground filter; 6: Cloud-Optimized GeoTIFFs and the height-change rasters; 7: the sessions
-// read one at a time, the later sessions' ground points thinned per session.
-constexpr int kAnalyzeStageRevision = 7;
-
-// A session to analyse: its id, date and cloud.
-struct SessionInput {
-  std::string id;
-  Timestamp date = 0;
-  fs::path cloud;
-  bool dense = false;
-};
+// read one at a time, the later sessions' ground points thinned per session; 8: the sessions read
+// in tiles, the ground filter's cells on one grid of the plane, the vegetation threshold from the
+// colour counts.
+constexpr int kAnalyzeStageRevision = 8;
 
 // The sessions with a registered cloud (dense when there is one and `which` allows it), in date
 // order. Throws InputError when there is none.
@@ -141,90 +136,100 @@ std::string InputsFingerprint(const AnalyzeStageOptions& options,
   return std::to_string(fingerprint.hash());
 }
 
-// The points of a session's cloud within `area`, with their colours. The cloud is read a slice
-// at a time: a dense cloud is never held whole beside the points kept.
-analysis::SessionCloud LoadCloud(const SessionInput& s, const Eigen::AlignedBox2d& area) {
-  io::PlyPointCloud ply = io::ReadPlyWhere(s.cloud.string(), [&](const Eigen::Vector3d& p) {
-    return p.allFinite() && area.contains(p.head<2>());
-  });
-  if (ply.colors.size() != ply.points.size()) {
-    throw InputError(s.cloud.string(), 0,
-                     "the cloud has no colours: vegetation is found by colour (red, green, blue "
-                     "vertex properties)");
-  }
-  analysis::SessionCloud cloud;
-  cloud.session = s.id;
-  cloud.points = std::move(ply.points);
-  cloud.colors = std::move(ply.colors);
-  return cloud;
+// The tiles of the analysed area: strips of at most tile_m across its longer side, each read
+// with the reach that the lone points, the ground filter and the vegetation clearance need.
+analysis::AreaTiling StageTiling(const Eigen::AlignedBox2d& area,
+                                 const AnalyzeStageOptions& options) {
+  const double reach =
+      std::max(analysis::TerrainBuilder::TileReach(options.terrain), options.lone_point_radius_m) +
+      0.01;
+  return analysis::TileArea(area, options.tile_m, reach);
 }
 
-// Leaves the lone points (analysis/lone_points.h) out of `cloud`; returns how many.
-std::size_t DropLonePoints(double radius_m, analysis::SessionCloud* cloud) {
-  const std::vector<std::uint8_t> flags = analysis::FindLonePoints(cloud->points, radius_m);
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < flags.size(); ++i) {
-    if (flags[i]) continue;
-    cloud->points[kept] = cloud->points[i];
-    cloud->colors[kept] = cloud->colors[i];
-    ++kept;
-  }
-  cloud->points.resize(kept);
-  cloud->colors.resize(kept);
-  return flags.size() - kept;
-}
+// A session's points at the sites, gathered tile by tile: kept in the order of the file, as
+// from the whole cloud (the paper's plane per site samples them by position).
+class SitePointsGatherer {
+ public:
+  SitePointsGatherer(const std::vector<io::Site>& sites, const AnalyzeStageOptions& options)
+      : sites_(sites), options_(options) {}
 
-// One session's cloud within the area, lone points of a dense cloud left out, its points
-// classified as vegetation or not; their statistics into `report`.
-analysis::SessionCloud LoadSession(const SessionInput& input, const Eigen::AlignedBox2d& area,
-                                   const workspace::Layout& ws, const AnalyzeStageOptions& options,
-                                   AnalyzeSessionReport* report) {
-  analysis::SessionCloud cloud = LoadCloud(input, area);
-  std::size_t lone = 0;
-  if (input.dense && options.lone_point_radius_m > 0) {
-    lone = DropLonePoints(options.lone_point_radius_m, &cloud);
+  void Add(const TileCloud& tile) {
+    std::vector<std::uint64_t> owned_index;  // of the tile's own points, in the file
+    for (std::size_t i = 0; i < tile.owned.size(); ++i) {
+      if (tile.owned[i]) owned_index.push_back(tile.index[i]);
+    }
+    std::vector<std::size_t> taken;
+    const analysis::SessionCloud near =
+        analysis::SitePoints(tile.Owned(), sites_, options_.canopy, &taken);
+    points_.session = near.session;
+    points_.points.insert(points_.points.end(), near.points.begin(), near.points.end());
+    points_.colors.insert(points_.colors.end(), near.colors.begin(), near.colors.end());
+    points_.is_vegetation.insert(points_.is_vegetation.end(), near.is_vegetation.begin(),
+                                 near.is_vegetation.end());
+    for (const std::size_t k : taken) index_.push_back(owned_index[k]);
   }
-  analysis::VegetationClassification veg =
-      analysis::ClassifyVegetation(cloud.colors, options.vegetation);
-  cloud.is_vegetation = std::move(veg.is_vegetation);
-  veg.is_vegetation.clear();
-  veg.index.clear();
-  veg.index.shrink_to_fit();
-  report->session = input.id;
-  report->date = input.date;
-  report->cloud_path = fs::relative(input.cloud, ws.root()).string();
-  report->dense = input.dense;
-  report->points = cloud.points.size();
-  report->lone_points = lone;
-  report->vegetation = std::move(veg);
-  return cloud;
-}
 
-// Step 1, the first pass over the clouds, a session at a time in date order (a session's cloud
-// is freed before the next is read): the sessions' statistics, the terrain from the trusted
-// sessions' ground points, and each session's points at the sites.
+  analysis::SessionCloud Finish() {
+    std::vector<std::size_t> order(index_.size());
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+    std::sort(order.begin(), order.end(),
+              [this](std::size_t a, std::size_t b) { return index_[a] < index_[b]; });
+    return points_.Take(order);
+  }
+
+ private:
+  const std::vector<io::Site>& sites_;
+  const AnalyzeStageOptions& options_;
+  analysis::SessionCloud points_;
+  std::vector<std::uint64_t> index_;
+};
+
+// Step 1, the first pass over the clouds, a session at a time in date order and each session a
+// tile at a time: the sessions' surveys (lone points, vegetation threshold) and statistics, the
+// terrain from the trusted sessions' ground points, and each session's points at the sites.
 analysis::TerrainModel FirstPass(const std::vector<SessionInput>& inputs,
                                  const std::vector<analysis::SeasonSession>& sessions,
                                  const std::vector<io::Site>& sites,
                                  const Eigen::AlignedBox2d& area, const workspace::Layout& ws,
                                  const AnalyzeStageOptions& options,
+                                 std::vector<SessionSurvey>* surveys,
                                  std::vector<analysis::SessionCloud>* site_clouds,
                                  AnalyzeReport* report) {
   report->sessions.resize(inputs.size());
   site_clouds->resize(inputs.size());
+  surveys->resize(inputs.size());
+  const analysis::AreaTiling tiling = StageTiling(area, options);
   analysis::TerrainBuilder terrain(area, options.terrain);
   for (std::size_t k = 0; k < inputs.size(); ++k) {
-    const analysis::SessionCloud cloud =
-        LoadSession(inputs[k], area, ws, options, &report->sessions[k]);
-    const AnalyzeSessionReport& r = report->sessions[k];
+    SessionTiles tiles(inputs[k], area, tiling);
+    SessionSurvey& survey = (*surveys)[k];
+    survey = tiles.Survey(options.lone_point_radius_m, options.vegetation);
+    AnalyzeSessionReport& r = report->sessions[k];
+    r.session = inputs[k].id;
+    r.date = inputs[k].date;
+    r.cloud_path = fs::relative(inputs[k].cloud, ws.root()).string();
+    r.dense = inputs[k].dense;
+    r.points = survey.points;
+    r.lone_points = survey.lone.size();
+    r.vegetation = survey.vegetation;
+    if (sessions[k].trusted) terrain.BeginSession();
+    SitePointsGatherer site_points(sites, options);
+    for (std::size_t t = 0; t < tiles.num_tiles(); ++t) {
+      const TileCloud tile = tiles.Read(t, survey, options.vegetation, /*with_reach=*/true);
+      if (sessions[k].trusted) {
+        terrain.AddTile(tile.cloud.AsGround(), tiles.axis(), tiles.tile(t).lo, tiles.tile(t).hi);
+      }
+      site_points.Add(tile);
+    }
+    if (sessions[k].trusted) terrain.EndSession();
+    (*site_clouds)[k] = site_points.Finish();
     spdlog::info(
         "analyze: {} {} cloud, {} points in the area ({} lone points left out), "
-        "{:.1f}% vegetation (ExG > {:.3f})",
+        "{:.1f}% vegetation (ExG > {:.3f}), {} tile{} ({:.1f} reads of the file)",
         r.session, r.dense ? "dense" : "sparse", r.points, r.lone_points,
         100.0 * r.vegetation.num_vegetation / std::max<std::size_t>(1, r.points),
-        r.vegetation.threshold);
-    if (sessions[k].trusted) terrain.AddSession(cloud.AsGround());
-    (*site_clouds)[k] = analysis::SitePoints(cloud, sites, options.canopy);
+        r.vegetation.threshold, tiles.num_tiles(), tiles.num_tiles() == 1 ? "" : "s",
+        tiles.read_fraction());
   }
   return terrain.Finish(&report->terrain);
 }
@@ -312,10 +317,16 @@ class RasterWriter {
     outputs_.push_back(WorkspaceRelative(ws, ws.Dtm()));
   }
 
-  void AddSession(const analysis::SeasonSession& session, const analysis::SessionCloud& cloud) {
+  // A session's canopy height model, filled a part of its cloud at a time (AddToChm), then
+  // written (WriteSession).
+  std::vector<float> NewChm() const {
+    return std::vector<float>(grid_.num_cells(), std::numeric_limits<float>::quiet_NaN());
+  }
+  void AddToChm(const analysis::SessionCloud& cloud, std::vector<float>* chm) const {
     const analysis::GroundFunction ground = [&](double x, double y) { return dtm_.Height(x, y); };
-    std::vector<float> chm =
-        analysis::CanopyHeightModel(cloud, ground, grid_.num_cells(), cell_of_, options_.canopy);
+    analysis::AddToCanopyHeightModel(cloud, ground, cell_of_, options_.canopy, chm);
+  }
+  void WriteSession(const analysis::SeasonSession& session, std::vector<float> chm) {
     workspace::WriteChm(ws_, info_.name, grid_, session, chm);
     outputs_.push_back(WorkspaceRelative(ws_, ws_.Chm(session.id)));
     if (previous_session_) {
@@ -342,24 +353,32 @@ class RasterWriter {
   std::vector<std::string> outputs_;
 };
 
-// Step 3, the second pass over the clouds, a session at a time, now that the terrain is known:
-// each session's plants (returned) and, when asked, its rasters (their paths into
-// `raster_outputs`).
+// Step 2, the second pass over the clouds, a session at a time and each session a tile at a
+// time, now that the terrain is known: each session's plants (returned) and, when asked, its
+// rasters (their paths into `raster_outputs`). A tile's own points are enough: the plants'
+// raster and the canopy height models keep a maximum per cell.
 std::vector<std::vector<analysis::DetectedPlant>> SecondPass(
     const std::vector<SessionInput>& inputs, const std::vector<analysis::SeasonSession>& sessions,
-    const io::FieldInfo& info, const Eigen::AlignedBox2d& area, const analysis::TerrainModel& dtm,
-    const workspace::Layout& ws, const AnalyzeStageOptions& options,
-    std::vector<std::string>* raster_outputs) {
+    const std::vector<SessionSurvey>& surveys, const io::FieldInfo& info,
+    const Eigen::AlignedBox2d& area, const analysis::TerrainModel& dtm, const workspace::Layout& ws,
+    const AnalyzeStageOptions& options, std::vector<std::string>* raster_outputs) {
   std::optional<RasterWriter> rasters;
   if (options.write_rasters) rasters.emplace(info, area, dtm, options, ws);
   const analysis::GroundFunction ground = [&](double x, double y) { return dtm.Height(x, y); };
+  const analysis::AreaTiling tiling = StageTiling(area, options);
   std::vector<std::vector<analysis::DetectedPlant>> plants(inputs.size());
   for (std::size_t k = 0; k < inputs.size(); ++k) {
-    AnalyzeSessionReport again;  // the same as the first pass's
-    const analysis::SessionCloud cloud = LoadSession(inputs[k], area, ws, options, &again);
-    plants[k] =
-        analysis::SessionPlants(cloud, ground, area, info.rows, options.canopy, options.plants);
-    if (rasters) rasters->AddSession(sessions[k], cloud);
+    SessionTiles tiles(inputs[k], area, tiling);
+    analysis::PlantRaster raster(area, options.canopy, options.plants);
+    std::vector<float> chm;
+    if (rasters) chm = rasters->NewChm();
+    for (std::size_t t = 0; t < tiles.num_tiles(); ++t) {
+      const TileCloud tile = tiles.Read(t, surveys[k], options.vegetation, /*with_reach=*/false);
+      raster.Add(tile.cloud, ground);
+      if (rasters) rasters->AddToChm(tile.cloud, &chm);
+    }
+    plants[k] = analysis::PlantsOnRows(raster.Detect(), info.rows, options.plants);
+    if (rasters) rasters->WriteSession(sessions[k], std::move(chm));
     spdlog::info("analyze: {}: {} plants found{}", inputs[k].id, plants[k].size(),
                  rasters ? ", its canopy rasters written" : "");
   }
@@ -411,6 +430,7 @@ OptionCheck AnalyzeStageOptions::Check() const {
   c.Greater("raster_cell_m", raster_cell_m, 0.0)
       .AtLeast("margin_m", margin_m, 0.0)
       .AtLeast("lone_point_radius_m", lone_point_radius_m, 0.0)
+      .AtLeast("tile_m", tile_m, 0.0)
       .Nested("vegetation", vegetation.Check())
       .Nested("terrain", terrain.Check())
       .Nested("canopy", canopy.Check())
@@ -452,9 +472,10 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
 
   // 1. Clouds, vegetation, terrain and the points at the sites.
   const Eigen::AlignedBox2d area = analysis::AnalysedArea(field.info(), sites, options.margin_m);
+  std::vector<SessionSurvey> surveys;
   std::vector<analysis::SessionCloud> site_clouds;
   const analysis::TerrainModel dtm =
-      FirstPass(inputs, sessions, sites, area, ws, options, &site_clouds, &report);
+      FirstPass(inputs, sessions, sites, area, ws, options, &surveys, &site_clouds, &report);
   spdlog::info(
       "analyze: terrain {}×{} nodes of {:.0f} cm, {:.1f}% fitted, {:.1f}% filled, "
       "residual scale {:.1f} mm, {:.1f} s",
@@ -467,7 +488,7 @@ AnalyzeReport RunAnalyzeStage(const std::string& field_folder, const std::string
   fs::create_directories(ws.AnalysisDir());
   std::vector<std::string> raster_outputs;
   const std::vector<std::vector<analysis::DetectedPlant>> plants =
-      SecondPass(inputs, sessions, field.info(), area, dtm, ws, options, &raster_outputs);
+      SecondPass(inputs, sessions, surveys, field.info(), area, dtm, ws, options, &raster_outputs);
   for (std::size_t k = 0; k < plants.size(); ++k) report.sessions[k].plants = plants[k].size();
 
   // 3. Sites: ours above the DTM, the paper's above one plane per site.

@@ -9,6 +9,9 @@
 // work); the sites of field.yaml or of a sites file; the measurements of
 // FIELD/ground_truth/site_measurements.csv for the plots when present.
 //
+// Each session's cloud is read a tile of the analysed area at a time (pipeline/analyze_tiles.h):
+// its memory follows a tile, and the results are those of whole sessions.
+//
 // Steps (library analysis/):
 //   1. vegetation by colour in each session (ExG, Otsu threshold; analysis/vegetation.h);
 //   2. the terrain model from the earliest session's ground, refined with later sessions' ground
@@ -70,6 +73,11 @@ struct AnalyzeStageOptions {
   // floating alone and is left out of the analysis (analysis/lone_points.h), metres; 0 keeps
   // every point. Sparse clouds are kept whole (their points are centimetres apart).
   double lone_point_radius_m = 0.05;
+  // Each session's cloud is read a tile of the analysed area at a time, strips of at most this
+  // length across the area's longer side (pipeline/analyze_tiles.h), metres; 0: one tile. The
+  // results do not depend on it (to rounding); the memory follows a tile, and every tile reads
+  // a few decimetres around it as well.
+  double tile_m = 5.0;
   // Cell of the canopy height and terrain rasters, metres.
   double raster_cell_m = 0.02;
   // The analysed area: the rows of field.yaml and the sites, widened by this margin, metres.

@@ -316,6 +316,73 @@ TEST_F(AnalyzeStageTest, ALonePointAboveAPlantIsLeftOut) {
   EXPECT_EQ(kept.sessions[3].lone_points, 0u);
 }
 
+// Sessions read in tiles of 1.3 m (tiles that cut through sites and plants, with a false match
+// and a lone point near their ends) give what whole sessions give: the sessions' statistics,
+// the terrain, every site's height, the plants and the rasters.
+TEST_F(AnalyzeStageTest, TilesGiveTheResultsOfWholeSessions) {
+  const sim::World world(SmallWorld(4));
+  WriteTruthWorkspace(world, field_, workspace_);
+  AddToDenseCloud(kSessions[2], {Eigen::Vector3d(world.RowX(1), 2.6, 0.5),
+                                 Eigen::Vector3d(world.RowX(0), 3.9, 0.2),
+                                 Eigen::Vector3d(world.RowX(0) + 0.01, 3.9, 0.2)});
+  AnalyzeStageOptions options;
+  options.write_plots = false;
+  options.tile_m = 0.0;
+  const AnalyzeReport whole = RunAnalyzeStage(field_, workspace_, options);
+  const io::GeoTiffRaster whole_chm =
+      io::ReadGeoTiff(workspace_ + "/analysis/chm_" + kSessions[2] + ".tif");
+  const io::GeoTiffRaster whole_dtm = io::ReadGeoTiff(workspace_ + "/analysis/dtm.tif");
+  options.tile_m = 1.3;
+  const AnalyzeReport tiled = RunAnalyzeStage(field_, workspace_, options);
+  EXPECT_FALSE(tiled.skipped);  // another tile length: analysed again
+
+  ASSERT_EQ(tiled.sessions.size(), whole.sessions.size());
+  for (std::size_t k = 0; k < whole.sessions.size(); ++k) {
+    SCOPED_TRACE(whole.sessions[k].session);
+    EXPECT_EQ(tiled.sessions[k].points, whole.sessions[k].points);
+    EXPECT_EQ(tiled.sessions[k].lone_points, whole.sessions[k].lone_points);
+    EXPECT_EQ(tiled.sessions[k].plants, whole.sessions[k].plants);
+    EXPECT_EQ(tiled.sessions[k].vegetation.threshold, whole.sessions[k].vegetation.threshold);
+    EXPECT_EQ(tiled.sessions[k].vegetation.num_vegetation,
+              whole.sessions[k].vegetation.num_vegetation);
+  }
+  EXPECT_GE(whole.sessions[2].lone_points, 1u);
+  EXPECT_EQ(tiled.terrain.ground_points_first, whole.terrain.ground_points_first);
+  EXPECT_EQ(tiled.terrain.ground_points_later, whole.terrain.ground_points_later);
+  EXPECT_EQ(tiled.terrain.nodes_fitted, whole.terrain.nodes_fitted);
+  const auto same = [](double a, double b, double tolerance) {
+    return (std::isnan(a) && std::isnan(b)) || std::abs(a - b) <= tolerance;
+  };
+  ASSERT_EQ(tiled.sites.size(), whole.sites.size());
+  int measured = 0;
+  for (std::size_t n = 0; n < whole.sites.size(); ++n) {
+    SCOPED_TRACE(whole.sites[n].site_id + " " + whole.sites[n].session);
+    EXPECT_TRUE(same(tiled.sites[n].ours.height_m, whole.sites[n].ours.height_m, 1e-6))
+        << tiled.sites[n].ours.height_m << " " << whole.sites[n].ours.height_m;
+    measured += std::isfinite(whole.sites[n].ours.height_m) ? 1 : 0;
+    EXPECT_EQ(tiled.sites[n].ours.n_points, whole.sites[n].ours.n_points);
+    EXPECT_EQ(tiled.sites[n].ours.plant_tops.size(), whole.sites[n].ours.plant_tops.size());
+    EXPECT_TRUE(
+        same(tiled.sites[n].single_plane.height_m, whole.sites[n].single_plane.height_m, 1e-9));
+  }
+  EXPECT_GT(measured, static_cast<int>(whole.sites.size()) / 2);
+  const io::GeoTiffRaster tiled_chm =
+      io::ReadGeoTiff(workspace_ + "/analysis/chm_" + kSessions[2] + ".tif");
+  const io::GeoTiffRaster tiled_dtm = io::ReadGeoTiff(workspace_ + "/analysis/dtm.tif");
+  ASSERT_EQ(tiled_chm.values.size(), whole_chm.values.size());
+  ASSERT_EQ(tiled_dtm.values.size(), whole_dtm.values.size());
+  for (std::size_t c = 0; c < whole_chm.values.size(); ++c) {
+    ASSERT_EQ(std::isnan(tiled_chm.values[c]), std::isnan(whole_chm.values[c])) << c;
+    if (!std::isnan(whole_chm.values[c])) {
+      ASSERT_NEAR(tiled_chm.values[c], whole_chm.values[c], 1e-5) << c;
+    }
+    ASSERT_EQ(std::isnan(tiled_dtm.values[c]), std::isnan(whole_dtm.values[c])) << c;
+    if (!std::isnan(whole_dtm.values[c])) {
+      ASSERT_NEAR(tiled_dtm.values[c], whole_dtm.values[c], 1e-5) << c;
+    }
+  }
+}
+
 TEST_F(AnalyzeStageTest, OutputsRastersAndRerun) {
   const sim::World world(SmallWorld(5));
   WriteTruthWorkspace(world, field_, workspace_);

@@ -478,6 +478,9 @@ void AddAnalyzeKeys(std::vector<Key>& k) {
       Double("analyze", "lone_point_radius_m",
              "dense clouds: points without another within this radius are left out (0: none)",
              "analyze.lone_point_radius_m", 0.0, 1.0));
+  k.push_back(Double("analyze", "tile_m",
+                     "sessions read in tiles of this length along the area (0: whole)",
+                     "analyze.tile_m", 0.0, 1e6));
   k.push_back(Double("analyze", "raster_cell_m", "cell of the GeoTIFF rasters",
                      "analyze.raster_cell_m", 0.001, 100));
 }

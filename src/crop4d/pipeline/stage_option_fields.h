@@ -161,6 +161,7 @@ void VisitFields(AnalyzeStageOptions& o, V&& visit) {
   visit("plane", o.plane);
   visit("growth", o.growth);
   visit("lone_point_radius_m", o.lone_point_radius_m);
+  visit("tile_m", o.tile_m);
   visit("raster_cell_m", o.raster_cell_m);
   visit("margin_m", o.margin_m);
   visit("write_rasters", o.write_rasters);

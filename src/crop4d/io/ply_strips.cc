@@ -1,0 +1,56 @@
+#include "crop4d/io/ply_strips.h"
+
+#include <algorithm>
+#include <limits>
+
+#include "crop4d/core/error.h"
+
+namespace crop4d::io {
+
+PlyStripReader::PlyStripReader(const std::string& path, int axis,
+                               std::function<bool(const Eigen::Vector3d&)> keep, std::size_t slice)
+    : reader_(path), axis_(axis), keep_(std::move(keep)), slice_(std::max<std::size_t>(slice, 1)) {
+  CROP4D_CHECK(axis_ == 0 || axis_ == 1);
+  for (std::size_t start = 0; start < reader_.size(); start += slice_) {
+    const PlyPointCloud part = reader_.Read(start, slice_);
+    std::pair<double, double> range{std::numeric_limits<double>::infinity(),
+                                    -std::numeric_limits<double>::infinity()};
+    for (const Eigen::Vector3d& p : part.points) {
+      if (!keep_(p)) continue;
+      ++kept_;
+      range.first = std::min(range.first, p[axis_]);
+      range.second = std::max(range.second, p[axis_]);
+    }
+    ranges_.push_back(range);
+  }
+}
+
+PlyPointCloud PlyStripReader::Read(double lo, double hi, std::vector<std::uint64_t>* indices) {
+  PlyPointCloud out = reader_.Read(0, 0);  // no point: the scalar fields' names and types
+  if (indices) indices->clear();
+  for (std::size_t s = 0; s < ranges_.size(); ++s) {
+    if (ranges_[s].second < lo || ranges_[s].first > hi) continue;
+    const PlyPointCloud part = reader_.Read(s * slice_, slice_);
+    vertices_read_ += part.size();
+    for (std::size_t i = 0; i < part.size(); ++i) {
+      const Eigen::Vector3d& p = part.points[i];
+      if (!(p[axis_] >= lo && p[axis_] <= hi) || !keep_(p)) continue;
+      out.points.push_back(p);
+      if (!part.normals.empty()) out.normals.push_back(part.normals[i]);
+      if (!part.colors.empty()) out.colors.push_back(part.colors[i]);
+      for (std::size_t k = 0; k < part.scalars.size(); ++k) {
+        out.scalars[k].values.push_back(part.scalars[k].values[i]);
+      }
+      if (indices) indices->push_back(s * slice_ + i);
+    }
+  }
+  return out;
+}
+
+double PlyStripReader::read_fraction() const {
+  return reader_.size() == 0
+             ? 0.0
+             : static_cast<double>(vertices_read_) / static_cast<double>(reader_.size());
+}
+
+}  // namespace crop4d::io

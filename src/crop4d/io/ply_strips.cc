@@ -29,7 +29,8 @@ PlyPointCloud PlyStripReader::Read(double lo, double hi, std::vector<std::uint64
   PlyPointCloud out = reader_.Read(0, 0);  // no point: the scalar fields' names and types
   if (indices) indices->clear();
   for (std::size_t s = 0; s < ranges_.size(); ++s) {
-    if (ranges_[s].second < lo || ranges_[s].first > hi) continue;
+    const auto& [first, last] = ranges_[s];
+    if (first > last || last < lo || first > hi) continue;  // none kept, or none in the strip
     const PlyPointCloud part = reader_.Read(s * slice_, slice_);
     vertices_read_ += part.size();
     for (std::size_t i = 0; i < part.size(); ++i) {

@@ -4,12 +4,13 @@
 // area_tiles.h, io/ply_strips.h), so that no session's cloud is ever held whole: its memory
 // follows a tile (the field's width × analyze.tile_m), not the session.
 //
-// A session is read three times. The survey reads every tile to find the lone points of a dense
-// cloud (analysis/lone_points.h) and to count the colours of the others, which give the
-// session's vegetation threshold (analysis/vegetation.h); what it keeps is the lone points'
-// indices in the file (a fraction of a percent of the points) and the threshold. The two passes
-// of the stage then read the tiles again, with the lone points left out and the vegetation
-// classified as the whole cloud would have them.
+// A session's tiles are read three times (and the file once more each time it is opened, to
+// index it). The survey reads every tile to find the lone points of a dense cloud
+// (analysis/lone_points.h) and to count the colours of the others, which give the session's
+// vegetation threshold (analysis/vegetation.h); what it keeps is the lone points' indices in the
+// file (a fraction of a percent of the points) and the threshold. The two passes of the stage
+// then read the tiles again, with the lone points left out and the vegetation classified as the
+// whole cloud would have them.
 
 #include <Eigen/Geometry>
 #include <cstdint>

@@ -1024,6 +1024,15 @@ PlyPointCloud PlyVertexReader::Read(std::size_t start, std::size_t count) {
   return part;
 }
 
+void PlyPointCloud::AppendVertex(const PlyPointCloud& part, std::size_t i) {
+  points.push_back(part.points[i]);
+  if (!part.normals.empty()) normals.push_back(part.normals[i]);
+  if (!part.colors.empty()) colors.push_back(part.colors[i]);
+  for (std::size_t k = 0; k < part.scalars.size(); ++k) {
+    scalars[k].values.push_back(part.scalars[k].values[i]);
+  }
+}
+
 PlyPointCloud ReadPlyWhere(const std::string& path,
                            const std::function<bool(const Eigen::Vector3d&)>& keep) {
   constexpr std::size_t kSlice = std::size_t{1} << 18;
@@ -1033,12 +1042,7 @@ PlyPointCloud ReadPlyWhere(const std::string& path,
     const PlyPointCloud part = reader.Read(start, kSlice);
     for (std::size_t i = 0; i < part.size(); ++i) {
       if (!keep(part.points[i])) continue;
-      kept.points.push_back(part.points[i]);
-      if (!part.normals.empty()) kept.normals.push_back(part.normals[i]);
-      if (!part.colors.empty()) kept.colors.push_back(part.colors[i]);
-      for (std::size_t k = 0; k < part.scalars.size(); ++k) {
-        kept.scalars[k].values.push_back(part.scalars[k].values[i]);
-      }
+      kept.AppendVertex(part, i);
     }
   }
   return kept;

@@ -62,6 +62,8 @@ struct PlyPointCloud {
   // scalar fields must be the same, by name and type, and normals and colours present in both
   // or in neither (CHECK).
   void Append(const PlyPointCloud& part);
+  // Appends vertex `i` of `part` (of this cloud's layout) with its normal, colour and scalars.
+  void AppendVertex(const PlyPointCloud& part, std::size_t i);
 };
 
 struct PlyWriteOptions {

@@ -8,9 +8,16 @@
 namespace crop4d::io {
 
 PlyStripReader::PlyStripReader(const std::string& path, int axis,
-                               std::function<bool(const Eigen::Vector3d&)> keep, std::size_t slice)
+                               std::function<bool(const Eigen::Vector3d&)> keep, std::size_t slice,
+                               const PlyStripIndex* index)
     : reader_(path), axis_(axis), keep_(std::move(keep)), slice_(std::max<std::size_t>(slice, 1)) {
   CROP4D_CHECK(axis_ == 0 || axis_ == 1);
+  const std::size_t num_slices = (reader_.size() + slice_ - 1) / slice_;
+  if (index != nullptr && index->slice == slice_ && index->ranges.size() == num_slices) {
+    ranges_ = index->ranges;
+    kept_ = index->kept;
+    return;
+  }
   for (std::size_t start = 0; start < reader_.size(); start += slice_) {
     const PlyPointCloud part = reader_.Read(start, slice_);
     std::pair<double, double> range{std::numeric_limits<double>::infinity(),
@@ -36,17 +43,14 @@ PlyPointCloud PlyStripReader::Read(double lo, double hi, std::vector<std::uint64
     for (std::size_t i = 0; i < part.size(); ++i) {
       const Eigen::Vector3d& p = part.points[i];
       if (!(p[axis_] >= lo && p[axis_] <= hi) || !keep_(p)) continue;
-      out.points.push_back(p);
-      if (!part.normals.empty()) out.normals.push_back(part.normals[i]);
-      if (!part.colors.empty()) out.colors.push_back(part.colors[i]);
-      for (std::size_t k = 0; k < part.scalars.size(); ++k) {
-        out.scalars[k].values.push_back(part.scalars[k].values[i]);
-      }
+      out.AppendVertex(part, i);
       if (indices) indices->push_back(s * slice_ + i);
     }
   }
   return out;
 }
+
+PlyStripIndex PlyStripReader::index() const { return {slice_, ranges_, kept_}; }
 
 double PlyStripReader::read_fraction() const {
   return reader_.size() == 0

@@ -23,13 +23,25 @@
 
 namespace crop4d::io {
 
+// What the indexing read found: per slice of `slice` vertices the range of its kept points
+// along the axis (lo > hi: none), and how many were kept.
+struct PlyStripIndex {
+  std::size_t slice = 0;
+  std::vector<std::pair<double, double>> ranges;
+  std::size_t kept = 0;
+};
+
 class PlyStripReader {
  public:
   // `keep` selects the points ever returned (e.g. those within an area); `axis` 0 reads strips
-  // of x, 1 of y. Throws InputError when the file cannot be read (see PlyVertexReader).
+  // of x, 1 of y. `index`, when given, is the index() of a reader of the same file, axis and
+  // `keep`: the file is then not read to index it (unless the index does not fit its size).
+  // Throws InputError when the file cannot be read (see PlyVertexReader).
   PlyStripReader(const std::string& path, int axis,
                  std::function<bool(const Eigen::Vector3d&)> keep,
-                 std::size_t slice = std::size_t{1} << 16);
+                 std::size_t slice = std::size_t{1} << 16, const PlyStripIndex* index = nullptr);
+  // The index, for a later reader of the same file.
+  PlyStripIndex index() const;
 
   // Vertices in the file, and of them those `keep` selects.
   std::size_t size() const { return reader_.size(); }
@@ -40,7 +52,7 @@ class PlyStripReader {
   // colours and scalar fields, in file order; their indices in the file into `indices` (when
   // not null).
   PlyPointCloud Read(double lo, double hi, std::vector<std::uint64_t>* indices = nullptr);
-  // Vertices read by Read so far over the vertices in the file.
+  // Vertices read by Read so far over the vertices in the file (the indexing read not counted).
   double read_fraction() const;
 
  private:

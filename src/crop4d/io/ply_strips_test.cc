@@ -73,6 +73,29 @@ TEST(PlyStripReaderTest, StripsGiveTheKeptPointsWithinThemInFileOrder) {
   }
 }
 
+// A reader opened with an earlier reader's index gives the same strips, reading only them.
+TEST(PlyStripReaderTest, AnIndexFromAnEarlierReaderGivesTheSameStrips) {
+  testing::TempDir dir;
+  WritePly(dir / "c.ply", Strip(3000, true, 5));
+  const auto keep = [](const Eigen::Vector3d& p) { return p.x() < 1.0; };
+  PlyStripReader first(dir / "c.ply", 1, keep, 128);
+  const PlyStripIndex index = first.index();
+  PlyStripReader again(dir / "c.ply", 1, keep, 128, &index);
+  EXPECT_EQ(again.kept(), first.kept());
+  std::vector<std::uint64_t> a, b;
+  const PlyPointCloud from_first = first.Read(2.0, 3.5, &a);
+  const PlyPointCloud from_again = again.Read(2.0, 3.5, &b);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(from_first.points, from_again.points);
+  EXPECT_GT(a.size(), 0u);
+  EXPECT_EQ(again.read_fraction(), first.read_fraction());
+  EXPECT_LT(again.read_fraction(), 0.3);
+  // An index of another slice size is not used: the file is indexed again.
+  PlyStripReader other(dir / "c.ply", 1, keep, 256, &index);
+  EXPECT_EQ(other.index().slice, 256u);
+  EXPECT_EQ(other.index().ranges.size(), (3000u + 255u) / 256u);
+}
+
 TEST(PlyStripReaderTest, AnEmptyStripAndAMissingFile) {
   testing::TempDir dir;
   WritePly(dir / "c.ply", Strip(100, true, 1));

@@ -368,7 +368,7 @@ std::vector<std::vector<analysis::DetectedPlant>> SecondPass(
   const analysis::AreaTiling tiling = StageTiling(area, options);
   std::vector<std::vector<analysis::DetectedPlant>> plants(inputs.size());
   for (std::size_t k = 0; k < inputs.size(); ++k) {
-    SessionTiles tiles(inputs[k], area, tiling);
+    SessionTiles tiles(inputs[k], area, tiling, &surveys[k]);
     analysis::PlantRaster raster(area, options.canopy, options.plants);
     std::vector<float> chm;
     if (rasters) chm = rasters->NewChm();

@@ -16,12 +16,16 @@ analysis::SessionCloud TileCloud::Owned() const {
 }
 
 SessionTiles::SessionTiles(const SessionInput& input, const Eigen::AlignedBox2d& area,
-                           const analysis::AreaTiling& tiling)
+                           const analysis::AreaTiling& tiling, const SessionSurvey* survey)
     : input_(input), tiling_(tiling) {
   CROP4D_CHECK(!tiling_.tiles.empty());
+  const io::PlyStripIndex* index =
+      survey != nullptr && !survey->index.ranges.empty() ? &survey->index : nullptr;
   reader_ = std::make_unique<io::PlyStripReader>(
       input_.cloud.string(), tiling_.axis,
-      [area](const Eigen::Vector3d& p) { return p.allFinite() && area.contains(p.head<2>()); });
+      [area](const Eigen::Vector3d& p) { return p.allFinite() && area.contains(p.head<2>()); },
+      std::size_t{1} << 16, index);
+  indexed_ = index == nullptr;
   if (!reader_->layout().colors) {
     throw InputError(input_.cloud.string(), 0,
                      "the cloud has no colours: vegetation is found by colour (red, green, blue "
@@ -50,6 +54,7 @@ SessionSurvey SessionTiles::Survey(double lone_radius_m,
     }
   }
   std::sort(survey.lone.begin(), survey.lone.end());
+  survey.index = reader_->index();
   survey.points = colours.total();
   survey.vegetation = analysis::VegetationThreshold(colours, vegetation);
   return survey;

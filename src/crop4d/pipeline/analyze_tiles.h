@@ -38,6 +38,7 @@ struct SessionInput {
 // What the survey of a session found.
 struct SessionSurvey {
   std::vector<std::uint64_t> lone;  // the lone points' indices in the file, increasing
+  io::PlyStripIndex index;          // where the file's slices lie: the second opening reads it
   std::size_t points = 0;           // in the area, lone points left out
   // The threshold and num_vegetation (of those points); no flags.
   analysis::VegetationClassification vegetation;
@@ -56,9 +57,10 @@ struct TileCloud {
 class SessionTiles {
  public:
   // Opens the session's cloud for `tiling` of `area` (the points outside the area are never
-  // read). Throws InputError when it cannot be read or has no colours.
+  // read), indexing it unless `survey` (of an earlier opening) holds its index. Throws
+  // InputError when it cannot be read or has no colours.
   SessionTiles(const SessionInput& input, const Eigen::AlignedBox2d& area,
-               const analysis::AreaTiling& tiling);
+               const analysis::AreaTiling& tiling, const SessionSurvey* survey = nullptr);
 
   std::size_t num_tiles() const { return tiling_.tiles.size(); }
   const analysis::AreaTile& tile(std::size_t t) const { return tiling_.tiles[t]; }
@@ -72,12 +74,13 @@ class SessionTiles {
   TileCloud Read(std::size_t t, const SessionSurvey& survey,
                  const analysis::VegetationOptions& vegetation, bool with_reach);
   // Vertices read over those of the file, the opening's indexing read included.
-  double read_fraction() const { return 1.0 + reader_->read_fraction(); }
+  double read_fraction() const { return (indexed_ ? 1.0 : 0.0) + reader_->read_fraction(); }
 
  private:
   SessionInput input_;
   analysis::AreaTiling tiling_;
   std::unique_ptr<io::PlyStripReader> reader_;
+  bool indexed_ = true;  // the opening read the file to index it
 };
 
 }  // namespace crop4d::pipeline

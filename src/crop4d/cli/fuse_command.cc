@@ -93,6 +93,16 @@ RunFunction SetupFuse(CLI::App& app) {
                  "again (the one before them is held)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app.add_option("--max-block-observations", o.blocks.max_observations,
+                 "A joint problem whose free passes hold more observations is solved in blocks of "
+                 "neighbouring passes of at most this many, so that memory stays bounded on wide "
+                 "or long fields (0: always one problem; docs/fusion.md#blocks-of-passes)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--block-sweeps", o.blocks.sweeps,
+                 "Sweeps over the blocks (the last holds the calibration the others refined)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   app.add_option("--matches-per-image-pair", o.max_matches_per_image_pair,
                  "Cross matches of one image pair used at most (the best, spread over the image; "
                  "0: all)")

@@ -606,7 +606,8 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
                                              const std::vector<JointLandmark>& landmarks,
                                              const std::vector<JointGroundTie>& ground_ties,
                                              const std::vector<bool>& fixed_passes,
-                                             const std::vector<bool>& own_camera_passes) const {
+                                             const std::vector<bool>& own_camera_passes,
+                                             const std::vector<bool>& camera_follows) const {
   const slam::RowOptimiser::Options& op = options_.row;
   Result result;
   Summary& summary = result.summary;
@@ -616,6 +617,9 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   }
   if (!own_camera_passes.empty() && own_camera_passes.size() != passes.size()) {
     throw std::invalid_argument("JointOptimiser: own_camera_passes does not match the passes");
+  }
+  if (!camera_follows.empty() && camera_follows.size() != passes.size()) {
+    throw std::invalid_argument("JointOptimiser: camera_follows does not match the passes");
   }
   summary.num_landmarks_given = static_cast<int>(landmarks.size());
   for (const Pass& pass : passes) {
@@ -714,8 +718,13 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   summary.triangulation_seconds = SecondsSince(start);
   const std::vector<std::int64_t> cross_per_camera =
       CrossObservationsPerCamera(problem.RigCameras(), passes.size(), landmarks, ids, keep);
+  // The fixed passes that hold the camera they share.
+  std::vector<bool> holding = fixed_passes;
+  for (std::size_t p = 0; p < holding.size() && !camera_follows.empty(); ++p) {
+    holding[p] = holding[p] && !camera_follows[p];
+  }
   problem.RefineCameras(CamerasToRefine(options_.calibration, problem.RigCameras(),
-                                        cross_per_camera, problem.UsesTimeOffsets(), fixed_passes));
+                                        cross_per_camera, problem.UsesTimeOffsets(), holding));
 
   // (2) The whole problem.
   start = Clock::now();

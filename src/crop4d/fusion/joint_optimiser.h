@@ -137,6 +137,10 @@ class JointOptimiser {
     int num_gps_rejected = 0;
     // Cameras whose calibration the joint problem refined (Options::calibration).
     int num_cameras_refined = 0;
+    // Solved in blocks of passes (block_solve.h): the blocks and the sweeps over them; 1 and 1
+    // for one problem.
+    int num_blocks = 1;
+    int num_sweeps = 1;
   };
 
   struct Result {
@@ -171,10 +175,14 @@ class JointOptimiser {
   // the pass is also in `own_camera_passes` (empty: none): those passes get rig cameras of
   // their own (GroupPassesByCamera's `apart`), so that the camera of the free passes is still
   // refined while the fixed ones keep their calibration (an incremental fuse's held session).
+  // Fixed passes with `camera_follows[p]` (empty: none) do not hold the camera they share: it is
+  // refined with them, their poses held (a block's neighbours in block_solve.h, which are free
+  // passes of the same problem).
   Result Solve(const std::vector<Pass>& passes, const std::vector<JointLandmark>& landmarks,
                const std::vector<JointGroundTie>& ground_ties = {},
                const std::vector<bool>& fixed_passes = {},
-               const std::vector<bool>& own_camera_passes = {}) const;
+               const std::vector<bool>& own_camera_passes = {},
+               const std::vector<bool>& camera_follows = {}) const;
 
   const Options& options() const { return options_; }
 

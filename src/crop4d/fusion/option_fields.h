@@ -5,6 +5,7 @@
 // (the stage options test counts them).
 
 #include "crop4d/core/option_fields.h"
+#include "crop4d/fusion/block_solve.h"
 #include "crop4d/fusion/ground_ties.h"
 #include "crop4d/fusion/joint_optimiser.h"
 #include "crop4d/fusion/pass_alignment.h"
@@ -43,6 +44,12 @@ void VisitFields(CalibrationRefinementOptions& o, V&& visit) {
   visit("rotation_sigma_deg", o.rotation_sigma_deg);
   visit("lever_arm_sigma_m", o.lever_arm_sigma_m);
   visit("refine_lever_arm", o.refine_lever_arm);
+}
+
+template <class V>
+void VisitFields(BlockSolveOptions& o, V&& visit) {
+  visit("max_observations", o.max_observations);
+  visit("sweeps", o.sweeps);
 }
 
 template <class V>

@@ -273,6 +273,8 @@ json JointSummaryJson(const fusion::JointOptimiser::Summary& s) {
           {"time_offsets_estimated", s.num_time_offsets_estimated},
           {"time_offsets_held", s.num_time_offsets_held},
           {"converged", s.converged},
+          {"blocks", s.num_blocks},
+          {"sweeps", s.num_sweeps},
           {"seconds",
            {{"triangulation", s.triangulation_seconds},
             {"solve", s.solve_seconds},

@@ -66,6 +66,13 @@ void LoadPassProblem(const std::string& workspace, LoadedPass* pass) {
   pass->data = workspace::LoadPassData(
       workspace, pass->data.session, pass->data.pass,
       {.features = true, .tracks = true, .states = true, .measurements = true});
+  // The joint problem reads the keypoints, their colours and the images' sharpness; the
+  // descriptors (128 bytes a keypoint, most of a feature cache) are not needed after
+  // association, and a step holds every pass of its sessions.
+  for (features::FeatureSet& f : pass->data.features) {
+    f.descriptors.clear();
+    f.descriptors.shrink_to_fit();
+  }
   const workspace::Layout layout(workspace);
   const std::string& session = pass->data.session;
   const std::string& id = pass->data.pass.id;

@@ -34,8 +34,9 @@ inline std::uint64_t ImageFeatureKey(int image, int feature) {
   return (static_cast<std::uint64_t>(image) << 32) | static_cast<std::uint32_t>(feature);
 }
 
-// Loads the pass's features, tracks, states and measurements from the workspace and rebuilds
-// its row-SLAM problem (`input`) and `cloud_of`. `pass->data` names the session and pass.
+// Loads the pass's features (without their descriptors), tracks, states and measurements from
+// the workspace and rebuilds its row-SLAM problem (`input`) and `cloud_of`. `pass->data` names
+// the session and pass.
 void LoadPassProblem(const std::string& workspace, LoadedPass* pass);
 
 // The image file names of the pass by timestamp.

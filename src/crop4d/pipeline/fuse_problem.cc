@@ -9,6 +9,7 @@
 
 #include "crop4d/association/match_thinning.h"
 #include "crop4d/core/error.h"
+#include "crop4d/fusion/block_solve.h"
 #include "crop4d/fusion/pass_subset.h"
 #include "crop4d/geometry/rotation.h"
 #include "crop4d/pipeline/season_quality.h"
@@ -255,7 +256,6 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
                                           const FuseStageOptions& options) {
   std::vector<fusion::JointOptimiser::Pass> inputs;
   for (const auto& pass : passes) inputs.push_back(pass->input);
-  const fusion::JointOptimiser optimiser(options.optimiser);
   const auto is_held = [&](std::size_t p) { return !held.empty() && held[p]; };
   // Passes that the second solve holds: the held ones and, when a free pass belongs to a
   // degraded session, the trusted ones.
@@ -280,7 +280,8 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
     for (const int p : trusted.original_pass) first_held.push_back(is_held(p));
     spdlog::info("fuse: the {} trusted passes first, alone", trusted.passes.size());
     const fusion::JointOptimiser::Result first =
-        optimiser.Solve(trusted.passes, trusted.landmarks, trusted.ties, first_held, first_held);
+        fusion::SolveInBlocks(options.optimiser, options.blocks, trusted.passes, trusted.landmarks,
+                              trusted.ties, first_held, first_held);
     for (std::size_t k = 0; k < trusted.original_pass.size(); ++k) {
       inputs[trusted.original_pass[k]].initial_states = first.states[k];
       if (first.time_offsets_s[k]) {
@@ -295,8 +296,8 @@ fusion::JointOptimiser::Result SolveJoint(const fusion::CrossPassTracks& graph,
   // the free passes is refined on a copy of its own.
   std::vector<bool> own_camera(passes.size());
   for (std::size_t p = 0; p < passes.size(); ++p) own_camera[p] = is_held(p);
-  fusion::JointOptimiser::Result result =
-      optimiser.Solve(inputs, landmarks, ties, fixed, own_camera);
+  fusion::JointOptimiser::Result result = fusion::SolveInBlocks(
+      options.optimiser, options.blocks, inputs, landmarks, ties, fixed, own_camera);
   ReportEarlierRefinement(first_calibrations, &result);
   return result;
 }

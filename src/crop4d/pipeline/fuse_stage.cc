@@ -122,6 +122,7 @@ std::string FuseStageOptions::Check() const {
   // The nested options of the modules (docs/fusion.md).
   if (const std::string why = ground_tie.Check(); !why.empty()) return "ground_tie." + why;
   if (const std::string why = optimiser.Check(); !why.empty()) return "optimiser." + why;
+  if (const std::string why = blocks.Check(); !why.empty()) return "blocks." + why;
   if (const std::string why = cloud.Check(); !why.empty()) return "cloud." + why;
   return {};
 }

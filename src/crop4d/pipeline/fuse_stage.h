@@ -31,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "crop4d/fusion/block_solve.h"
 #include "crop4d/fusion/joint_optimiser.h"
 #include "crop4d/pipeline/season_quality.h"
 #include "crop4d/slam/triangulation.h"
@@ -66,6 +67,10 @@ struct FuseStageOptions {
     o.row.gps_gate_chi2 = 21.1;  // as row SLAM's (slam_stage.h)
     return o;
   }();
+  // A joint problem (a step, or the season with `full`) whose free passes hold more
+  // observations than blocks.max_observations is solved in blocks of neighbouring passes
+  // (fusion/block_solve.h), so that its memory stays bounded on wide or long fields.
+  fusion::BlockSolveOptions blocks;
   // Ground ties (fusion/ground_ties.h) between the two passes of a row on two dates whose
   // association kept fewer than `ground_tie_max_matches` cross matches (after rain, appearance
   // matches nothing near the camera), unless both have a precise GPS: their soil surfaces

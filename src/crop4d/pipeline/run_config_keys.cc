@@ -321,6 +321,14 @@ void AddFuseKeys(std::vector<Key>& k) {
                   "sessions before the new one that each step of the incremental fuse "
                   "optimises again (the one before them is held)",
                   "fuse.window_sessions", 1, 1000));
+  k.push_back(Int("fuse", "max_block_observations",
+                  "a joint problem whose free passes hold more observations is solved in blocks "
+                  "of neighbouring passes of at most this many, for bounded memory (0: never)",
+                  "fuse.blocks.max_observations", 0, 2000000000));
+  k.push_back(Int("fuse", "block_sweeps",
+                  "sweeps over the blocks of a problem solved in blocks (the last holds the "
+                  "calibration that the others refined)",
+                  "fuse.blocks.sweeps", 1, 100));
   k.push_back(Int("fuse", "matches_per_image_pair",
                   "cross matches of one image pair used at most (0: all)",
                   "fuse.max_matches_per_image_pair", 0, 1000000));

@@ -122,6 +122,7 @@ void VisitFields(FuseStageOptions& o, V&& visit) {
   visit("window_sessions", o.window_sessions);
   visit("max_matches_per_image_pair", o.max_matches_per_image_pair);
   visit("optimiser", o.optimiser);
+  visit("blocks", o.blocks);
   visit("ground_ties", o.ground_ties);
   visit("ground_tie_max_matches", o.ground_tie_max_matches);
   visit("ground_tie", o.ground_tie);

@@ -12,6 +12,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/fusion/camera_refinement.h"
 #include "crop4d/fusion/pass_subset.h"
+#include "crop4d/slam/triangulation.h"
 
 namespace crop4d::fusion {
 namespace {
@@ -95,6 +96,44 @@ PassSubset BlockProblem(const std::vector<JointOptimiser::Pass>& current,
     }
   }
   return RestrictToPasses(current, std::move(selected), ties, keep);
+}
+
+// Places the landmarks that no block solved because only fixed passes see them, as one problem's
+// triangulation places them against those passes' cameras (`cameras`, at the capture instants):
+// one problem would also refine them, with the same poses held.
+void PlaceLandmarksOfFixedPasses(const JointOptimiser::Options& options,
+                                 const std::vector<JointOptimiser::Pass>& passes,
+                                 const std::vector<JointLandmark>& landmarks,
+                                 const std::vector<bool>& free,
+                                 const std::vector<std::vector<geometry::Rigid3>>& cameras,
+                                 Merge* merge) {
+  const slam::RowOptimiser::Options& op = options.row;
+  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+    const auto& obs = landmarks[l].observations;
+    if (std::any_of(obs.begin(), obs.end(),
+                    [&](const JointObservation& o) { return free[o.pass]; })) {
+      continue;
+    }
+    const geometry::PinholeRadTan& reference = *passes[obs.front().pass].camera;
+    std::vector<geometry::Rigid3> poses;
+    std::vector<Eigen::Vector2d> pixels;
+    for (const JointObservation& o : obs) {
+      poses.push_back(cameras[o.pass][o.state]);
+      Eigen::Vector2d pixel = o.pixel;
+      Eigen::Vector3d ray;
+      const geometry::PinholeRadTan& camera = *passes[o.pass].camera;
+      if (!SameIntrinsics(camera, reference) &&
+          !(camera.Unproject(o.pixel, &ray) && reference.Project(ray, &pixel))) {
+        pixel = o.pixel;
+      }
+      pixels.push_back(pixel);
+    }
+    std::vector<bool> kept;
+    const slam::TriangulationResult tri =
+        slam::TriangulateDroppingWorstViews(reference, poses, pixels, op.triangulation,
+                                            op.max_outliers_per_track, op.min_observations, &kept);
+    if (tri.ok()) merge->landmarks[static_cast<int>(l)] = {tri.point_world, std::move(kept)};
+  }
 }
 
 }  // namespace
@@ -310,6 +349,7 @@ JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
         options.estimate_time_offset.value_or(passes[p].time_offset_s.has_value());
     ++(estimated ? summary.num_time_offsets_estimated : summary.num_time_offsets_held);
   }
+  PlaceLandmarksOfFixedPasses(options, passes, landmarks, free, result.cameras, &merge);
   // The rig's cameras as given, each now as the blocks left its passes.
   for (RigCamera& rig : GroupPassesByCamera(passes, keep_camera)) {
     RefinedCalibration c;

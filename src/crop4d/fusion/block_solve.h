@@ -36,7 +36,8 @@ struct BlockSolveOptions {
   // 400 000 keep a block's solve near 1.3 GB (a step of the demo, 290 000–350 000, stays one
   // problem).
   int max_observations = 400000;
-  // Sweeps over the blocks: the last holds the calibration that the ones before refined.
+  // Sweeps over the blocks: the last holds the calibration that the ones before refined (with
+  // one sweep, it refines it block by block).
   int sweeps = 3;
 
   OptionCheck Check() const;
@@ -57,8 +58,9 @@ std::vector<std::vector<int>> PartitionPasses(const std::vector<JointOptimiser::
 // (both summed over its blocks, so a landmark shared by two blocks counts twice), counts the
 // landmarks and observations of the merged result, and gives Summary::num_blocks and
 // num_sweeps; a landmark's position and kept observations come from the last block that
-// solved it. A fixed pass that no block reaches keeps its given states; its cameras are placed
-// at the image stamps.
+// solved it, and a landmark seen from fixed passes only is triangulated against their cameras
+// (one problem would refine it against the same held poses). A fixed pass that no block
+// reaches keeps its given states; its cameras are placed at the image stamps.
 JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
                                      const BlockSolveOptions& blocks,
                                      const std::vector<JointOptimiser::Pass>& passes,

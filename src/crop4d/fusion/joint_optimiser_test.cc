@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <optional>
 #include <random>
@@ -687,6 +688,15 @@ TEST(JointOptimiser, BlocksKeepAHeldPassWhereItWasGiven) {
     }
     split.push_back(l);
   }
+  // And landmarks of the first half alone (seen from the held pass only).
+  for (const JointLandmark& l : Landmarks(tp, /*shared=*/false)) {
+    const auto& obs = l.observations;
+    if (std::all_of(obs.begin(), obs.end(), [&](const JointObservation& o) {
+          return o.pass == 0 && o.state < static_cast<int>(half);
+        })) {
+      split.push_back(l);
+    }
+  }
   // Pass 0's first half held where its RTK put it, the rest free.
   const std::vector<bool> fixed = {true, false, false};
   BlockSolveOptions blocks;
@@ -699,6 +709,29 @@ TEST(JointOptimiser, BlocksKeepAHeldPassWhereItWasGiven) {
               passes[0].initial_states[k].nav.world_from_body.translation());
   }
   EXPECT_LT(PositionRms(tp, 1, r.states[2]), 0.03);
+  // The landmarks seen from the held pass only are in no block: placed against its cameras.
+  int held_only = 0, placed = 0;
+  std::vector<double> heights;
+  for (std::size_t l = 0; l < split.size(); ++l) {
+    const auto& obs = split[l].observations;
+    if (std::any_of(obs.begin(), obs.end(),
+                    [](const JointObservation& o) { return o.pass != 0; })) {
+      continue;
+    }
+    ++held_only;
+    const auto it = std::find(r.landmark_ids.begin(), r.landmark_ids.end(), static_cast<int>(l));
+    if (it == r.landmark_ids.end()) continue;
+    ++placed;
+    heights.push_back(r.landmarks_world[it - r.landmark_ids.begin()].z());
+  }
+  EXPECT_GT(held_only, 50);
+  // Landmarks() puts every point 0–0.1 m above the ground plane; one pass's forward motion
+  // triangulates them to a few centimetres.
+  std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+  EXPECT_NEAR(heights[heights.size() / 2], 0.05, 0.04);
+  EXPECT_LT(*std::max_element(heights.begin(), heights.end()), 0.3);
+  EXPECT_GT(*std::min_element(heights.begin(), heights.end()), -0.2);
+  EXPECT_GT(placed, held_only * 9 / 10);
 }
 
 TEST(JointOptimiser, OptionErrorsNameTheOption) {

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "crop4d/pipeline/fuse_outputs.h"
+
 namespace crop4d::pipeline::fuse {
 namespace {
 
@@ -49,6 +51,30 @@ TEST(FuseStepsTest, AWideWindowOrAShortSeasonIsOneStep) {
   EXPECT_EQ(wide[3].held, 2);
   EXPECT_TRUE(PlanFuseSteps(0, 1).empty());
   EXPECT_EQ(PlanFuseSteps(1, 1).size(), 1u);
+}
+
+// A step's joint summary read back from its step.json, and the season's sum of the steps: the
+// blocks and sweeps of a step solved in blocks (fusion/block_solve.h) are the most of any step.
+TEST(FuseStepsTest, TheSeasonSummaryKeepsTheBlocksOfItsLargestStep) {
+  fusion::JointOptimiser::Summary one, blocked;
+  one.num_observations = 100;
+  blocked.num_observations = 300;
+  blocked.num_blocks = 3;
+  blocked.num_sweeps = 2;
+  const fusion::JointOptimiser::Summary read = JointSummaryFromJson(JointSummaryJson(blocked));
+  EXPECT_EQ(read.num_blocks, 3);
+  EXPECT_EQ(read.num_sweeps, 2);
+  nlohmann::json older = JointSummaryJson(one);
+  older.erase("blocks");
+  older.erase("sweeps");
+  EXPECT_EQ(JointSummaryFromJson(older).num_blocks, 1);
+  fusion::JointOptimiser::Summary total;
+  total.num_passes = 0;
+  for (const fusion::JointOptimiser::Summary& step : {one, read, one})
+    AddJointSummary(step, &total);
+  EXPECT_EQ(total.num_blocks, 3);
+  EXPECT_EQ(total.num_sweeps, 2);
+  EXPECT_EQ(total.num_observations, 500);
 }
 
 }  // namespace

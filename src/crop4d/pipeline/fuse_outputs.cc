@@ -324,6 +324,9 @@ fusion::JointOptimiser::Summary JointSummaryFromJson(const json& j) {
   s.num_time_offsets_estimated = j.at("time_offsets_estimated").get<int>();
   s.num_time_offsets_held = j.at("time_offsets_held").get<int>();
   s.converged = j.at("converged").get<bool>();
+  // (absent from the steps of crop4d before blocks: one problem)
+  s.num_blocks = j.value("blocks", 1);
+  s.num_sweeps = j.value("sweeps", 1);
   const json& seconds = j.at("seconds");
   s.triangulation_seconds = seconds.at("triangulation").get<double>();
   s.solve_seconds = seconds.at("solve").get<double>();
@@ -371,6 +374,9 @@ void AddJointSummary(const fusion::JointOptimiser::Summary& step,
   t.num_time_offsets_held += step.num_time_offsets_held;
   t.num_gps_rejected += step.num_gps_rejected;
   t.num_cameras_refined = std::max(t.num_cameras_refined, step.num_cameras_refined);
+  // The most blocks and sweeps of any step.
+  t.num_blocks = std::max(t.num_blocks, step.num_blocks);
+  t.num_sweeps = std::max(t.num_sweeps, step.num_sweeps);
 }
 
 // The stage's summary.json (before its outputs are recorded): fingerprint, options, counts,

@@ -33,8 +33,9 @@ namespace crop4d::fusion {
 
 struct BlockSolveOptions {
   // The most observations of free passes that one problem holds (0: any number: one problem).
-  // 400 000 keep a block's solve near 1.3 GB (a step of the demo, 290 000–350 000, stays one
-  // problem).
+  // With the held neighbours' observations of its landmarks, a block of 316 000 solved in
+  // 1.3 GB (bench/RESULTS.md "Fuse in blocks of passes"); the demo's steps (220 000–290 000)
+  // stay one problem each.
   int max_observations = 400000;
   // Sweeps over the blocks: the last holds the calibration that the ones before refined (with
   // one sweep, it refines it block by block).

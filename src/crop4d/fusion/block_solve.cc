@@ -197,6 +197,11 @@ JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
   if (!fixed_passes.empty() && fixed_passes.size() != n) {
     throw std::invalid_argument("SolveInBlocks: fixed_passes does not match the passes");
   }
+  for (const JointOptimiser::Pass& pass : passes) {
+    if (pass.initial_states.size() < 2) {
+      throw std::invalid_argument("SolveInBlocks: a pass has fewer than 2 states");
+    }
+  }
   std::vector<std::int64_t> observations(n, 0);
   std::int64_t total = 0, free_total = 0;
   for (const JointLandmark& landmark : landmarks) {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace crop4d::fusion {
 namespace {
@@ -85,6 +86,22 @@ TEST(PartitionPasses, RowsAlongAnyHeadingAreOrderedAcrossThem) {
       PartitionPasses(passes, std::vector<std::int64_t>(4, 10), std::vector<bool>(4, true), 20);
   // Rows 0 and 1 (passes 1 and 3), rows 2 and 3 (passes 0 and 2).
   EXPECT_EQ(Sorted(blocks), (std::vector<std::vector<int>>{{0, 2}, {1, 3}}));
+}
+
+TEST(SolveInBlocks, RejectsInconsistentInput) {
+  std::vector<JointOptimiser::Pass> passes = {RowPass(0, true), RowPass(1, false)};
+  passes[1].initial_states.resize(1);
+  EXPECT_THROW(SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {}),
+               std::invalid_argument);
+  passes[1] = RowPass(1, false);
+  JointLandmark out_of_range;
+  out_of_range.observations.push_back({2, 0, Eigen::Vector2d(1, 1)});
+  EXPECT_THROW(
+      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
+      std::invalid_argument);
+  EXPECT_THROW(
+      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {}, {}, {true}),
+      std::invalid_argument);
 }
 
 TEST(BlockSolveOptions, Check) {

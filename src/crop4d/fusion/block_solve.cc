@@ -206,7 +206,8 @@ JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
   std::int64_t total = 0, free_total = 0;
   for (const JointLandmark& landmark : landmarks) {
     for (const JointObservation& o : landmark.observations) {
-      if (o.pass < 0 || o.pass >= static_cast<int>(n)) {
+      if (o.pass < 0 || o.pass >= static_cast<int>(n) || passes[o.pass].camera == nullptr ||
+          o.state < 0 || o.state >= static_cast<int>(passes[o.pass].initial_states.size())) {
         throw std::invalid_argument("SolveInBlocks: an observation out of range");
       }
       ++observations[o.pass];

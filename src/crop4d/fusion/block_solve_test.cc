@@ -99,6 +99,17 @@ TEST(SolveInBlocks, RejectsInconsistentInput) {
   EXPECT_THROW(
       SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
       std::invalid_argument);
+  // A state out of range, an image of a pass without camera.
+  geometry::PinholeRadTan camera;
+  passes[0].camera = &camera;
+  out_of_range.observations = {{0, 21, Eigen::Vector2d(1, 1)}};
+  EXPECT_THROW(
+      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
+      std::invalid_argument);
+  out_of_range.observations = {{1, 0, Eigen::Vector2d(1, 1)}};
+  EXPECT_THROW(
+      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
+      std::invalid_argument);
   EXPECT_THROW(
       SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {}, {}, {true}),
       std::invalid_argument);

@@ -58,25 +58,41 @@ struct Merge {
   std::int64_t count = 0, cross = 0, ties = 0;
 };
 
-// The landmarks, passes and ties of block `in_block`: every landmark it observes, with its
-// observations from the passes with `usable[p]` (the block's among them), every such pass that
-// observes one of them, and the ties of the block with such passes; with the indices of its
-// landmarks and, per landmark, the indices of the observations it keeps.
+// The landmarks each block observes (indices into `landmarks`, ascending), found once for every
+// sweep.
+std::vector<std::vector<int>> LandmarksOfBlocks(const std::vector<JointLandmark>& landmarks,
+                                                const std::vector<std::vector<int>>& blocks,
+                                                std::size_t num_passes) {
+  std::vector<int> block_of(num_passes, -1);
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    for (const int p : blocks[b]) block_of[p] = static_cast<int>(b);
+  }
+  std::vector<std::vector<int>> out(blocks.size());
+  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+    for (const JointObservation& o : landmarks[l].observations) {
+      const int b = block_of[o.pass];
+      if (b >= 0 && (out[b].empty() || out[b].back() != static_cast<int>(l))) {
+        out[b].push_back(static_cast<int>(l));
+      }
+    }
+  }
+  return out;
+}
+
+// The landmarks, passes and ties of block `in_block`: its landmarks (`ids`, LandmarksOfBlocks),
+// with their observations from the passes with `usable[p]` (the block's among them), every such
+// pass that observes one of them, and the ties of the block with such passes; per landmark, the
+// indices of the observations it keeps.
 PassSubset BlockProblem(const std::vector<JointOptimiser::Pass>& current,
                         const std::vector<JointLandmark>& landmarks,
                         const std::vector<JointGroundTie>& ties, const std::vector<bool>& in_block,
-                        const std::vector<bool>& usable, std::vector<int>* ids,
+                        const std::vector<bool>& usable, const std::vector<int>& ids,
                         std::vector<std::vector<int>>* kept_observations) {
   std::vector<bool> keep = in_block;
   std::vector<JointLandmark> selected;
-  ids->clear();
   kept_observations->clear();
-  for (std::size_t l = 0; l < landmarks.size(); ++l) {
+  for (const int l : ids) {
     const auto& obs = landmarks[l].observations;
-    if (std::none_of(obs.begin(), obs.end(),
-                     [&](const JointObservation& o) { return in_block[o.pass]; })) {
-      continue;
-    }
     JointLandmark landmark;
     landmark.color = landmarks[l].color;
     std::vector<int> used;
@@ -86,7 +102,6 @@ PassSubset BlockProblem(const std::vector<JointOptimiser::Pass>& current,
       landmark.observations.push_back(obs[o]);
       used.push_back(static_cast<int>(o));
     }
-    ids->push_back(static_cast<int>(l));
     kept_observations->push_back(std::move(used));
     selected.push_back(std::move(landmark));
   }
@@ -107,31 +122,15 @@ void PlaceLandmarksOfFixedPasses(const JointOptimiser::Options& options,
                                  const std::vector<bool>& free,
                                  const std::vector<std::vector<geometry::Rigid3>>& cameras,
                                  Merge* merge) {
-  const slam::RowOptimiser::Options& op = options.row;
   for (std::size_t l = 0; l < landmarks.size(); ++l) {
     const auto& obs = landmarks[l].observations;
     if (std::any_of(obs.begin(), obs.end(),
                     [&](const JointObservation& o) { return free[o.pass]; })) {
       continue;
     }
-    const geometry::PinholeRadTan& reference = *passes[obs.front().pass].camera;
-    std::vector<geometry::Rigid3> poses;
-    std::vector<Eigen::Vector2d> pixels;
-    for (const JointObservation& o : obs) {
-      poses.push_back(cameras[o.pass][o.state]);
-      Eigen::Vector2d pixel = o.pixel;
-      Eigen::Vector3d ray;
-      const geometry::PinholeRadTan& camera = *passes[o.pass].camera;
-      if (!SameIntrinsics(camera, reference) &&
-          !(camera.Unproject(o.pixel, &ray) && reference.Project(ray, &pixel))) {
-        pixel = o.pixel;
-      }
-      pixels.push_back(pixel);
-    }
     std::vector<bool> kept;
     const slam::TriangulationResult tri =
-        slam::TriangulateDroppingWorstViews(reference, poses, pixels, op.triangulation,
-                                            op.max_outliers_per_track, op.min_observations, &kept);
+        TriangulateJointLandmark(options.row, passes, cameras, landmarks[l], &kept);
     if (tri.ok()) merge->landmarks[static_cast<int>(l)] = {tri.point_world, std::move(kept)};
   }
 }
@@ -250,6 +249,7 @@ JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
   std::vector<bool> placed(n, false), camera_refined(n, false);
   std::vector<std::int64_t> cross_of_pass(n, 0);
   Merge merge;
+  const std::vector<std::vector<int>> block_landmarks = LandmarksOfBlocks(landmarks, parts, n);
   summary.converged = true;
   for (int sweep = 0; sweep < blocks.sweeps; ++sweep) {
     const bool last_sweep = sweep + 1 == blocks.sweeps;
@@ -263,9 +263,9 @@ JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
       if (sweep == 0) {
         for (std::size_t p = 0; p < n; ++p) usable[p] = in_block[p] || !free[p] || placed[p];
       }
-      std::vector<int> ids;
+      const std::vector<int>& ids = block_landmarks[b];
       std::vector<std::vector<int>> used;
-      PassSubset sub = BlockProblem(current, landmarks, ground_ties, in_block, usable, &ids, &used);
+      PassSubset sub = BlockProblem(current, landmarks, ground_ties, in_block, usable, ids, &used);
       // The block's neighbours are held; those that are free passes of other blocks share the
       // block's camera (its refinement moves their images too); the fixed passes of the whole
       // problem keep their own camera or hold the one they share, as in one problem.

@@ -520,6 +520,30 @@ double MedianGpsSigma(const JointOptimiser::Pass& pass) {
   return sigmas[sigmas.size() / 2];
 }
 
+slam::TriangulationResult TriangulateJointLandmark(
+    const slam::RowOptimiser::Options& options,
+    const std::vector<slam::RowOptimiser::Input>& passes,
+    const std::vector<std::vector<geometry::Rigid3>>& cameras, const JointLandmark& landmark,
+    std::vector<bool>* kept) {
+  const geometry::PinholeRadTan& reference = *passes[landmark.observations.front().pass].camera;
+  std::vector<geometry::Rigid3> poses;
+  std::vector<Eigen::Vector2d> pixels;
+  for (const JointObservation& obs : landmark.observations) {
+    poses.push_back(cameras[obs.pass][obs.state]);
+    const geometry::PinholeRadTan& camera = *passes[obs.pass].camera;
+    Eigen::Vector2d pixel = obs.pixel;
+    Eigen::Vector3d ray;
+    if (!SameIntrinsics(camera, reference) &&
+        !(camera.Unproject(obs.pixel, &ray) && reference.Project(ray, &pixel))) {
+      pixel = obs.pixel;  // outside the reference's model: let the error bound judge it
+    }
+    pixels.push_back(pixel);
+  }
+  return slam::TriangulateDroppingWorstViews(reference, poses, pixels, options.triangulation,
+                                             options.max_outliers_per_track,
+                                             options.min_observations, kept);
+}
+
 OptionCheck JointOptimiser::Options::Check() const {
   if (const OptionCheck why = row.Check(); !why.empty()) return "row." + why;
   if (const OptionCheck why = alignment.Check(); !why.empty()) return "alignment." + why;
@@ -674,32 +698,13 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
   JointProblem problem(options_, aligned, std::move(ties), fixed_passes, own_camera_passes);
   problem.Preintegrate();
 
-  // (1) Landmarks from the row-SLAM poses. Pixels of a pass whose camera differs from the
-  // landmark's first pass are mapped into that camera's pixels along the same ray, so one
-  // camera model triangulates them all.
+  // (1) Landmarks from the row-SLAM poses.
   auto start = Clock::now();
   const std::vector<std::vector<geometry::Rigid3>> cameras = problem.CameraPoses();
   std::vector<slam::TriangulationResult> tri(landmarks.size());
   std::vector<std::vector<bool>> masks(landmarks.size());
   tbb::parallel_for(std::size_t{0}, landmarks.size(), [&](std::size_t l) {
-    const JointLandmark& landmark = landmarks[l];
-    const geometry::PinholeRadTan& reference = *passes[landmark.observations.front().pass].camera;
-    std::vector<geometry::Rigid3> poses;
-    std::vector<Eigen::Vector2d> pixels;
-    for (const JointObservation& obs : landmark.observations) {
-      poses.push_back(cameras[obs.pass][obs.state]);
-      const geometry::PinholeRadTan& camera = *passes[obs.pass].camera;
-      Eigen::Vector2d pixel = obs.pixel;
-      Eigen::Vector3d ray;
-      if (!SameIntrinsics(camera, reference) &&
-          !(camera.Unproject(obs.pixel, &ray) && reference.Project(ray, &pixel))) {
-        pixel = obs.pixel;  // outside the reference's model: let the error bound judge it
-      }
-      pixels.push_back(pixel);
-    }
-    tri[l] = slam::TriangulateDroppingWorstViews(reference, poses, pixels, op.triangulation,
-                                                 op.max_outliers_per_track, op.min_observations,
-                                                 &masks[l]);
+    tri[l] = TriangulateJointLandmark(op, passes, cameras, landmarks[l], &masks[l]);
   });
   std::vector<Eigen::Vector3d> points;
   std::vector<int> ids;

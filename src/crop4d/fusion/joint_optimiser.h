@@ -55,6 +55,16 @@ struct JointLandmark {
 // The median horizontal standard deviation of a pass's GPS fixes, m (infinity without GPS).
 double MedianGpsSigma(const slam::RowOptimiser::Input& pass);
 
+// A landmark triangulated from world_from_camera of every state of every pass (`cameras`), its
+// worst views dropped while the reprojection bound fails (`kept`: which observations remain).
+// Pixels of a pass whose camera differs from the landmark's first pass are mapped into that
+// camera's pixels along the same ray, so one camera model triangulates them all.
+slam::TriangulationResult TriangulateJointLandmark(
+    const slam::RowOptimiser::Options& options,
+    const std::vector<slam::RowOptimiser::Input>& passes,
+    const std::vector<std::vector<geometry::Rigid3>>& cameras, const JointLandmark& landmark,
+    std::vector<bool>* kept);
+
 class JointOptimiser {
  public:
   struct Options {

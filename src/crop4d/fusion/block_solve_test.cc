@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 namespace crop4d::fusion {
 namespace {
@@ -88,31 +89,36 @@ TEST(PartitionPasses, RowsAlongAnyHeadingAreOrderedAcrossThem) {
   EXPECT_EQ(Sorted(blocks), (std::vector<std::vector<int>>{{0, 2}, {1, 3}}));
 }
 
+// Refused up front, by SolveInBlocks itself (its message), before any block reaches the joint
+// optimiser, which would refuse some of these inputs too.
+void ExpectRefusedUpFront(const std::vector<JointOptimiser::Pass>& passes,
+                          const std::vector<JointLandmark>& landmarks,
+                          const std::vector<bool>& fixed = {}) {
+  try {
+    SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, landmarks, {}, fixed);
+    ADD_FAILURE() << "accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("SolveInBlocks: ", 0), 0u) << e.what();
+  }
+}
+
 TEST(SolveInBlocks, RejectsInconsistentInput) {
   std::vector<JointOptimiser::Pass> passes = {RowPass(0, true), RowPass(1, false)};
   passes[1].initial_states.resize(1);
-  EXPECT_THROW(SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {}),
-               std::invalid_argument);
+  ExpectRefusedUpFront(passes, {});
   passes[1] = RowPass(1, false);
   JointLandmark out_of_range;
   out_of_range.observations.push_back({2, 0, Eigen::Vector2d(1, 1)});
-  EXPECT_THROW(
-      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
-      std::invalid_argument);
+  ExpectRefusedUpFront(passes, {out_of_range});
   // A state out of range, an image of a pass without camera.
   geometry::PinholeRadTan camera;
   passes[0].camera = &camera;
   out_of_range.observations = {{0, 21, Eigen::Vector2d(1, 1)}};
-  EXPECT_THROW(
-      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
-      std::invalid_argument);
+  ExpectRefusedUpFront(passes, {out_of_range});
   out_of_range.observations = {{1, 0, Eigen::Vector2d(1, 1)}};
-  EXPECT_THROW(
-      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {out_of_range}),
-      std::invalid_argument);
-  EXPECT_THROW(
-      SolveInBlocks(JointOptimiser::Options(), BlockSolveOptions(), passes, {}, {}, {true}),
-      std::invalid_argument);
+  ExpectRefusedUpFront(passes, {out_of_range});
+  // fixed_passes of another length.
+  ExpectRefusedUpFront(passes, {}, {true});
 }
 
 TEST(BlockSolveOptions, Check) {

@@ -145,6 +145,12 @@ RunFunction SetupFuse(CLI::App& app) {
                  "Refine each pass's camera-IMU time offset: auto (the passes whose row SLAM "
                  "estimated one), true (every pass) or false (row SLAM's held)")
       ->capture_default_str();
+  app.add_option("--clock-line-sigma", o.optimiser.clock_line_sigma_s,
+                 "The time offsets of a session's passes lie on one line over time (one camera "
+                 "clock, a steady drift), each within this standard deviation, s (0: each pass's "
+                 "offset on its own; docs/fusion.md#one-camera-clock-per-session)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   const std::optional<bool>& refine = o.optimiser.calibration.refine;
   args->refine_calibration = !refine ? "auto" : (*refine ? "true" : "false");
   app.add_option("--refine-calibration", args->refine_calibration,

@@ -195,6 +195,13 @@ OptionCheck CanopyEvalOptions::Check() const {
   return c.Result();
 }
 
+std::vector<SiteError> SiteErrors(const std::vector<CanopyPair>& pairs) {
+  std::vector<SiteError> errors;
+  errors.reserve(pairs.size());
+  for (const CanopyPair& p : pairs) errors.push_back({p.site_id, p.session, p.error_m});
+  return errors;
+}
+
 CanopyMethodEval EvaluateCanopyHeights(const std::vector<SiteHeight>& estimates,
                                        const std::vector<SiteHeight>& truth,
                                        const CanopyEvalOptions& options) {
@@ -243,6 +250,7 @@ CanopyMethodEval EvaluateCanopyHeights(const std::vector<SiteHeight>& estimates,
     }
   }
   eval.overall = Stats(eval.pairs, all, options.max_error_m);
+  eval.rmse_interval = SiteRmseInterval(SiteErrors(eval.pairs));
   // Per session (the pairs are sorted by session).
   for (std::size_t begin = 0; begin < eval.pairs.size();) {
     std::size_t end = begin;
@@ -349,6 +357,15 @@ std::string FormatCanopyTable(const CanopyEval& eval, int max_listed) {
                        fmt::format("{}/{}", s.num_pairs, s.num_truth), s.num_missing, Cm(s.rmse_m),
                        Cm(s.bias_m, true), Cm(s.mae_m), s.num_failures,
                        std::max<std::size_t>(5, fail_header.size()), worst);
+  }
+  // How far the RMSE would move on other sites.
+  for (const CanopyMethodEval& m : eval.methods) {
+    if (!m.ok() || !m.rmse_interval.valid()) continue;
+    out += fmt::format(
+        "{} RMSE: {:g} % interval {}-{} cm over its {} sites (bootstrap: sites drawn with "
+        "replacement, each with all its sessions)\n",
+        m.method, 100.0 * SiteBootstrapOptions{}.level, Cm(m.rmse_interval.low),
+        Cm(m.rmse_interval.high), m.rmse_interval.num_sites);
   }
   // The failures.
   for (const CanopyMethodEval& m : eval.methods) {

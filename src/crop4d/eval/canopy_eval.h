@@ -26,6 +26,7 @@
 
 #include "crop4d/core/option_check.h"
 #include "crop4d/eval/plant_eval.h"
+#include "crop4d/eval/site_bootstrap.h"
 #include "crop4d/workspace/analysis_tables.h"
 
 namespace crop4d::eval {
@@ -89,6 +90,9 @@ struct CanopyMethodEval {
   std::string error;
   std::vector<CanopyPair> pairs;  // every truth row, by session then site (natural order)
   CanopyErrorStats overall;
+  // The 95 % interval of overall.rmse_m over the sites (site_bootstrap.h): how far the RMSE
+  // would move on another draw of as many sites.
+  BootstrapInterval rmse_interval;
   // The pair with the largest |error| (index into pairs); -1 when no pair has an estimate.
   int worst = -1;
   // Indices into pairs of the failures (|error| > max_error_m, or missing), in pair order.
@@ -98,6 +102,9 @@ struct CanopyMethodEval {
 
   bool ok() const { return error.empty(); }
 };
+
+// The pairs' errors, for the bootstrap (site_bootstrap.h).
+std::vector<SiteError> SiteErrors(const std::vector<CanopyPair>& pairs);
 
 // Joins `estimates` with `truth` on (site_id, session) and computes the statistics.
 CanopyMethodEval EvaluateCanopyHeights(const std::vector<SiteHeight>& estimates,

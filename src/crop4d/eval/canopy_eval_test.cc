@@ -98,6 +98,11 @@ TEST_F(CanopyEvalTest, ErrorsAsComputedByHand) {
   EXPECT_NEAR(s.max_abs_error_m, 0.05, 1e-12);
   // Failures: c/s1 missing, a/s2 +5 cm, c/s2 missing.
   EXPECT_EQ(s.num_failures, 3);
+  // The interval over the sites with an estimate, a (+1, +5 cm) and b (-2, 0 cm): every draw is
+  // aa, ab or bb, so it spans bb's RMSE to aa's.
+  EXPECT_EQ(e.rmse_interval.num_sites, 2);
+  EXPECT_NEAR(e.rmse_interval.low, std::sqrt(4e-4 / 2.0), 1e-12);
+  EXPECT_NEAR(e.rmse_interval.high, std::sqrt(26e-4 / 2.0), 1e-12);
   ASSERT_EQ(e.failures.size(), 3u);
   EXPECT_EQ(e.pairs[e.failures[0]].site_id, "c");
   EXPECT_EQ(e.pairs[e.failures[0]].session, "s1");
@@ -249,11 +254,16 @@ TEST_F(WorkspaceCanopyTest, EvaluatesBothMethods) {
   EXPECT_TRUE(c["ours"]["failures"][0]["estimate_m"].is_null());
   EXPECT_EQ(c["ours"]["sessions"].size(), 2u);
   EXPECT_EQ(c["ours"]["pairs"].size(), 6u);
+  EXPECT_NEAR(c["ours"]["rmse_interval_m"]["low"].get<double>(), std::sqrt(2e-4), 1e-12);
+  EXPECT_NEAR(c["ours"]["rmse_interval_m"]["high"].get<double>(), std::sqrt(13e-4), 1e-12);
+  EXPECT_EQ(c["ours"]["rmse_interval_m"]["num_sites"], 2);
   EXPECT_NEAR(c["single_plane"]["bias_m"].get<double>(), -0.03, 1e-12);
 
   const std::string table = FormatWorkspaceEvalTable(eval);
   EXPECT_NE(table.find("canopy height per site and session"), std::string::npos) << table;
   EXPECT_NE(table.find("single_plane"), std::string::npos) << table;
+  EXPECT_NE(table.find("ours RMSE: 95 % interval 1.41-3.61 cm over its 2 sites"), std::string::npos)
+      << table;
   EXPECT_NE(table.find("a s2 (+5.00)"), std::string::npos) << table;
   EXPECT_NE(table.find("ours failures: c s1 no estimate, a s2 +5.00, c s2 no estimate"),
             std::string::npos)

@@ -434,6 +434,13 @@ json CanopyJson(const CanopyEval& canopy) {
     item["file"] = m.file;
     item["error"] = m.ok() ? json(nullptr) : json(m.error);
     item = CanopyStatsJson(m.overall, std::move(item));
+    item["rmse_interval_m"] = m.rmse_interval.valid()
+                                  ? json{{"low", m.rmse_interval.low},
+                                         {"high", m.rmse_interval.high},
+                                         {"level", SiteBootstrapOptions{}.level},
+                                         {"num_sites", m.rmse_interval.num_sites},
+                                         {"resamples", m.rmse_interval.resamples}}
+                                  : json(nullptr);
     item["num_without_truth"] = m.num_without_truth;
     item["worst"] = m.worst >= 0 ? CanopyPairJson(m.pairs[m.worst]) : json(nullptr);
     json failures = json::array();

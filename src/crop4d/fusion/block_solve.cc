@@ -305,6 +305,20 @@ JointOptimiser::Result SolveInBlocks(const JointOptimiser::Options& options,
           placed[p] = true;
         }
       }
+      // The clock lines of the last sweep, in the passes' numbering; a clock that several
+      // blocks hold keeps the last block's line.
+      if (last_sweep) {
+        for (ClockLine line : r.clock_lines) {
+          for (int& k : line.passes) k = sub.original_pass[k];
+          const auto same = std::find_if(result.clock_lines.begin(), result.clock_lines.end(),
+                                         [&](const ClockLine& l) { return l.clock == line.clock; });
+          if (same != result.clock_lines.end()) {
+            *same = std::move(line);
+          } else {
+            result.clock_lines.push_back(std::move(line));
+          }
+        }
+      }
       // The calibration the block refined, carried to every pass that shares it.
       for (const RefinedCalibration& c : r.calibrations) {
         for (const int k : c.passes) {

@@ -18,6 +18,7 @@
 #include <utility>
 
 #include "crop4d/core/stopwatch.h"
+#include "crop4d/fusion/clock_line.h"
 #include "crop4d/fusion/ground_tie_factor.h"
 #include "crop4d/slam/pass_graph.h"
 #include "crop4d/slam/reprojection_factor.h"
@@ -66,9 +67,23 @@ class JointProblem {
       calibrations_.push_back(slam::CameraCalibrationBlocks::From(camera.camera));
     }
     refined_.assign(rig_cameras_.size(), false);
+    BuildClockLines();
   }
 
   const std::vector<RigCamera>& RigCameras() const { return rig_cameras_; }
+
+  // The clock lines that took part in a solve, as solved (ClockLine: offset at t_ref and drift
+  // per second).
+  std::vector<ClockLine> ClockLines() const {
+    std::vector<ClockLine> lines;
+    for (std::size_t g = 0; g < clock_lines_.size(); ++g) {
+      if (!line_used_[g]) continue;
+      lines.push_back(clock_lines_[g]);
+      lines.back().offset_s = line_blocks_[g][0];
+      lines.back().drift = line_blocks_[g][1] / 1000.0;
+    }
+    return lines;
+  }
 
   // From now on, the calibration of rig camera c is refined with the poses (refine[c]).
   void RefineCameras(const std::vector<bool>& refine) {
@@ -180,6 +195,7 @@ class JointProblem {
       double* td = graphs_[p]->time_offset_block();
       if (problem.HasParameterBlock(td)) problem.SetParameterBlockConstant(td);
     }
+    AddClockLineFactors(&problem);
     // The time offsets (one per pass, each in its graph) and the calibrations after the states,
     // in pass and camera order: the same order, and sums, in every process.
     std::vector<double*> last_blocks;
@@ -187,6 +203,7 @@ class JointProblem {
     for (slam::CameraCalibrationBlocks& c : calibrations_) {
       last_blocks.insert(last_blocks.end(), {c.intrinsics, c.rotation, c.lever_arm});
     }
+    for (std::array<double, 2>& line : line_blocks_) last_blocks.push_back(line.data());
     return slam::RunSolver(options_, &problem, landmarks, last_blocks);
   }
 
@@ -213,6 +230,66 @@ class JointProblem {
   }
 
  private:
+  // The passes of each clock (Pass::clock) that use a time offset, three at least with one of
+  // them refined, and a line through their offsets as row SLAM left them (clock_line.h).
+  void BuildClockLines() {
+    if (joint_options_.clock_line_sigma_s <= 0) return;
+    std::map<std::string, std::vector<int>> by_clock;
+    for (std::size_t p = 0; p < passes_.size(); ++p) {
+      if (passes_[p].clock.empty() || !graphs_[p]->uses_time_offset()) continue;
+      by_clock[passes_[p].clock].push_back(static_cast<int>(p));
+    }
+    for (auto& [clock, members] : by_clock) {
+      const bool any_refined = std::any_of(members.begin(), members.end(), [&](int p) {
+        return graphs_[p]->estimates_time_offset() && (fixed_.empty() || !fixed_[p]);
+      });
+      if (members.size() < 3 || !any_refined) continue;
+      ClockLine line;
+      line.clock = clock;
+      line.passes = members;
+      line.t_ref_s = std::numeric_limits<double>::infinity();
+      for (const int p : members) {
+        line.t_ref_s =
+            std::min(line.t_ref_s, TimestampToSeconds(passes_[p].initial_states.front().t));
+      }
+      std::vector<double> times_ks, offsets_s;
+      for (const int p : members) {
+        times_ks.push_back(PassMidTimeKs(p, line.t_ref_s));
+        offsets_s.push_back(graphs_[p]->time_offset_s());
+      }
+      line_blocks_.push_back(*FitClockLine(times_ks, offsets_s));
+      clock_lines_.push_back(std::move(line));
+      line_used_.push_back(false);
+    }
+  }
+
+  // The middle of pass p's span, in units of 1000 s since t_ref_s.
+  double PassMidTimeKs(int p, double t_ref_s) const {
+    const auto& states = passes_[p].initial_states;
+    const double mid =
+        0.5 * (TimestampToSeconds(states.front().t) + TimestampToSeconds(states.back().t));
+    return (mid - t_ref_s) / 1000.0;
+  }
+
+  // Each clock line's factors on the offsets of its passes that this problem holds (three at
+  // least).
+  void AddClockLineFactors(ceres::Problem* problem) {
+    for (std::size_t g = 0; g < clock_lines_.size(); ++g) {
+      const ClockLine& line = clock_lines_[g];
+      std::vector<int> present;
+      for (const int p : line.passes) {
+        if (problem->HasParameterBlock(graphs_[p]->time_offset_block())) present.push_back(p);
+      }
+      if (present.size() < 3) continue;
+      line_used_[g] = true;
+      for (const int p : present) {
+        problem->AddResidualBlock(ClockLineFactor::Create(PassMidTimeKs(p, line.t_ref_s),
+                                                          joint_options_.clock_line_sigma_s),
+                                  nullptr, graphs_[p]->time_offset_block(), line_blocks_[g].data());
+      }
+    }
+  }
+
   const JointOptimiser::Options& joint_options_;
   const slam::RowOptimiser::Options& options_;
   const std::vector<JointOptimiser::Pass>& passes_;
@@ -234,6 +311,11 @@ class JointProblem {
   // Each pass's options (the graphs hold references to them) and graph.
   std::vector<std::unique_ptr<slam::RowOptimiser::Options>> pass_options_;
   std::vector<std::unique_ptr<slam::PassGraph>> graphs_;
+  // The clock lines and their parameter blocks [offset s, drift s per 1000 s] (sized once: the
+  // problem holds their addresses).
+  std::vector<ClockLine> clock_lines_;
+  std::vector<std::array<double, 2>> line_blocks_;
+  std::vector<bool> line_used_;
 };
 
 // Whether observation o of a landmark comes from a pass other than its first observation's.
@@ -555,6 +637,9 @@ OptionCheck JointOptimiser::Options::Check() const {
         std::pair{"ground_tie_loss_scale", ground_tie_loss_scale}}) {
     if (!(value > 0)) return fmt::format("{}: must be > 0 (got {})", name, value);
   }
+  if (!(clock_line_sigma_s >= 0) || !std::isfinite(clock_line_sigma_s)) {
+    return fmt::format("clock_line_sigma_s: must be >= 0 (got {})", clock_line_sigma_s);
+  }
   return {};
 }
 
@@ -797,6 +882,13 @@ JointOptimiser::Result JointOptimiser::Solve(const std::vector<Pass>& passes,
     } else {
       ++summary.num_time_offsets_held;
     }
+  }
+  result.clock_lines = problem.ClockLines();
+  for (const ClockLine& line : result.clock_lines) {
+    spdlog::info(
+        "joint problem: clock {} of {} passes: time offset {:+.2f} ms at its first pass's start, "
+        "drift {:+.1f} ppm",
+        line.clock, line.passes.size(), 1e3 * line.offset_s, 1e6 * line.drift);
   }
 
   SummariseFinalSolve(problem, landmarks, kept_points, kept_ids, kept_masks, &summary);

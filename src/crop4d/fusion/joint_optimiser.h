@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "crop4d/fusion/camera_refinement.h"
+#include "crop4d/fusion/clock_line.h"
 #include "crop4d/fusion/ground_ties.h"
 #include "crop4d/fusion/pass_alignment.h"
 #include "crop4d/slam/row_optimiser.h"
@@ -93,6 +94,12 @@ class JointOptimiser {
     // False: row SLAM's values held. `row.estimate_time_offset` is not used here; its prior
     // sigma and bounds are.
     std::optional<bool> estimate_time_offset;
+    // The passes of one clock (Pass::clock: a session's) have their time offsets tied to one
+    // line over time (clock_line.h), each by this standard deviation, s: what a quartz clock
+    // strays from a steady drift between two passes of a session (a frequency that wanders by
+    // 1 ppm strays 0.3 ms in ten minutes). Three passes of a clock at least, one of them with
+    // its td refined; 0: no line. bench/RESULTS.md, "One camera clock per session".
+    double clock_line_sigma_s = 0.0005;
     // The cameras' calibration (intrinsics and T_BS rotation) refined with the poses
     // (camera_refinement.h); by default where the passes' time offsets are in the problem and
     // enough cross observations see it. A camera with a fixed pass (Solve) is held.
@@ -167,6 +174,9 @@ class JointOptimiser {
     // Each pass's camera–IMU time offset after the solve, s (refined or held; unset when the
     // reprojection factors of the pass did not use one).
     std::vector<std::optional<double>> time_offsets_s;
+    // The camera clocks whose passes' offsets were tied to a line (Options::clock_line_sigma_s),
+    // as solved.
+    std::vector<ClockLine> clock_lines;
     // Every camera of the rig (camera_refinement.h: passes with identical intrinsics and T_BS
     // share one), its calibration as written and after the solve (the same when not refined).
     // `cameras` above are placed with the refined T_BS.

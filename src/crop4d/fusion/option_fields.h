@@ -62,6 +62,7 @@ void VisitFields(JointOptimiser::Options& o, V&& visit) {
   visit("ground_tie_sigma_vertical_m", o.ground_tie_sigma_vertical_m);
   visit("ground_tie_loss_scale", o.ground_tie_loss_scale);
   visit("estimate_time_offset", o.estimate_time_offset);
+  visit("clock_line_sigma_s", o.clock_line_sigma_s);
   visit("calibration", o.calibration);
 }
 

@@ -55,6 +55,8 @@ void BuildInput(const std::string& where, const std::string& summary, LoadedPass
   input.bias_prior_sigma = priors.bias_prior_sigma;
   // Row SLAM's camera-IMU time offset (unset: not estimated): the joint problem starts from it.
   if (pass->data.time_offset_s) input.time_offset_s = *pass->data.time_offset_s;
+  // One camera clock per session: its passes' offsets lie on one line (fusion/clock_line.h).
+  input.clock = pass->data.session;
   if (pass->data.has_camera()) {
     input.image_sharpness = features::SharpnessOf(pass->data.features);
   }

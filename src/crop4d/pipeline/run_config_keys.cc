@@ -366,6 +366,11 @@ void AddFuseKeys(std::vector<Key>& k) {
       "row SLAM estimated one, slam.estimate_time_offset), true (every pass) or false (row "
       "SLAM's held)",
       "fuse.optimiser.estimate_time_offset"));
+  k.push_back(Double("fuse", "clock_line_sigma_s",
+                     "the time offsets of a session's passes lie on one line over time (one "
+                     "camera clock, a steady drift), each within this standard deviation; 0: "
+                     "each pass's offset on its own (docs/fusion.md)",
+                     "fuse.optimiser.clock_line_sigma_s", 0, 1));
   k.push_back(AutoBool(
       "fuse", "refine_calibration",
       "refine each camera's intrinsics and T_BS rotation in the joint problem: auto (where its "

@@ -204,6 +204,9 @@ class RowOptimiser {
     // Options::estimate_time_offset, held at it otherwise. Unset: td starts at 0 and enters only
     // with Options::estimate_time_offset.
     std::optional<double> time_offset_s;
+    // The joint 4D problem only: the camera clock of the pass (its session's; empty: none).
+    // Passes of one clock have their time offsets on one line over time (fusion/clock_line.h).
+    std::string clock;
   };
 
   struct Summary {

@@ -41,7 +41,12 @@ std::string EvalHeadlines(const workspace::Layout& layout) {
                      Cm(m.pass_ate_raw_rmse_m), Cm(m.fused_ate_raw_rmse_m));
   out += fmt::format("cross-session ground misalignment (fused, median): {}\n",
                      Cm(m.fused_ground_misalignment_median_m));
-  out += fmt::format("canopy height RMSE: {}\n", Cm(m.canopy_rmse_m));
+  out += fmt::format("canopy height RMSE: {}", Cm(m.canopy_rmse_m));
+  if (m.canopy_rmse_m && m.canopy_rmse_low_m && m.canopy_rmse_high_m) {
+    out += fmt::format(" (95 % interval over the sites {:.2f}-{:.2f} cm)",
+                       100.0 * *m.canopy_rmse_low_m, 100.0 * *m.canopy_rmse_high_m);
+  }
+  out += "\n";
   return out;
 }
 

@@ -35,6 +35,8 @@ EvalMetrics ReadEvalMetrics(const std::string& path) {
     m.fused_ground_misalignment_median_m =
         NumberAt(m.json, "/ground_misalignment/fused/pooled/median_m");
     m.canopy_rmse_m = NumberAt(m.json, "/canopy/ours/rmse_m");
+    m.canopy_rmse_low_m = NumberAt(m.json, "/canopy/ours/rmse_interval_m/low");
+    m.canopy_rmse_high_m = NumberAt(m.json, "/canopy/ours/rmse_interval_m/high");
   });
   return m;
 }

@@ -26,6 +26,9 @@ struct EvalMetrics {
   std::optional<double> fused_ate_raw_rmse_m;
   std::optional<double> fused_ground_misalignment_median_m;
   std::optional<double> canopy_rmse_m;
+  // Its 95 % interval over the sites (eval/site_bootstrap.h), m: unset without one.
+  std::optional<double> canopy_rmse_low_m;
+  std::optional<double> canopy_rmse_high_m;
   nlohmann::json json;  // the whole file
 };
 

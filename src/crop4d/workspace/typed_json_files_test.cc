@@ -237,7 +237,8 @@ TEST_F(TypedJsonFilesTest, EvalMetricsKeepTheirKeyOrderAndHeadlineFigures) {
   m["passes"] = nlohmann::ordered_json::array();
   m["overall"] = {{"ate_raw_m", {{"rmse", 0.0087}}}};
   m["fused"] = {{"overall", {{"ate_raw_m", {{"rmse", nullptr}}}}}};
-  m["canopy"] = {{"ours", {{"rmse_m", 0.0213}}}};
+  m["canopy"] = {
+      {"ours", {{"rmse_m", 0.0213}, {"rmse_interval_m", {{"low", 0.017}, {"high", 0.026}}}}}};
   const std::string path = Path("eval/metrics.json");
   fs::create_directories(fs::path(path).parent_path());
   WriteEvalMetrics(path, m);
@@ -248,6 +249,8 @@ TEST_F(TypedJsonFilesTest, EvalMetricsKeepTheirKeyOrderAndHeadlineFigures) {
   EXPECT_FALSE(back.fused_ate_raw_rmse_m.has_value());  // null: not evaluated
   EXPECT_FALSE(back.fused_ground_misalignment_median_m.has_value());
   EXPECT_EQ(back.canopy_rmse_m, 0.0213);
+  EXPECT_EQ(back.canopy_rmse_low_m, 0.017);
+  EXPECT_EQ(back.canopy_rmse_high_m, 0.026);
   EXPECT_EQ(back.json, json::parse(m.dump()));
 }
 

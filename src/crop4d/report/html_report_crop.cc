@@ -375,20 +375,26 @@ std::string CanopyEvalHtml(const json& m) {
         std::optional<double> v = Num(*x, {k});
         return v ? std::optional<double>(1000 * *v) : std::nullopt;
       };
+      // The RMSE's 95 % interval over the sites (eval/site_bootstrap.h), when given.
+      const std::optional<double> low = Num(*x, {"rmse_interval_m", "low"});
+      const std::optional<double> high = Num(*x, {"rmse_interval_m", "high"});
+      const std::string interval =
+          low && high ? fmt::format("{:.1f}&ndash;{:.1f}", 1000 * *low, 1000 * *high) : "";
       rows.push_back({std::string(which) == "ours" ? "crop4d (terrain model)" : "single plane",
                       Code(Str(*x, {"file"})), I(Num(*x, {"num_pairs"})), F(xmm("rmse_m"), 1),
-                      F(xmm("bias_m"), 1), F(xmm("mae_m"), 1), F(xmm("max_abs_error_m"), 1),
-                      I(Num(*x, {"num_failures"})),
+                      interval, F(xmm("bias_m"), 1), F(xmm("mae_m"), 1),
+                      F(xmm("max_abs_error_m"), 1), I(Num(*x, {"num_failures"})),
                       err.empty() ? "" : "<span class=\"badt\">" + E(err) + "</span>"});
     }
     if (!rows.empty()) {
       html += "<h3>Canopy height</h3>\n";
-      html += Table({"estimate", "file", "site-dates", "RMSE [mm]", "bias [mm]", "MAE [mm]",
-                     "max |error| [mm]",
-                     fmt::format("errors &gt; {:.0f} mm",
-                                 1000 * Num(*c, {"options", "max_error_m"}).value_or(NAN)),
-                     "error"},
-                    rows, "llrrrrrrl");
+      html += Table(
+          {"estimate", "file", "site-dates", "RMSE [mm]", "RMSE, 95 % interval over the sites [mm]",
+           "bias [mm]", "MAE [mm]", "max |error| [mm]",
+           fmt::format("errors &gt; {:.0f} mm",
+                       1000 * Num(*c, {"options", "max_error_m"}).value_or(NAN)),
+           "error"},
+          rows, "llrrrrrrrl");
     }
     if (const json* ss = At(*c, {"ours", "sessions"}); ss != nullptr && ss->is_array()) {
       std::vector<std::vector<std::string>> srows;

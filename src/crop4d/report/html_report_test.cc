@@ -180,6 +180,7 @@ void MakeWorkspace(const TempDir& dir) {
                 "error": null, "metrics": {"num_poses": 41, "ate_raw_m": {"rmse": 0.0065}}}],
                 "canopy": {"options": {"max_error_m": 0.04}, "ours": {"file":
                 "analysis/site_heights.csv", "error": null, "num_pairs": 3, "rmse_m": 0.0213,
+                "rmse_interval_m": {"low": 0.0153, "high": 0.0243},
                 "bias_m": -0.011, "mae_m": 0.0157, "max_abs_error_m": 0.0508,
                 "num_failures": 1}, "plants": {"true": 44, "found": 45, "matched": 42,
                 "recall": 0.9545, "precision": 0.9333, "median_stem_offset_m": 0.0177,
@@ -288,7 +289,8 @@ TEST(HtmlReportTest, ReportOfAHandWrittenWorkspace) {
   EXPECT_NE(html.find("meas. 0.250"), std::string::npos);
   EXPECT_NE(html.find("2016-06-01 &rarr; 2016-06-15 [m/day]"), std::string::npos);
   EXPECT_NE(html.find("few points on 2016-06-01"), std::string::npos);
-  EXPECT_NE(html.find(">21.3<"), std::string::npos);  // canopy RMSE in mm
+  EXPECT_NE(html.find(">21.3<"), std::string::npos);             // canopy RMSE in mm
+  EXPECT_NE(html.find(">15.3&ndash;24.3<"), std::string::npos);  // its interval over the sites
   EXPECT_NE(html.find("Plants of the sites"), std::string::npos);
   EXPECT_NE(html.find(">95.5 %<"), std::string::npos) << "recall";
   EXPECT_NE(html.find(">22.4<"), std::string::npos);  // plant top RMSE in mm

@@ -141,11 +141,9 @@ int main(int argc, char** argv) {
     }
     if (fields.size() < 2) return 0;
     // Pooled: the k-th run of every field against the first of its field.
-    fmt::print("all {} fields pooled ({} sites drawn together):\n\n", fields.size(), [&] {
-      std::size_t n = 0;
-      for (const auto& r : runs) n += eval::SiteRmseInterval(PooledErrors(r[0], 0)).num_sites;
-      return n;
-    }());
+    int num_sites = 0;
+    for (const auto& r : runs) num_sites += r.front().canopy.rmse_interval.num_sites;
+    fmt::print("all {} fields pooled ({} sites drawn together):\n\n", fields.size(), num_sites);
     fmt::print("| run | RMSE / first run's | paired 95 % interval |\n|---|---|---|\n");
     for (std::size_t k = 1; k < min_runs; ++k) {
       std::vector<eval::SiteError> first, other;

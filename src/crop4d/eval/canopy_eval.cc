@@ -364,8 +364,8 @@ std::string FormatCanopyTable(const CanopyEval& eval, int max_listed) {
     out += fmt::format(
         "{} RMSE: {:g} % interval {}-{} cm over its {} sites (bootstrap: sites drawn with "
         "replacement, each with all its sessions)\n",
-        m.method, 100.0 * SiteBootstrapOptions{}.level, Cm(m.rmse_interval.low),
-        Cm(m.rmse_interval.high), m.rmse_interval.num_sites);
+        m.method, 100.0 * m.rmse_interval.level, Cm(m.rmse_interval.low), Cm(m.rmse_interval.high),
+        m.rmse_interval.num_sites);
   }
   // The failures.
   for (const CanopyMethodEval& m : eval.methods) {

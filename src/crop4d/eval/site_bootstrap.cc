@@ -25,6 +25,7 @@ BootstrapInterval PercentileInterval(std::vector<double> values, double level, i
   interval.num_sites = num_sites;
   if (values.empty()) return interval;
   const double tail = 0.5 * (1.0 - level);
+  interval.level = level;
   interval.low = Quantile(&values, tail);
   interval.high = Quantile(&values, 1.0 - tail);
   interval.resamples = static_cast<int>(values.size());

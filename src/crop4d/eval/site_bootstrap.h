@@ -44,8 +44,9 @@ struct SiteBootstrapOptions {
 struct BootstrapInterval {
   double low = std::numeric_limits<double>::quiet_NaN();
   double high = std::numeric_limits<double>::quiet_NaN();
-  int num_sites = 0;  // sites with at least one pair counted
-  int resamples = 0;  // 0: no interval (fewer than two sites)
+  double level = 0.0;  // two-sided, of the options that drew it
+  int num_sites = 0;   // sites with at least one pair counted
+  int resamples = 0;   // 0: no interval (fewer than two sites)
 
   bool valid() const { return resamples > 0; }
 };

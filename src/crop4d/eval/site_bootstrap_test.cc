@@ -72,6 +72,7 @@ TEST(SiteBootstrap, IntervalRepeatsAndFollowsTheSeed) {
   EXPECT_EQ(a.low, b.low);
   EXPECT_EQ(a.high, b.high);
   EXPECT_EQ(a.resamples, 2000);
+  EXPECT_EQ(a.level, 0.95);
   SiteBootstrapOptions other;
   other.seed = 2;
   const BootstrapInterval c = SiteRmseInterval(errors, other);

@@ -437,7 +437,7 @@ json CanopyJson(const CanopyEval& canopy) {
     item["rmse_interval_m"] = m.rmse_interval.valid()
                                   ? json{{"low", m.rmse_interval.low},
                                          {"high", m.rmse_interval.high},
-                                         {"level", SiteBootstrapOptions{}.level},
+                                         {"level", m.rmse_interval.level},
                                          {"num_sites", m.rmse_interval.num_sites},
                                          {"resamples", m.rmse_interval.resamples}}
                                   : json(nullptr);

@@ -71,8 +71,9 @@ RunFunction SetupFuse(CLI::App& app) {
       "Ceres problems — each pass's IMU, GP prior and GPS factors plus the cross matches of "
       "`crop4d associate` as shared landmarks — initialised from row SLAM, with robust losses "
       "and rejection of inconsistent matches; session by session in date order (a new "
-      "session is solved with the one before it, the one before that held), or the whole "
-      "season in one problem with --full. Writes WS/fused/<session>/poses.tum "
+      "session is solved with the one before it, the one before that held), re-optimised a "
+      "window at a time with --full, or the whole season in one problem with --one-problem. Writes "
+      "WS/fused/<session>/poses.tum "
       "and sparse.ply, WS/fused/landmarks.ply, a COLMAP text model in WS/fused/colmap/ and "
       "WS/fused/summary.json; skipped when its inputs have not changed.\n\nExample:\n  crop4d "
       "fuse demo/field --workspace demo/workspace");
@@ -85,9 +86,16 @@ RunFunction SetupFuse(CLI::App& app) {
   app.add_option("--method", o.method, "Associations to use: robust or naive")
       ->capture_default_str();
   app.add_flag("--full", o.full,
-               "One joint problem over every pass of every session (rebuilt whenever a session is "
-               "added; memory grows with the season). Default: session by session, each step "
-               "optimising the new session with the --window-sessions before it");
+               "Re-optimise the whole season after the steps session by session: --full-sweeps "
+               "rounds of a backward and a forward sweep over the windows, each with the "
+               "sessions on both sides held (memory of a window, about 3x the time)");
+  app.add_option("--full-sweeps", o.full_sweeps,
+                 "Rounds of a backward and a forward sweep of --full")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_flag("--one-problem", o.one_problem,
+               "One joint problem over every pass of every session (rebuilt whenever a session "
+               "is added; its memory grows with the season)");
   app.add_option("--window-sessions", o.window_sessions,
                  "Sessions before the new one that each step of the incremental fuse optimises "
                  "again (the one before them is held)")

@@ -161,10 +161,11 @@ std::vector<int> StepPasses(const SeasonIndex& index, const FuseStep& step,
                             std::vector<bool>* held) {
   std::vector<int> passes;
   held->clear();
-  for (int s = step.held >= 0 ? step.held : step.first; s <= step.last; ++s) {
+  const int end = step.held_after >= 0 ? step.held_after : step.last;
+  for (int s = step.held >= 0 ? step.held : step.first; s <= end; ++s) {
     for (const int p : index.passes_of[s]) {
       passes.push_back(p);
-      held->push_back(s == step.held);
+      held->push_back(s == step.held || s == step.held_after);
     }
   }
   return passes;
@@ -190,6 +191,17 @@ std::vector<fs::path> StepAssociationFiles(const SeasonPasses& season, const Sea
   return files;
 }
 
+// The options as a step's fingerprint takes them: without those that choose the steps (which
+// the steps' own fields carry), so that a full fuse after a fuse session by session solves only
+// its sweeps. `full` stays, as false, as in the fingerprints before full_sweeps and one_problem.
+json StepOptionsJson(const FuseStageOptions& options) {
+  json j = FuseOptionsJson(options);
+  j["full"] = false;
+  j.erase("full_sweeps");
+  j.erase("one_problem");
+  return j;
+}
+
 // The fingerprint of a step: the previous step's, the stage's revision, crop4d's version, the
 // options, the sessions it optimises and holds, its passes and their association files.
 std::string StepStamp(const std::string& previous, const FuseStep& step, const SeasonPasses& season,
@@ -200,10 +212,15 @@ std::string StepStamp(const std::string& previous, const FuseStep& step, const S
   h.AddString(previous);
   h.Add(kFuseStageRevision);
   h.AddString(kVersion);
-  h.AddString(FuseOptionsJson(options).dump());
+  h.AddString(StepOptionsJson(options).dump());
   h.Add(step.first);
   h.Add(step.held);
   h.Add(step.last);
+  if (step.sweep > 0) {  // the steps that add a session keep the fingerprints they had
+    h.Add(step.held_after);
+    h.Add(step.sweep);
+    h.Add(static_cast<int>(step.backward));
+  }
   for (std::size_t i = 0; i < passes.size(); ++i) {
     h.AddString(season.passes[passes[i]]->data.label());
     h.AddString(season.passes[passes[i]]->data.fingerprint);
@@ -250,17 +267,13 @@ json ReadStepJson(const fs::path& dir) {
                                      workspace::SchemaField::kOptional);
 }
 
-// Starts the passes of the step that the previous step optimised where it left them: states,
-// time offsets and the calibration it refined. Every pass starts from the calibration of the
-// previous step's free passes (its last camera of a calibration as written): a pass held here
-// was free there, and the session added starts from the latest calibration. Returns the
-// calibrations it carried in.
-std::vector<fusion::RefinedCalibration> StartFromPreviousStep(
-    const fs::path& previous_dir, PassList* passes, std::deque<geometry::PinholeRadTan>* storage) {
-  const json previous = ReadStepJson(previous_dir);
+// The time offset of every pass that the step in `dir` optimised, by pass label (nullopt: none
+// estimated).
+std::map<std::string, std::optional<double>> StepTimeOffsets(const fs::path& dir) {
+  const json step = ReadStepJson(dir);
   std::map<std::string, std::optional<double>> offsets;
-  workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse", [&] {
-    for (const json& p : previous.at("passes")) {
+  workspace::ReadFields((dir / "step.json").string(), "crop4d fuse", [&] {
+    for (const json& p : step.at("passes")) {
       const std::string label =
           p.at("session").get<std::string>() + "/" + p.at("pass").get<std::string>();
       offsets[label] = p.contains("time_offset_s")
@@ -268,20 +281,40 @@ std::vector<fusion::RefinedCalibration> StartFromPreviousStep(
                            : std::nullopt;
     }
   });
-  for (auto& pass : *passes) {
-    const auto it = offsets.find(pass->data.label());
-    if (it == offsets.end()) continue;  // a pass of the session this step adds
-    const fs::path states = previous_dir / "states" / StateFileName(*pass);
-    std::vector<slam::RowState> start = workspace::ReadPassStates(states.string());
-    if (start.size() != pass->input.initial_states.size()) {
-      throw InputError(
-          states.string() + ": " + std::to_string(start.size()) + " states, the pass has " +
-          std::to_string(pass->input.initial_states.size()) + " (rerun `crop4d fuse --force`)");
+  return offsets;
+}
+
+// Starts each pass of a step where the latest earlier step that optimised its session left it
+// (`source_dirs[p]`, empty: none, row SLAM's states): states and time offset. Every pass starts
+// from the calibration of the previous step's free passes (`previous_dir`, its last camera of a
+// calibration as written): a pass held here was free in an earlier step, and a session added
+// starts from the latest calibration. Returns the calibrations it carried in.
+std::vector<fusion::RefinedCalibration> StartFromEarlierSteps(
+    const std::vector<fs::path>& source_dirs, const fs::path& previous_dir, PassList* passes,
+    std::deque<geometry::PinholeRadTan>* storage) {
+  std::map<fs::path, std::map<std::string, std::optional<double>>> offsets_of;
+  for (std::size_t p = 0; p < passes->size(); ++p) {
+    const fs::path& dir = source_dirs[p];
+    if (dir.empty()) continue;  // a pass of the session this step adds
+    if (!offsets_of.count(dir)) offsets_of[dir] = StepTimeOffsets(dir);
+    LoadedPass& pass = *(*passes)[p];
+    const auto it = offsets_of[dir].find(pass.data.label());
+    if (it == offsets_of[dir].end()) {
+      throw InputError((dir / "step.json").string() + ": no pass " + pass.data.label() +
+                       " (rerun `crop4d fuse --force`)");
     }
-    pass->input.initial_states = std::move(start);
-    if (it->second) pass->input.time_offset_s = *it->second;
+    const fs::path states = dir / "states" / StateFileName(pass);
+    std::vector<slam::RowState> start = workspace::ReadPassStates(states.string());
+    if (start.size() != pass.input.initial_states.size()) {
+      throw InputError(states.string() + ": " + std::to_string(start.size()) +
+                       " states, the pass has " + std::to_string(pass.input.initial_states.size()) +
+                       " (rerun `crop4d fuse --force`)");
+    }
+    pass.input.initial_states = std::move(start);
+    if (it->second) pass.input.time_offset_s = *it->second;
   }
   std::vector<fusion::RefinedCalibration> carried;
+  const json previous = ReadStepJson(previous_dir);
   workspace::ReadFields((previous_dir / "step.json").string(), "crop4d fuse", [&] {
     for (StepCamera& c : ReadStepCalibrations(previous_dir, previous)) {
       carried.push_back(std::move(c.calibration));
@@ -295,6 +328,25 @@ std::vector<fusion::RefinedCalibration> StartFromPreviousStep(
     (*passes)[p]->input.body_from_camera = inputs[p].body_from_camera;
   }
   return carried;
+}
+
+// How far a solve moved the free passes from where it started them: the largest RMS change of a
+// pass's body positions (m).
+double LargestMove(const PassList& passes, const std::vector<bool>& held,
+                   const fusion::JointOptimiser::Result& result) {
+  double largest = 0;
+  for (std::size_t p = 0; p < passes.size(); ++p) {
+    const std::vector<slam::RowState>& start = passes[p]->input.initial_states;
+    if (held[p] || start.empty() || result.states[p].size() != start.size()) continue;
+    double sum_sq = 0;
+    for (std::size_t k = 0; k < start.size(); ++k) {
+      sum_sq += (result.states[p][k].nav.world_from_body.translation() -
+                 start[k].nav.world_from_body.translation())
+                    .squaredNorm();
+    }
+    largest = std::max(largest, std::sqrt(sum_sq / static_cast<double>(start.size())));
+  }
+  return largest;
 }
 
 json PassReportJson(const FusePassReport& pr, const std::optional<double>& time_offset_s) {
@@ -339,11 +391,20 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
       StepAssociationFiles(ctx.season, ctx.index, season_passes, held);
   FuseStepReport out;
   out.session = ctx.season.sessions[step.last];
+  out.name = StepFolderName(step, ctx.season.sessions);
   for (int k = step.first; k <= step.last; ++k) out.optimised.push_back(ctx.season.sessions[k]);
-  if (step.held >= 0) out.held.push_back(ctx.season.sessions[step.held]);
-  spdlog::info("fuse: step {}/{}: session {} ({} passes; optimising {} session(s), holding {})",
-               s + 1, ctx.steps.size(), out.session, season_passes.size(), out.optimised.size(),
-               out.held.empty() ? "none" : out.held.front());
+  for (const int k : {step.held, step.held_after}) {
+    if (k >= 0) out.held.push_back(ctx.season.sessions[k]);
+  }
+  std::string held_text;
+  for (const std::string& h : out.held) held_text += (held_text.empty() ? "" : ", ") + h;
+  spdlog::info("fuse: step {}/{}: {} {} ({} passes; optimising {} session(s), holding {})", s + 1,
+               ctx.steps.size(),
+               step.sweep == 0 ? std::string("session")
+                               : fmt::format("sweep {} {}, up to", step.sweep,
+                                             step.backward ? "backward" : "forward"),
+               out.session, season_passes.size(), out.optimised.size(),
+               held_text.empty() ? "none" : held_text);
 
   // The step's passes, their problems, and where the previous step left them.
   PassList passes;
@@ -359,12 +420,19 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
     protects.push_back(ctx.protects[g]);
   }
   const fs::path steps_dir = ctx.layout.FusedStepsDir();
-  const fs::path previous_dir =
-      s > 0 ? steps_dir / ctx.season.sessions[ctx.steps[s - 1].last] : fs::path();
   std::deque<geometry::PinholeRadTan> carried_cameras;
   // The calibrations carried in, to report the step's own against the calibration as written.
   std::vector<fusion::RefinedCalibration> carried;
-  if (s > 0) carried = StartFromPreviousStep(previous_dir, &passes, &carried_cameras);
+  if (s > 0) {
+    std::vector<fs::path> sources;
+    for (const int g : season_passes) {
+      const int from = SourceStep(ctx.steps, s, ctx.index.session_of[g]);
+      sources.push_back(
+          from < 0 ? fs::path() : steps_dir / StepFolderName(ctx.steps[from], ctx.season.sessions));
+    }
+    const fs::path previous_dir = steps_dir / StepFolderName(ctx.steps[s - 1], ctx.season.sessions);
+    carried = StartFromEarlierSteps(sources, previous_dir, &passes, &carried_cameras);
+  }
 
   FuseReport step_report;
   std::vector<SessionPair> session_pairs;
@@ -378,6 +446,7 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
   fusion::JointOptimiser::Result result =
       SolveJoint(graph, passes, landmarks, ties, protects, held, ctx.options);
   ReportEarlierRefinement(carried, &result);
+  out.moved_m = LargestMove(passes, held, result);
 
   // The sessions this step makes final get their outputs.
   const std::vector<std::vector<geometry::Rigid3>> cameras =
@@ -390,8 +459,8 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
   WriteSessionOutputs(passes, cameras, intrinsics, final_sessions, ctx.options, ctx.layout);
 
   // The step's folder, written aside and renamed.
-  const fs::path dir = steps_dir / out.session;
-  const fs::path tmp = steps_dir / ("." + out.session + ".tmp");
+  const fs::path dir = steps_dir / out.name;
+  const fs::path tmp = steps_dir / ("." + out.name + ".tmp");
   fs::remove_all(tmp);
   fs::create_directories(tmp / "states");
   json pass_list = json::array();
@@ -422,20 +491,23 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
                            {"file", name + ".json"},
                            {"written", name + "-written.json"}});
   }
-  // The landmarks seen from the session this step adds (every one in the first step).
+  // The landmarks whose latest session is the step's last (any session up to it when the step
+  // starts at the season's first): a landmark seen by the held session after the window belongs
+  // to a step that optimises that session.
+  const int own_from = step.first == 0 ? 0 : step.last;
   StepLandmarks owned;
   for (const auto& pass : passes) owned.passes.push_back(pass->data.label());
   for (std::size_t l = 0; l < result.landmarks_world.size(); ++l) {
     const fusion::JointLandmark& given = landmarks[result.landmark_ids[l]];
     fusion::JointLandmark kept;
     kept.color = given.color;
-    bool mine = s == 0;
+    int latest = -1;
     for (std::size_t o = 0; o < given.observations.size(); ++o) {
       if (!result.observations_kept[l][o]) continue;
       kept.observations.push_back(given.observations[o]);
-      mine |= ctx.index.session_of[season_passes[given.observations[o].pass]] == step.last;
+      latest = std::max(latest, ctx.index.session_of[season_passes[given.observations[o].pass]]);
     }
-    if (!mine || kept.observations.empty()) continue;
+    if (latest < own_from || latest > step.last) continue;
     owned.positions.push_back(result.landmarks_world[l]);
     owned.landmarks.push_back(std::move(kept));
   }
@@ -461,6 +533,7 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
                       {"invalid_matches", step_report.num_invalid_matches}}},
                     {"ground_ties", TiePairsJson(step_report.tie_pairs)},
                     {"owned_landmarks", owned.landmarks.size()},
+                    {"moved_m", out.moved_m},
                     {"seconds", out.seconds}};
   // Its own files, and apart the outputs of each session it made final: they are its results
   // too (a damaged one makes the step run again) for as long as no later step makes that
@@ -482,8 +555,10 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
 
   report->tie_pairs.insert(report->tie_pairs.end(), step_report.tie_pairs.begin(),
                            step_report.tie_pairs.end());
-  spdlog::info("fuse: step {}/{} done in {:.1f} s: {} landmarks, {} observations", s + 1,
-               ctx.steps.size(), out.seconds, out.landmarks, out.observations);
+  spdlog::info(
+      "fuse: step {}/{} done in {:.1f} s: {} landmarks, {} observations; the passes moved at most "
+      "{:.2f} cm (RMS of a pass)",
+      s + 1, ctx.steps.size(), out.seconds, out.landmarks, out.observations, 100 * out.moved_m);
   return out;
 }
 
@@ -540,7 +615,7 @@ void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
   std::vector<std::string> camera_order;
   fusion::JointOptimiser::Summary joint;
   for (std::size_t s = 0; s < steps.size(); ++s) {
-    const fs::path dir = steps_dir / season.sessions[steps[s].last];
+    const fs::path dir = steps_dir / StepFolderName(steps[s], season.sessions);
     const json j = ReadStepJson(dir);
     workspace::ReadFields((dir / "step.json").string(), "crop4d fuse", [&] {
       AddJointSummary(JointSummaryFromJson(j.at("joint")), &joint);
@@ -579,10 +654,14 @@ void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
       }
       for (const json& t : j.at("ground_ties")) ground_ties.push_back(t);
       step_list.push_back({{"session", j.at("session")},
+                           {"folder", dir.filename().string()},
+                           {"sweep", steps[s].sweep},
+                           {"backward", steps[s].backward},
                            {"optimised", j.at("optimised")},
                            {"held", j.at("held")},
                            {"landmarks", j.at("joint").at("landmarks")},
                            {"observations", j.at("joint").at("observations")},
+                           {"moved_m", j.value("moved_m", 0.0)},
                            {"seconds", j.at("seconds")}});
     });
   }
@@ -627,7 +706,8 @@ void AssembleSeason(SeasonPasses& season, const std::vector<FuseStep>& steps,
   }
   SeasonLandmarkWriter writer(season.passes, cameras, intrinsics, options.write_colmap, layout);
   for (const FuseStep& step : steps) {
-    const fs::path path = steps_dir / season.sessions[step.last] / "landmarks.bin";
+    if (!step.assembled) continue;
+    const fs::path path = steps_dir / StepFolderName(step, season.sessions) / "landmarks.bin";
     StepLandmarks owned = ReadStepLandmarks(path);
     std::vector<int> to_season;
     for (const std::string& label : owned.passes) {
@@ -675,12 +755,53 @@ std::vector<FuseStep> PlanFuseSteps(int num_sessions, int window) {
   return steps;
 }
 
+std::vector<FuseStep> PlanFullFuseSteps(int num_sessions, int window, int rounds) {
+  std::vector<FuseStep> steps = PlanFuseSteps(num_sessions, window);
+  // The window that ends at session b, with the sessions on both sides held.
+  const auto window_to = [&](int b, int sweep, bool backward) {
+    FuseStep step;
+    step.last = b;
+    step.first = std::max(0, b - window);
+    step.held = step.first - 1;
+    step.held_after = b + 1 < num_sessions ? b + 1 : -1;
+    step.sweep = sweep;
+    step.backward = backward;
+    step.assembled = false;
+    return step;
+  };
+  const int first_last = std::min(window, num_sessions - 1);
+  if (num_sessions - 1 <= first_last) return steps;  // one step: the season in one problem
+  for (int r = 1; r <= rounds; ++r) {
+    // Backward from the window before the last one solved to the first; forward again from the
+    // window after the first to the last.
+    for (int b = num_sessions - 2; b >= first_last; --b) steps.push_back(window_to(b, r, true));
+    for (int b = first_last + 1; b < num_sessions; ++b) steps.push_back(window_to(b, r, false));
+  }
+  // The landmarks of the last round: its backward sweep's step at the season's start, then its
+  // forward sweep (each window in date order, as the steps that add the sessions).
+  for (FuseStep& step : steps)
+    step.assembled = step.sweep == rounds && (!step.backward || step.first == 0);
+  return steps;
+}
+
+std::string StepFolderName(const FuseStep& step, const std::vector<std::string>& sessions) {
+  if (step.sweep == 0) return sessions[step.last];
+  return "sweep" + std::to_string(step.sweep) + (step.backward ? "b-" : "f-") + sessions[step.last];
+}
+
 std::vector<int> FinalSessions(const std::vector<FuseStep>& steps, std::size_t s) {
   std::vector<int> sessions;
   for (int k = steps[s].first; k <= steps[s].last; ++k) {
-    if (s + 1 == steps.size() || k < steps[s + 1].first) sessions.push_back(k);
+    if (SourceStep(steps, steps.size(), k) == static_cast<int>(s)) sessions.push_back(k);
   }
   return sessions;
+}
+
+int SourceStep(const std::vector<FuseStep>& steps, std::size_t s, int session) {
+  for (std::size_t t = s; t-- > 0;) {
+    if (steps[t].first <= session && session <= steps[t].last) return static_cast<int>(t);
+  }
+  return -1;
 }
 
 FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace,
@@ -692,13 +813,15 @@ FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace
   report.num_passes = static_cast<int>(season.passes.size());
   const workspace::Layout layout(workspace);
   const SeasonIndex index = IndexSeason(season, association_files);
+  const int num_sessions = static_cast<int>(season.sessions.size());
   const std::vector<FuseStep> steps =
-      PlanFuseSteps(static_cast<int>(season.sessions.size()), options.window_sessions);
+      options.full ? PlanFullFuseSteps(num_sessions, options.window_sessions, options.full_sweeps)
+                   : PlanFuseSteps(num_sessions, options.window_sessions);
 
   // Every step's fingerprint, chained; the season's is the last one's.
   std::vector<std::string> stamps;
   Fnv1aHasher season_stamp;
-  season_stamp.AddString("incremental");
+  season_stamp.AddString(options.full ? "full" : "incremental");
   for (const FuseStep& step : steps) {
     std::vector<bool> held;
     const std::vector<int> passes = StepPasses(index, step, &held);
@@ -718,7 +841,7 @@ FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace
   // Folders of steps that are not in this season, and outputs of the whole-season fuse, go.
   const fs::path steps_dir = layout.FusedStepsDir();
   std::set<std::string> step_names;
-  for (const FuseStep& step : steps) step_names.insert(season.sessions[step.last]);
+  for (const FuseStep& step : steps) step_names.insert(StepFolderName(step, season.sessions));
   if (fs::is_directory(steps_dir)) {
     for (const auto& entry : fs::directory_iterator(steps_dir)) {
       if (!step_names.count(entry.path().filename().string())) fs::remove_all(entry.path());
@@ -731,11 +854,12 @@ FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace
   const StepContext ctx{season, index, steps, protects, workspace, options, layout};
   bool rerun = options.force;  // a step after one that ran starts from new states: it runs too
   for (std::size_t s = 0; s < steps.size(); ++s) {
-    const fs::path dir = steps_dir / season.sessions[steps[s].last];
+    const fs::path dir = steps_dir / StepFolderName(steps[s], season.sessions);
     std::string why;
     if (!rerun && StepUpToDate(dir, stamps[s], FinalSessions(steps, s), season, layout, &why)) {
       FuseStepReport skipped;
       skipped.session = season.sessions[steps[s].last];
+      skipped.name = dir.filename().string();
       skipped.skipped = true;
       report.steps.push_back(skipped);
       continue;

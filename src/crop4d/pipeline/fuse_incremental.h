@@ -11,6 +11,9 @@
 // with it (association pairs a session with the next one). The first step fuses sessions 0 … W
 // together. The calibration a step refined is carried to the next (a camera with a held pass is
 // held). Session s is final after step s + W (or the last step), which writes its outputs.
+// With FuseStageOptions::full, refinement sweeps follow (PlanFullFuseSteps): every window again,
+// backward then forward, with the sessions on both sides held, so that the whole season is
+// re-optimised a window at a time.
 //
 // Files of the step that added session k, in WS/fused/steps/<session k>/ (written in a temporary
 // folder and renamed):
@@ -39,20 +42,44 @@
 
 namespace crop4d::pipeline::fuse {
 
-// One step: the session index it adds (`last`), the first session it optimises and the session
-// it holds (-1: none).
+// One step: the session index it adds or, in a sweep, the last it optimises (`last`), the first
+// session it optimises, and the sessions held before and after them (-1: none).
 struct FuseStep {
   int last = 0;
   int first = 0;
   int held = -1;
+  int held_after = -1;
+  // 0: a step that adds session `last`; r >= 1: a step of the r-th round of refinement sweeps of
+  // the full fuse, backward (from the season's end to its start) or forward.
+  int sweep = 0;
+  bool backward = false;
+  // Whether the season's landmarks.ply and COLMAP model take this step's landmarks (those whose
+  // latest session is `last`, or any session up to `last` when `first` is 0): the steps that
+  // last solved each session's window in date order.
+  bool assembled = true;
 };
 
 // The steps over `num_sessions` sessions with a window of `window` earlier sessions.
 std::vector<FuseStep> PlanFuseSteps(int num_sessions, int window);
 
+// The full re-optimisation (FuseStageOptions::full): the steps of PlanFuseSteps, then `rounds`
+// rounds of two refinement sweeps — backward over the same windows (from the one before the
+// last to the first), then forward again (from the second to the last) — each window solved with
+// the session before it and the session after it held where the latest step left them. Every
+// step holds at most window + 3 sessions, so the memory does not grow with the season; each
+// session's result answers to the sessions on both sides of it.
+std::vector<FuseStep> PlanFullFuseSteps(int num_sessions, int window, int rounds);
+
+// The folder of a step in WS/fused/steps/: the session it adds, or for a sweep's step
+// "sweep<r><b|f>-<last session>".
+std::string StepFolderName(const FuseStep& step, const std::vector<std::string>& sessions);
+
 // The sessions whose result step `s` of `steps` makes final (the step's outputs): those that no
 // later step optimises.
 std::vector<int> FinalSessions(const std::vector<FuseStep>& steps, std::size_t s);
+
+// The latest step before `s` that optimised `session` (-1: none; its passes start from row SLAM).
+int SourceStep(const std::vector<FuseStep>& steps, std::size_t s, int session);
 
 FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace,
                               const std::vector<std::filesystem::path>& association_files,

@@ -432,8 +432,12 @@ std::string FormatFuseReport(const FuseReport& report) {
   out << "fused " << report.num_passes << " passes of " << report.num_sessions << " sessions in "
       << std::fixed << std::setprecision(1) << report.seconds << " s\n";
   if (!report.steps.empty()) {
-    out << "  session by session in " << report.steps.size()
-        << " steps; the counts below are summed over them (a pass is in several)\n";
+    const auto sweeps =
+        std::count_if(report.steps.begin(), report.steps.end(),
+                      [](const FuseStepReport& step) { return step.name.rfind("sweep", 0) == 0; });
+    out << "  session by session in " << report.steps.size() - sweeps << " steps";
+    if (sweeps > 0) out << ", then " << sweeps << " steps of refinement sweeps over the season";
+    out << "; the counts below are summed over them (a pass is in several)\n";
   }
   out << "  cross matches " << report.num_cross_matches << " from " << report.num_association_files
       << " files (" << report.num_thinned_matches << " left out by the per-image-pair cap, "
@@ -468,22 +472,23 @@ std::string FormatFuseReport(const FuseReport& report) {
     out << line;
   }
   if (!report.steps.empty()) {
-    out << "  step  session      optimised             held         landmarks  observations  "
-           "seconds\n";
+    out << "  step  folder                optimised             held                    landmarks  "
+           "observations  moved [cm]  seconds\n";
     for (std::size_t s = 0; s < report.steps.size(); ++s) {
       const FuseStepReport& step = report.steps[s];
       if (step.skipped) {
-        out << "  " << std::setw(4) << s + 1 << "  " << std::left << std::setw(12) << step.session
-            << std::right << " up to date\n";
+        out << "  " << std::setw(4) << s + 1 << "  " << std::left << std::setw(21)
+            << (step.name.empty() ? step.session : step.name) << std::right << " up to date\n";
         continue;
       }
       std::string optimised, held;
       for (const std::string& x : step.optimised) optimised += (optimised.empty() ? "" : ",") + x;
       for (const std::string& x : step.held) held += (held.empty() ? "" : ",") + x;
       char line[320];
-      std::snprintf(line, sizeof(line), "  %4zu  %-12s %-21s %-12s %9d  %12lld  %7.1f\n", s + 1,
-                    step.session.c_str(), optimised.c_str(), held.empty() ? "-" : held.c_str(),
-                    step.landmarks, static_cast<long long>(step.observations), step.seconds);
+      std::snprintf(line, sizeof(line), "  %4zu  %-21s %-21s %-23s %9d  %12lld  %10.2f  %7.1f\n",
+                    s + 1, (step.name.empty() ? step.session : step.name).c_str(),
+                    optimised.c_str(), held.empty() ? "-" : held.c_str(), step.landmarks,
+                    static_cast<long long>(step.observations), 100 * step.moved_m, step.seconds);
       out << line;
     }
   }

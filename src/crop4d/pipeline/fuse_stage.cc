@@ -30,10 +30,10 @@ namespace fs = std::filesystem;
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-// The whole season in one joint problem (FuseStageOptions::full).
-FuseReport RunFullFuse(fuse::SeasonPasses& season, const std::string& workspace,
-                       const std::vector<fs::path>& association_files,
-                       const FuseStageOptions& options) {
+// The whole season in one joint problem (FuseStageOptions::one_problem).
+FuseReport RunOneProblemFuse(fuse::SeasonPasses& season, const std::string& workspace,
+                             const std::vector<fs::path>& association_files,
+                             const FuseStageOptions& options) {
   const auto start = Clock::now();
   FuseReport report;
   const workspace::Layout layout(workspace);
@@ -118,6 +118,11 @@ std::string FuseStageOptions::Check() const {
   }
   if (max_matches_per_image_pair < 0) return "max_matches_per_image_pair: must be >= 0 (0: all)";
   if (window_sessions < 1) return "window_sessions: must be >= 1";
+  if (full_sweeps < 1) return "full_sweeps: must be >= 1";
+  if (full && one_problem) {
+    return "full: a full re-optimisation a window at a time and one_problem (the season in one "
+           "problem) exclude each other";
+  }
   if (ground_tie_max_matches < 0) return "ground_tie_max_matches: must be >= 0";
   // The nested options of the modules (docs/fusion.md).
   if (const std::string why = ground_tie.Check(); !why.empty()) return "ground_tie." + why;
@@ -141,8 +146,9 @@ FuseReport RunFuseStage(const std::string& field_folder, const std::string& work
         "together but nothing ties them to each other",
         association_dir.string());
   }
-  return options.full ? RunFullFuse(season, workspace, association_files, options)
-                      : fuse::RunIncrementalFuse(season, workspace, association_files, options);
+  return options.one_problem
+             ? RunOneProblemFuse(season, workspace, association_files, options)
+             : fuse::RunIncrementalFuse(season, workspace, association_files, options);
 }
 
 }  // namespace crop4d::pipeline

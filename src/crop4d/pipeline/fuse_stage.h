@@ -2,8 +2,9 @@
 
 // The 4D fusion stage (`crop4d fuse`, DESIGN.md §2.4): the row passes of every session in joint
 // problems (fusion/joint_optimiser.h), with the cross matches of `crop4d associate` as shared
-// landmarks — session by session in date order by default (fuse_incremental.h), or every pass
-// of the season in one problem (FuseStageOptions::full).
+// landmarks — session by session in date order by default (fuse_incremental.h), with refinement
+// sweeps over the whole season (FuseStageOptions::full), or every pass of the season in one
+// problem (FuseStageOptions::one_problem).
 //
 // Landmarks: the observations (pass, image, feature) of each pass's optimised landmarks
 // (tracks.bin) are joined with the cross matches — each match joins the landmark (cloud track)
@@ -23,7 +24,8 @@
 //   colmap/               the whole 4D reconstruction as a COLMAP text model (one camera per
 //                         session, images named <session>/<pass>/<image file>, the joint
 //                         landmarks as 3D points);
-//   steps/<session>/      the steps of the incremental fuse (fuse_incremental.h);
+//   steps/<name>/         the steps of the fuse session by session and of its sweeps
+//                         (fuse_incremental.h);
 //   summary.json          counts, costs, times, per-pass corrections, the ground ties per pair
 //                         of passes, the steps, and a fingerprint of the
 //                         inputs: an unchanged workspace is not fused again (unless `force`).
@@ -41,12 +43,18 @@ namespace crop4d::pipeline {
 struct FuseStageOptions {
   // The associations to use: WS/associations/<method>/ ("robust" or "naive").
   std::string method = "robust";
-  // The whole season in one joint problem, rebuilt whenever a session is added (`crop4d fuse
-  // --full`). By default the sessions are fused one by one in date order
-  // (pipeline/fuse_incremental.h): adding a session solves its passes with those of the
-  // `window_sessions` sessions before it, the session before those held, so that its cost and
-  // memory do not grow with the season.
+  // By default the sessions are fused one by one in date order (pipeline/fuse_incremental.h):
+  // adding a session solves its passes with those of the `window_sessions` sessions before it,
+  // the session before those held, so that its cost and memory do not grow with the season.
+  // `full` (`crop4d fuse --full`) re-optimises the whole season after those steps, a window at a
+  // time: `full_sweeps` rounds of a backward and a forward sweep over the windows, each with the
+  // sessions on both sides held (fuse_incremental.h, PlanFullFuseSteps); its memory is that of a
+  // window. `one_problem` (`--one-problem`) solves every pass of the season in one joint problem
+  // instead, rebuilt whenever a session is added: its loading and landmark graph grow with the
+  // season (for small seasons and comparisons).
   bool full = false;
+  int full_sweeps = 1;
+  bool one_problem = false;
   int window_sessions = 1;
   // At most this many cross matches of one image pair join the problem (0: all): the best by
   // descriptor distance, spread over a 4×4 grid of image a. A few dozen per image pair register
@@ -111,18 +119,24 @@ struct FuseTiePairReport {
 // One step of the incremental fuse: the session it added, the sessions it optimised and held.
 struct FuseStepReport {
   std::string session;
+  // The step's folder in WS/fused/steps/ (the session it adds, or its sweep and last session).
+  std::string name;
   std::vector<std::string> optimised;
   std::vector<std::string> held;
   bool skipped = false;  // up to date
   int passes = 0;
   int landmarks = 0;
   std::int64_t observations = 0;
+  // How far the step moved its free passes from where it started them: the largest RMS change of
+  // a pass's body positions (m). Over a sweep of the full fuse it shows how far the season was
+  // from settled.
+  double moved_m = 0;
   double seconds = 0;
 };
 
 struct FuseReport {
   bool skipped = false;  // up to date
-  // The steps of the incremental fuse (none with FuseStageOptions::full).
+  // The steps of the fuse session by session and of its sweeps (none with one_problem).
   std::vector<FuseStepReport> steps;
   int num_sessions = 0;
   int num_passes = 0;

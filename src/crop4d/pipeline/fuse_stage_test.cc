@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -259,9 +260,10 @@ TEST_F(FusionStagesTest, AcrossRainGroundTiesRegisterTheSessionsWithoutMatches) 
 }
 
 // The incremental fuse (fuse_incremental.h): two sessions are fused in one step; when a third
-// arrives only its step runs, the first session held; the result is as accurate as one problem
-// over the whole season, and a damaged step file makes that step run again.
-TEST_F(FusionStagesTest, TheIncrementalFuseAddsASessionInOneStepAsWellAsTheFullFuse) {
+// arrives only its step runs, the first session held; a damaged step file makes that step run
+// again; the full fuse sweeps the season a window at a time; both are as accurate as one problem
+// over the whole season.
+TEST_F(FusionStagesTest, TheIncrementalFuseAddsASessionInOneStepAsWellAsOneProblem) {
   const std::string& field = ThreeSessionField();
   const std::vector<std::string> sessions = io::Field(field).session_ids();
   ASSERT_EQ(sessions.size(), 3u);
@@ -309,8 +311,39 @@ TEST_F(FusionStagesTest, TheIncrementalFuseAddsASessionInOneStepAsWellAsTheFullF
   EXPECT_FALSE(repaired.steps[0].skipped);
   EXPECT_FALSE(repaired.steps[1].skipped);
 
-  // One problem over the whole season: the same accuracy, within a few millimetres.
+  // The full fuse a window at a time: the steps that added the sessions are reused, and its
+  // backward and forward sweeps each solve one window with the session beside it held.
   fo.full = true;
+  const FuseReport swept = RunFuseStage(field, workspace_, fo);
+  ASSERT_EQ(swept.steps.size(), 4u);
+  EXPECT_TRUE(swept.steps[0].skipped);
+  EXPECT_TRUE(swept.steps[1].skipped);
+  ASSERT_FALSE(swept.steps[2].skipped);
+  EXPECT_EQ(swept.steps[2].name, "sweep1b-" + sessions[1]);
+  EXPECT_EQ(swept.steps[2].optimised, (std::vector<std::string>{sessions[0], sessions[1]}));
+  EXPECT_EQ(swept.steps[2].held, (std::vector<std::string>{sessions[2]}));
+  ASSERT_FALSE(swept.steps[3].skipped);
+  EXPECT_EQ(swept.steps[3].optimised, (std::vector<std::string>{sessions[1], sessions[2]}));
+  EXPECT_EQ(swept.steps[3].held, (std::vector<std::string>{sessions[0]}));
+  // The season had settled in the steps that added its sessions: the sweeps move it little.
+  EXPECT_LT(swept.steps[2].moved_m, 0.01);
+  EXPECT_LT(swept.steps[3].moved_m, 0.01);
+  EXPECT_EQ(swept.passes.size(), 6u);
+  EXPECT_TRUE(RunFuseStage(field, workspace_, fo).skipped);
+  const eval::WorkspaceEval sweeps = eval::EvaluateWorkspace(workspace_, field, eo);
+  ASSERT_TRUE(sweeps.fused.has_value());
+  const eval::CloudSetEval* sweeps_clouds = Clouds(sweeps, "fused");
+  ASSERT_NE(sweeps_clouds, nullptr);
+  const io::ColmapModel swept_model = io::ReadColmapText(workspace_ + "/fused/colmap");
+  EXPECT_TRUE(swept_model.Check(&why)) << why;
+  EXPECT_EQ(swept_model.cameras.size(), 3u);
+  // Each landmark once: from the sweeps' steps, about as many as the steps session by session.
+  EXPECT_GT(swept_model.points.size(), model.points.size() * 9 / 10);
+  EXPECT_LT(swept_model.points.size(), model.points.size() * 11 / 10);
+
+  // One problem over the whole season: the same accuracy, within a few millimetres.
+  fo.full = false;
+  fo.one_problem = true;
   const FuseReport full = RunFuseStage(field, workspace_, fo);
   EXPECT_TRUE(full.steps.empty());
   EXPECT_FALSE(fs::exists(fs::path(workspace_) / "fused/steps"));
@@ -322,6 +355,16 @@ TEST_F(FusionStagesTest, TheIncrementalFuseAddsASessionInOneStepAsWellAsTheFullF
   EXPECT_LT(incremental.fused->ate_raw_m.rmse, whole.fused->ate_raw_m.rmse * 1.1 + 0.002);
   EXPECT_LT(incremental_clouds->misalignment.pooled.median_m,
             whole_clouds->misalignment.pooled.median_m * 1.1 + 0.002);
+  EXPECT_LT(sweeps.fused->ate_raw_m.rmse, whole.fused->ate_raw_m.rmse * 1.1 + 0.002);
+  EXPECT_LT(sweeps_clouds->misalignment.pooled.median_m,
+            whole_clouds->misalignment.pooled.median_m * 1.1 + 0.002);
+  std::printf(
+      "fused ATE %.2f / %.2f / %.2f cm, misalignment %.2f / %.2f / %.2f cm (session by "
+      "session / full, sweeps / one problem)\n",
+      100 * incremental.fused->ate_raw_m.rmse, 100 * sweeps.fused->ate_raw_m.rmse,
+      100 * whole.fused->ate_raw_m.rmse, 100 * incremental_clouds->misalignment.pooled.median_m,
+      100 * sweeps_clouds->misalignment.pooled.median_m,
+      100 * whole_clouds->misalignment.pooled.median_m);
 }
 
 // After row SLAM the workspace holds each pass's problem (priors in summary.json, measurements in

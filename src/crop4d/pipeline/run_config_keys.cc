@@ -314,9 +314,15 @@ void AddFuseKeys(std::vector<Key>& k) {
   k.push_back(Word("fuse", "method", "the associations used: robust or naive", {"robust", "naive"},
                    "fuse.method"));
   k.push_back(Bool("fuse", "full",
-                   "one joint problem over the whole season, rebuilt when a session is added "
-                   "(default: session by session, fuse_incremental.h)",
+                   "re-optimise the whole season after the steps session by session, a window "
+                   "at a time: backward and forward sweeps with the sessions on both sides held",
                    "fuse.full"));
+  k.push_back(Int("fuse", "full_sweeps", "rounds of a backward and a forward sweep of fuse.full",
+                  "fuse.full_sweeps", 1, 100));
+  k.push_back(Bool("fuse", "one_problem",
+                   "one joint problem over the whole season, rebuilt when a session is added "
+                   "(memory grows with the season; default: session by session)",
+                   "fuse.one_problem"));
   k.push_back(Int("fuse", "window_sessions",
                   "sessions before the new one that each step of the incremental fuse "
                   "optimises again (the one before them is held)",

@@ -119,6 +119,8 @@ template <class V>
 void VisitFields(FuseStageOptions& o, V&& visit) {
   visit("method", o.method);
   visit("full", o.full);
+  visit("full_sweeps", o.full_sweeps);
+  visit("one_problem", o.one_problem);
   visit("window_sessions", o.window_sessions);
   visit("max_matches_per_image_pair", o.max_matches_per_image_pair);
   visit("optimiser", o.optimiser);

@@ -129,6 +129,11 @@ RunFunction SetupFuse(CLI::App& app) {
                  "registered onto the trusted sessions without moving them (docs/fusion.md)")
       ->check(CLI::Range(0.001, 1e6))
       ->capture_default_str();
+  app.add_option("--max-gps-rejected-share", o.quality.max_gps_rejected_share,
+                 "A pass whose row SLAM rejected more than this share of its GPS fixes as "
+                 "outliers degrades its session (docs/fusion.md)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   app.add_option("--max-reprojection-error", o.optimiser.row.max_reprojection_error_px,
                  "Observations above this error (px) are removed before the final solve")
       ->capture_default_str();

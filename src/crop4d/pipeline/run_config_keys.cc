@@ -354,6 +354,10 @@ void AddFuseKeys(std::vector<Key>& k) {
       "fuse", "max_imu_gap_s",
       "a pass with no IMU sample for longer than this degrades its session (season_quality.h)",
       "fuse.quality.max_imu_gap_s", 0.001, 1e6));
+  k.push_back(Double("fuse", "max_gps_rejected_share",
+                     "a pass whose row SLAM rejected more than this share of its GPS fixes as "
+                     "outliers degrades its session (season_quality.h)",
+                     "fuse.quality.max_gps_rejected_share", 0.0, 1.0));
   k.push_back(Choice(
       "fuse", "linear_solver",
       "exact (sparse Cholesky of the Schur complement) or iterative (conjugate gradients)",

@@ -47,12 +47,18 @@ PassFacts PassFactsOf(const std::string& session, const std::string& pass,
   f.sensors = summary.sensors;
   f.positioning = PositioningOf(f.sensors);
   f.longest_imu_gap_s = summary.longest_imu_gap_s;
+  if (summary.json.contains("back_end")) {
+    const nlohmann::json& back_end = summary.json.at("back_end");
+    f.gps_fixes = back_end.value("gps_factors", 0);
+    f.gps_rejected = back_end.value("gps_rejected", 0);
+  }
   return f;
 }
 
 OptionCheck QualityOptions::Check() const {
   OptionChecker c;
   c.Greater("max_imu_gap_s", max_imu_gap_s, 0.0).Finite("max_imu_gap_s", max_imu_gap_s);
+  c.InRange("max_gps_rejected_share", max_gps_rejected_share, 0.0, 1.0);
   return c.Result();
 }
 
@@ -87,6 +93,15 @@ SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOpt
     q.sessions[index.at(p.session)].reasons.push_back(
         fmt::format("pass {}: no IMU sample for {:.1f} s (more than {:.1f} s)", p.pass,
                     p.longest_imu_gap_s, options.max_imu_gap_s));
+  }
+  for (const PassFacts& p : passes) {
+    if (p.gps_fixes <= 0 || p.gps_rejected <= options.max_gps_rejected_share * p.gps_fixes) {
+      continue;
+    }
+    q.sessions[index.at(p.session)].reasons.push_back(fmt::format(
+        "pass {}: row SLAM rejected {} of its {} GPS fixes as outliers (more than {:.0f} %): its "
+        "solve left the GPS track",
+        p.pass, p.gps_rejected, p.gps_fixes, 100 * options.max_gps_rejected_share));
   }
   for (SessionGrade& g : q.sessions) g.trusted = g.reasons.empty();
   q.any_trusted = std::any_of(q.sessions.begin(), q.sessions.end(),

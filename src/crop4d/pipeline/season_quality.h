@@ -9,7 +9,10 @@
 //     receiver (`+gps`) or none while at least half of the sessions had RTK (`+rtk`), or without
 //     any GPS while at least half had one (a receiver without a fix, a missing receiver folder);
 //   - one of its passes went longer than `max_imu_gap_s` without an IMU sample (the pass is
-//     named): the motion there is bridged by the camera and a smoothness prior only.
+//     named): the motion there is bridged by the camera and a smoothness prior only;
+//   - row SLAM's GPS outlier gate rejected more than `max_gps_rejected_share` of a pass's fixes
+//     (the pass is named): its solve left the GPS track (a wrong initial heading, a receiver far
+//     off), and its poses cannot be trusted to move the other sessions or their calibration.
 // A degraded session is still fused, densified and analysed, but it never moves a trusted one:
 // the joint problem is solved on the trusted passes first, then the degraded passes are
 // registered onto them held fixed (fuse_stage.h); the terrain, the plant stems and the growth
@@ -44,6 +47,9 @@ struct PassFacts {
   std::string sensors;
   // The longest time inside the pass without an IMU sample, s (0 without an IMU).
   double longest_imu_gap_s = 0.0;
+  // The GPS fixes of the pass's solve, and those its outlier gate rejected.
+  int gps_fixes = 0;
+  int gps_rejected = 0;
 };
 
 // The facts of a pass from its row-SLAM summary (workspace/pass_summary.h).
@@ -53,6 +59,9 @@ PassFacts PassFactsOf(const std::string& session, const std::string& pass,
 struct QualityOptions {
   // A pass without IMU samples for longer than this degrades its session, s.
   double max_imu_gap_s = 1.0;
+  // A pass whose row SLAM rejected more than this share of its GPS fixes as outliers degrades
+  // its session (a receiver's multipath outliers are a few percent).
+  double max_gps_rejected_share = 0.5;
 
   OptionCheck Check() const;
 };

@@ -72,6 +72,31 @@ TEST(SeasonQualityTest, AnImuGapNamesItsPass) {
   EXPECT_EQ(q.sessions[1].reasons[0], "pass row01: no IMU sample for 5.0 s (more than 1.0 s)");
 }
 
+// A pass whose row SLAM left the GPS track (2016-07-23 row00 of a 16-session field before the
+// session solve took a receiver in float: 43 of 43 fixes rejected) degrades its session; a few
+// rejected multipath outliers do not.
+TEST(SeasonQualityTest, APassWhoseSolveRejectedMostOfItsFixesNamesItsPass) {
+  PassFacts diverged = Pass("b", "row00", "cam+imu+rtk");
+  diverged.gps_fixes = 43;
+  diverged.gps_rejected = 43;
+  PassFacts outliers = Pass("a", "row00", "cam+imu+rtk");
+  outliers.gps_fixes = 75;
+  outliers.gps_rejected = 3;
+  PassFacts half = Pass("a", "row01", "cam+imu+rtk");
+  half.gps_fixes = 40;
+  half.gps_rejected = 20;
+  const SeasonQuality q = GradeSeason({outliers, half, diverged}, QualityOptions{});
+  EXPECT_TRUE(q.sessions[0].trusted);
+  ASSERT_FALSE(q.sessions[1].trusted);
+  ASSERT_EQ(q.sessions[1].reasons.size(), 1u);
+  EXPECT_EQ(q.sessions[1].reasons[0],
+            "pass row00: row SLAM rejected 43 of its 43 GPS fixes as outliers (more than 50 %): "
+            "its solve left the GPS track");
+  QualityOptions strict;
+  strict.max_gps_rejected_share = 0.02;
+  EXPECT_FALSE(GradeSeason({outliers, half, diverged}, strict).sessions[0].trusted);
+}
+
 TEST(SeasonQualityTest, WhenNoSessionIsTrustedEverySessionIsUsed) {
   const SeasonQuality q =
       GradeSeason({Pass("a", "r", "cam+imu+rtk", 3.0), Pass("b", "r", "cam+imu+rtk", 2.0)}, {});
@@ -85,7 +110,10 @@ TEST(SeasonQualityTest, FactsFromARowSlamSummary) {
   workspace::PassSummary summary;
   summary.sensors = "cam+imu+gps";
   summary.longest_imu_gap_s = 4.5;
+  summary.json = {{"back_end", {{"gps_factors", 48}, {"gps_rejected", 48}}}};
   const PassFacts f = PassFactsOf("2016-06-10", "row01", summary);
+  EXPECT_EQ(f.gps_fixes, 48);
+  EXPECT_EQ(f.gps_rejected, 48);
   EXPECT_EQ(f.session, "2016-06-10");
   EXPECT_EQ(f.pass, "row01");
   EXPECT_EQ(f.positioning, Positioning::kGps);
@@ -123,6 +151,9 @@ TEST(SeasonQualityTest, CheckRejectsBadOptions) {
   o.max_imu_gap_s = 0;
   EXPECT_NE(o.Check(), "");
   EXPECT_DEATH(GradeSeason({}, o), "max_imu_gap_s");
+  o = QualityOptions{};
+  o.max_gps_rejected_share = 1.5;
+  EXPECT_NE(o.Check(), "");
 }
 
 }  // namespace

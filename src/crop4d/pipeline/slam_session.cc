@@ -312,7 +312,10 @@ double CameraHeight(const SlamStageOptions& options, const slam::SessionStreams&
 }
 
 bool PreciseFixes(const SlamStageOptions& options, const std::vector<slam::GpsFixWorld>& fixes) {
-  return slam::MedianSigmaH(fixes) <= options.session_solve_max_sigma_m;
+  // A quarter of the fixes, not half: an RTK receiver that is in float (decimetres) for most of
+  // a session still has its fixed stretches to observe the turns with, where a metre-level
+  // receiver has none (the session solve weighs every fix by its own sigma).
+  return slam::SigmaHQuantile(fixes, 0.25) <= options.session_solve_max_sigma_m;
 }
 
 }  // namespace crop4d::pipeline

@@ -69,7 +69,7 @@ std::vector<slam::RowPass> SessionPasses(const io::Field& field, const SlamStage
 // (height_above_ground_m), else 0 (unknown or not to be used).
 double CameraHeight(const SlamStageOptions& options, const slam::SessionStreams& streams);
 
-// Whether the median horizontal sigma of the fixes is at most session_solve_max_sigma_m: a
+// Whether a quarter of the fixes have a horizontal sigma of at most session_solve_max_sigma_m: a
 // receiver precise enough for the session solve, the standstill test and the scale.
 bool PreciseFixes(const SlamStageOptions& options, const std::vector<slam::GpsFixWorld>& fixes);
 

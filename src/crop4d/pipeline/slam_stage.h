@@ -64,11 +64,12 @@ struct SlamStageOptions {
   // Camera-less passes: states at this rate, Hz.
   double state_rate_hz = 10.0;
   // Before the passes, one IMU + GPS solve over the whole session (turns included) at this
-  // state rate, Hz (0: none), with a precise receiver (median sigma_h ≤
-  // session_solve_max_sigma_m). Its attitudes in turns give the forward axis (the IMU's mounting;
-  // in every sensor set). When the set's GPS factors use that receiver, its biases also become
-  // each pass's bias prior (turns make the accelerometer bias observable; a straight pass
-  // confuses it with roll and pitch) and its trajectory the passes' initial guess.
+  // state rate, Hz (0: none), with a precise receiver (a quarter of its fixes with sigma_h ≤
+  // session_solve_max_sigma_m: an RTK receiver, even when it is in float for most of a session).
+  // Its attitudes in turns give the forward axis (the IMU's mounting; in every sensor set). When
+  // the set's GPS factors use that receiver, its biases also become each pass's bias prior (turns
+  // make the accelerometer bias observable; a straight pass confuses it with roll and pitch) and
+  // its trajectory the passes' initial guess.
   double session_state_rate_hz = 5.0;
   // Precision a receiver needs for the session solve, m (RTK; a metre-level receiver does not
   // make the biases observable in the turns).

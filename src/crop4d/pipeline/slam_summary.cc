@@ -26,7 +26,7 @@ using nlohmann::json;
 
 // Bumped whenever the stage's method changes its results, so that outputs of an older method
 // are not taken as up to date.
-constexpr int kSlamStageRevision = 10;
+constexpr int kSlamStageRevision = 11;
 
 // An IMU gap longer than this inside a pass is warned about, s: far longer than the sample
 // spacing (6 ms at 167 Hz), an outage rather than timing jitter.
@@ -140,8 +140,19 @@ json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
         "(docs/slam.md, trust flags)",
         where, landmarks);
   }
+  // A solve whose outlier gate rejected most of the fixes has left the GPS track: its misfit
+  // is the divergence's, not the noise's (season_quality.h degrades its session).
+  const int fixes = summary.at("back_end").value("gps_factors", 0);
+  const int rejected = summary.at("back_end").value("gps_rejected", 0);
   const double misfit = summary.at("back_end").value("gps_normalised_rms", 0.0);
-  if (misfit > slam::kNoiseMisfit) {
+  if (fixes > 0 && 2 * rejected > fixes) {
+    flags.push_back("gps_rejected");
+    spdlog::warn(
+        "{}: the solve rejected {} of its {} GPS fixes as outliers: it has left the GPS track "
+        "(a wrong initial heading, or a receiver far off); its poses are not trusted "
+        "(docs/slam.md, trust flags)",
+        where, rejected, fixes);
+  } else if (misfit > slam::kNoiseMisfit) {
     flags.push_back("noise_misfit");
     spdlog::warn(
         "{}: the solve misses the GPS fixes by {:.2f} times their sigmas: the stated noise of "

@@ -113,6 +113,7 @@ void VisitFields(AssociateStageOptions& o, V&& visit) {
 template <class V>
 void VisitFields(QualityOptions& o, V&& visit) {
   visit("max_imu_gap_s", o.max_imu_gap_s);
+  visit("max_gps_rejected_share", o.max_gps_rejected_share);
 }
 
 template <class V>

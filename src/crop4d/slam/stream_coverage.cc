@@ -23,13 +23,17 @@ TimeGaps FindTimeGaps(const std::vector<Timestamp>& sorted, Timestamp begin, Tim
   return gaps;
 }
 
-double MedianSigmaH(const std::vector<GpsFixWorld>& fixes) {
+double MedianSigmaH(const std::vector<GpsFixWorld>& fixes) { return SigmaHQuantile(fixes, 0.5); }
+
+double SigmaHQuantile(const std::vector<GpsFixWorld>& fixes, double q) {
   if (fixes.empty()) return std::numeric_limits<double>::infinity();
   std::vector<double> sigmas;
   sigmas.reserve(fixes.size());
   for (const GpsFixWorld& fix : fixes) sigmas.push_back(fix.sigma_h);
-  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-  return sigmas[sigmas.size() / 2];
+  const std::size_t k = std::min(sigmas.size() - 1,
+                                 static_cast<std::size_t>(std::clamp(q, 0.0, 1.0) * sigmas.size()));
+  std::nth_element(sigmas.begin(), sigmas.begin() + k, sigmas.end());
+  return sigmas[k];
 }
 
 }  // namespace crop4d::slam

@@ -1,7 +1,7 @@
 #pragma once
 
 // How well a sensor stream covers a stretch of time: the gaps between its samples (an IMU or GPS
-// outage inside a row pass), and the median horizontal precision of a GPS track (whether a
+// outage inside a row pass), and the horizontal precision of a GPS track (whether a
 // receiver is precise enough for the session solve, the standstill test and the scale).
 
 #include <vector>
@@ -26,5 +26,9 @@ TimeGaps FindTimeGaps(const std::vector<Timestamp>& sorted, Timestamp begin, Tim
 // The median horizontal sigma of the fixes, m (the upper median of an even count); infinity
 // without fixes.
 double MedianSigmaH(const std::vector<GpsFixWorld>& fixes);
+
+// The horizontal sigma that a share `q` (0–1) of the fixes is within, m: the sorted sigmas'
+// element at index ⌊q·n⌋ (q = 0.5: MedianSigmaH); infinity without fixes.
+double SigmaHQuantile(const std::vector<GpsFixWorld>& fixes, double q);
 
 }  // namespace crop4d::slam

@@ -49,6 +49,19 @@ TEST(FindTimeGapsTest, NoSampleInTheSpanIsOneGapOverIt) {
 
 TEST(MedianSigmaHTest, IsInfiniteWithoutFixes) { EXPECT_TRUE(std::isinf(MedianSigmaH({}))); }
 
+// An RTK receiver in float for 55 % of a session (sigma_h 0.15 m against 0.02 m fixed): its
+// median is the float's, its first quartile the fixed one's.
+TEST(MedianSigmaHTest, AQuantileOfAReceiverMostlyInFloat) {
+  std::vector<GpsFixWorld> fixes;
+  for (int i = 0; i < 45; ++i) fixes.push_back(FixWithSigma(0.02));
+  for (int i = 0; i < 55; ++i) fixes.push_back(FixWithSigma(0.15));
+  EXPECT_DOUBLE_EQ(MedianSigmaH(fixes), 0.15);
+  EXPECT_DOUBLE_EQ(SigmaHQuantile(fixes, 0.25), 0.02);
+  EXPECT_DOUBLE_EQ(SigmaHQuantile(fixes, 0.0), 0.02);
+  EXPECT_DOUBLE_EQ(SigmaHQuantile(fixes, 1.0), 0.15);
+  EXPECT_TRUE(std::isinf(SigmaHQuantile({}, 0.25)));
+}
+
 TEST(MedianSigmaHTest, TakesTheMiddleOfAnOddCountAndTheUpperMedianOfAnEvenOne) {
   EXPECT_DOUBLE_EQ(MedianSigmaH({FixWithSigma(0.5), FixWithSigma(0.02), FixWithSigma(3.0)}), 0.5);
   EXPECT_DOUBLE_EQ(

@@ -392,6 +392,7 @@ FuseStepReport RunStep(const StepContext& ctx, std::size_t s, const std::string&
   FuseStepReport out;
   out.session = ctx.season.sessions[step.last];
   out.name = StepFolderName(step, ctx.season.sessions);
+  out.sweep = step.sweep;
   for (int k = step.first; k <= step.last; ++k) out.optimised.push_back(ctx.season.sessions[k]);
   for (const int k : {step.held, step.held_after}) {
     if (k >= 0) out.held.push_back(ctx.season.sessions[k]);
@@ -860,6 +861,7 @@ FuseReport RunIncrementalFuse(SeasonPasses& season, const std::string& workspace
       FuseStepReport skipped;
       skipped.session = season.sessions[steps[s].last];
       skipped.name = dir.filename().string();
+      skipped.sweep = steps[s].sweep;
       skipped.skipped = true;
       report.steps.push_back(skipped);
       continue;

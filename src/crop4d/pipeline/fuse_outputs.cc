@@ -432,9 +432,8 @@ std::string FormatFuseReport(const FuseReport& report) {
   out << "fused " << report.num_passes << " passes of " << report.num_sessions << " sessions in "
       << std::fixed << std::setprecision(1) << report.seconds << " s\n";
   if (!report.steps.empty()) {
-    const auto sweeps =
-        std::count_if(report.steps.begin(), report.steps.end(),
-                      [](const FuseStepReport& step) { return step.name.rfind("sweep", 0) == 0; });
+    const auto sweeps = std::count_if(report.steps.begin(), report.steps.end(),
+                                      [](const FuseStepReport& step) { return step.sweep > 0; });
     out << "  session by session in " << report.steps.size() - sweeps << " steps";
     if (sweeps > 0) out << ", then " << sweeps << " steps of refinement sweeps over the season";
     out << "; the counts below are summed over them (a pass is in several)\n";

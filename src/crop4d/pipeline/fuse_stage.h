@@ -121,6 +121,8 @@ struct FuseStepReport {
   std::string session;
   // The step's folder in WS/fused/steps/ (the session it adds, or its sweep and last session).
   std::string name;
+  // 0: the step adds a session; r >= 1: a step of the r-th round of sweeps of `full`.
+  int sweep = 0;
   std::vector<std::string> optimised;
   std::vector<std::string> held;
   bool skipped = false;  // up to date

@@ -319,7 +319,9 @@ TEST_F(FusionStagesTest, TheIncrementalFuseAddsASessionInOneStepAsWellAsOneProbl
   EXPECT_TRUE(swept.steps[0].skipped);
   EXPECT_TRUE(swept.steps[1].skipped);
   ASSERT_FALSE(swept.steps[2].skipped);
+  EXPECT_EQ(swept.steps[0].sweep, 0);
   EXPECT_EQ(swept.steps[2].name, "sweep1b-" + sessions[1]);
+  EXPECT_EQ(swept.steps[2].sweep, 1);
   EXPECT_EQ(swept.steps[2].optimised, (std::vector<std::string>{sessions[0], sessions[1]}));
   EXPECT_EQ(swept.steps[2].held, (std::vector<std::string>{sessions[2]}));
   ASSERT_FALSE(swept.steps[3].skipped);

@@ -95,9 +95,7 @@ SeasonQuality GradeSeason(const std::vector<PassFacts>& passes, const QualityOpt
                     p.longest_imu_gap_s, options.max_imu_gap_s));
   }
   for (const PassFacts& p : passes) {
-    if (p.gps_fixes <= 0 || p.gps_rejected <= options.max_gps_rejected_share * p.gps_fixes) {
-      continue;
-    }
+    if (!LeftGpsTrack(p.gps_fixes, p.gps_rejected, options.max_gps_rejected_share)) continue;
     q.sessions[index.at(p.session)].reasons.push_back(fmt::format(
         "pass {}: row SLAM rejected {} of its {} GPS fixes as outliers (more than {:.0f} %): its "
         "solve left the GPS track",

@@ -52,6 +52,12 @@ struct PassFacts {
   int gps_rejected = 0;
 };
 
+// Whether a pass's solve has left the GPS track: its outlier gate rejected more than `max_share`
+// of its `fixes` (row SLAM flags such a pass, GradeSeason degrades its session).
+inline bool LeftGpsTrack(int fixes, int rejected, double max_share) {
+  return fixes > 0 && rejected > max_share * fixes;
+}
+
 // The facts of a pass from its row-SLAM summary (workspace/pass_summary.h).
 PassFacts PassFactsOf(const std::string& session, const std::string& pass,
                       const workspace::PassSummary& summary);

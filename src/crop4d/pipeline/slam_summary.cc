@@ -11,6 +11,7 @@
 #include "crop4d/core/error.h"
 #include "crop4d/core/hash.h"
 #include "crop4d/core/version.h"
+#include "crop4d/pipeline/season_quality.h"
 #include "crop4d/slam/session_solve.h"
 #include "crop4d/slam/stream_coverage.h"
 #include "crop4d/workspace/pass_measurements.h"
@@ -145,7 +146,7 @@ json TrustFlags(const SessionContext& ctx, const slam::RowPass& pass,
   const int fixes = summary.at("back_end").value("gps_factors", 0);
   const int rejected = summary.at("back_end").value("gps_rejected", 0);
   const double misfit = summary.at("back_end").value("gps_normalised_rms", 0.0);
-  if (fixes > 0 && 2 * rejected > fixes) {
+  if (LeftGpsTrack(fixes, rejected, QualityOptions{}.max_gps_rejected_share)) {
     flags.push_back("gps_rejected");
     spdlog::warn(
         "{}: the solve rejected {} of its {} GPS fixes as outliers: it has left the GPS track "
